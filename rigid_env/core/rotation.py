@@ -1,0 +1,451 @@
+"""Quaternion algebra and conversions between rotation representations.
+
+Conventions (fixed for the whole package):
+
+* A quaternion is ``(w, x, y, z)``: scalar first. Unit quaternions represent rotations; ``q`` and
+  ``-q`` are the same rotation (double cover). :func:`canonical` picks ``w >= 0``.
+* ``quat_rotate(q, v)`` maps body-frame vectors to the world frame: ``v_world = R(q) v_body``.
+* Composition ``quat_mul(p, q)`` is "apply ``q`` first, then ``p``" for active rotations, so a
+  body-frame increment is applied on the right: ``q <- q (x) dq``.
+* Euler angles follow Unity's convention: a vector ``(x, y, z)`` of angles [rad] applied as
+  extrinsic rotations about world Z, then world X, then world Y, i.e. ``R = Ry(y) Rx(x) Rz(z)``.
+  Gimbal lock sits at ``x = +-pi/2``.
+
+Every function broadcasts over leading batch axes: quaternions are ``(..., 4)``, vectors
+``(..., 3)``, matrices ``(..., 3, 3)``. Functions are written with explicit component
+arithmetic rather than ``np.cross``/``einsum`` since these calls dominate small-array cost.
+
+Numerical care (issue: "acos of 1.0000001"): angles come from ``atan2`` of a sine and a cosine
+rather than ``acos``/``asin`` of a single ratio; sin(x)/x style factors switch to Taylor series
+near zero; normalisation never divides by zero.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+# Below this angle [rad] the series of sin(a)/a and friends are used. The first dropped term
+# of sin(a)/a = 1 - a^2/6 + a^4/120 is a^6/5040: at a = 1e-3 that is 2e-22, far below eps.
+_SMALL_ANGLE = 1.0e-3
+
+
+def _as_float(a: ArrayLike) -> FloatArray:
+    return np.asarray(a, dtype=np.float64)
+
+
+# --------------------------------------------------------------------------------------------
+# Algebra
+# --------------------------------------------------------------------------------------------
+
+
+def quat_mul(p: ArrayLike, q: ArrayLike) -> FloatArray:
+    """Hamilton product ``p (x) q`` by the table ``i^2 = j^2 = k^2 = ijk = -1``.
+
+    Args:
+        p: (..., 4) quaternion (w, x, y, z).
+        q: (..., 4) quaternion (w, x, y, z).
+
+    Returns:
+        (..., 4) product (w, x, y, z).
+    """
+    p = _as_float(p)
+    q = _as_float(q)
+    pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
+    qw, qx, qy, qz = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty(np.broadcast_shapes(p.shape, q.shape), dtype=np.float64)
+    out[..., 0] = pw * qw - px * qx - py * qy - pz * qz
+    out[..., 1] = pw * qx + px * qw + py * qz - pz * qy
+    out[..., 2] = pw * qy - px * qz + py * qw + pz * qx
+    out[..., 3] = pw * qz + px * qy - py * qx + pz * qw
+    return out
+
+
+def quat_conj(q: ArrayLike) -> FloatArray:
+    """Conjugate ``(w, -x, -y, -z)`` of a (..., 4) quaternion."""
+    out = np.array(q, dtype=np.float64, copy=True)
+    out[..., 1:] *= -1.0
+    return out
+
+
+def quat_norm(q: ArrayLike) -> FloatArray:
+    """Euclidean norm (...,) of a (..., 4) quaternion."""
+    q = _as_float(q)
+    return np.sqrt(np.sum(q * q, axis=-1))
+
+
+def quat_inv(q: ArrayLike) -> FloatArray:
+    """Inverse ``conj(q) / |q|^2`` of a (..., 4) quaternion.
+
+    Raises:
+        ZeroDivisionError: if any quaternion is zero (it has no inverse).
+    """
+    q = _as_float(q)
+    n2 = np.sum(q * q, axis=-1, keepdims=True)
+    if np.any(n2 == 0.0):
+        raise ZeroDivisionError("quat_inv: the zero quaternion has no inverse")
+    return quat_conj(q) / n2
+
+
+def quat_normalize(q: ArrayLike) -> FloatArray:
+    """Unit quaternion along ``q``; a zero (or non-finite-norm) input maps to the identity.
+
+    Args:
+        q: (..., 4) quaternion (w, x, y, z).
+
+    Returns:
+        (..., 4) unit quaternion.
+    """
+    q = _as_float(q)
+    n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+    ok = n > 0.0
+    out = np.where(ok, q / np.where(ok, n, 1.0), identity_quat(q.shape[:-1]))
+    return out
+
+
+def identity_quat(shape: tuple[int, ...] = ()) -> FloatArray:
+    """Identity rotation ``(1, 0, 0, 0)`` with leading shape ``shape``."""
+    out = np.zeros((*shape, 4))
+    out[..., 0] = 1.0
+    return out
+
+
+def canonical(q: ArrayLike) -> FloatArray:
+    """The representative of ``+-q`` with ``w >= 0`` (ties at ``w = 0`` keep the first
+    non-zero vector component positive), so a policy never sees the double-cover jump.
+
+    Args:
+        q: (..., 4) quaternion (w, x, y, z).
+    """
+    q = _as_float(q)
+    # Sign decided by the first non-zero component in the order w, x, y, z.
+    lead = np.where(q[..., 0] != 0.0, q[..., 0],
+                    np.where(q[..., 1] != 0.0, q[..., 1],
+                             np.where(q[..., 2] != 0.0, q[..., 2], q[..., 3])))
+    return np.where((lead < 0.0)[..., None], -q, q)
+
+
+def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Rotate vectors by unit quaternions: ``R(q) v``.
+
+    Uses ``v' = v + 2 w (u x v) + 2 u x (u x v)`` with ``u = (x, y, z)``, i.e. the expansion of
+    ``q (x) (0, v) (x) q*`` for ``|q| = 1`` (15 products instead of the matrix's 27).
+
+    Args:
+        q: (..., 4) unit quaternion (w, x, y, z).
+        v: (..., 3) vector in the frame ``q`` maps from.
+
+    Returns:
+        (..., 3) rotated vector.
+    """
+    q = _as_float(q)
+    v = _as_float(v)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    vx, vy, vz = v[..., 0], v[..., 1], v[..., 2]
+    # t = 2 u x v
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,), dtype=np.float64)
+    out[..., 0] = vx + w * tx + (y * tz - z * ty)
+    out[..., 1] = vy + w * ty + (z * tx - x * tz)
+    out[..., 2] = vz + w * tz + (x * ty - y * tx)
+    return out
+
+
+def quat_rotate_inv(q: ArrayLike, v: ArrayLike) -> FloatArray:
+    """Rotate vectors by the inverse of unit quaternions: ``R(q)^T v`` (world -> body)."""
+    return quat_rotate(quat_conj(q), v)
+
+
+def cross(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Cross product of (..., 3) vectors by components (cheaper than ``np.cross`` on small
+    arrays)."""
+    a = _as_float(a)
+    b = _as_float(b)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.float64)
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
+# --------------------------------------------------------------------------------------------
+# Exponential and logarithm
+# --------------------------------------------------------------------------------------------
+
+
+def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
+    """Exponential map: the unit quaternion of the rotation vector ``phi = angle * axis``.
+
+    ``exp(phi) = (cos(|phi|/2), sin(|phi|/2) / |phi| * phi)``. Near ``|phi| = 0`` the factor
+    ``sin(a/2)/a`` uses its series ``1/2 - a^2/48 + a^4/3840``.
+
+    Args:
+        rotvec: (..., 3) rotation vector [rad].
+
+    Returns:
+        (..., 4) unit quaternion (w, x, y, z).
+    """
+    rotvec = _as_float(rotvec)
+    a2 = np.sum(rotvec * rotvec, axis=-1)
+    a = np.sqrt(a2)
+    small = a < _SMALL_ANGLE
+    safe_a = np.where(small, 1.0, a)
+    half = 0.5 * a
+    s = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0, np.sin(half) / safe_a)
+    out = np.empty(rotvec.shape[:-1] + (4,), dtype=np.float64)
+    out[..., 0] = np.cos(half)
+    out[..., 1:] = s[..., None] * rotvec
+    return out
+
+
+def quat_to_rotvec(q: ArrayLike) -> FloatArray:
+    """Logarithm map: rotation vector ``angle * axis`` of a unit quaternion, angle in [0, pi].
+
+    ``angle = 2 atan2(|u|, |w|)`` is accurate at 0 and at pi, where ``acos(w)`` loses half the
+    digits. The sign of ``q`` is taken so that ``w >= 0`` (shortest rotation).
+
+    Args:
+        q: (..., 4) unit quaternion (w, x, y, z).
+
+    Returns:
+        (..., 3) rotation vector [rad].
+    """
+    q = _as_float(q)
+    sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
+    w = sign * q[..., 0]
+    u = sign[..., None] * q[..., 1:]
+    s = np.sqrt(np.sum(u * u, axis=-1))
+    angle = 2.0 * np.arctan2(s, w)
+    # angle / s -> 2 / w as s -> 0 (series of 2 atan(s/w)/s = 2/w (1 - s^2/(3 w^2))).
+    small = s < _SMALL_ANGLE * np.maximum(w, 1e-300)
+    safe_s = np.where(small, 1.0, s)
+    safe_w = np.where(w > 0.0, w, 1.0)
+    factor = np.where(small, 2.0 / safe_w * (1.0 - s * s / (3.0 * safe_w * safe_w)),
+                      angle / safe_s)
+    return factor[..., None] * u
+
+
+def quat_from_axis_angle(axis: ArrayLike, angle: ArrayLike) -> FloatArray:
+    """Unit quaternion for a rotation by ``angle`` [rad] about ``axis`` (normalised here).
+
+    Raises:
+        ValueError: if an axis has zero length.
+    """
+    axis = _as_float(axis)
+    n = np.sqrt(np.sum(axis * axis, axis=-1, keepdims=True))
+    if np.any(n == 0.0):
+        raise ValueError("axis: a rotation axis must be non-zero; give a direction vector")
+    return quat_from_rotvec(axis / n * _as_float(angle)[..., None])
+
+
+def quat_to_axis_angle(q: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """Axis (..., 3) and angle (...,) in [0, pi] of unit quaternions; axis x for zero angle."""
+    rv = quat_to_rotvec(q)
+    angle = np.sqrt(np.sum(rv * rv, axis=-1))
+    safe = np.where(angle > 0.0, angle, 1.0)
+    axis = np.where((angle > 0.0)[..., None], rv / safe[..., None], np.array([1.0, 0.0, 0.0]))
+    return axis, angle
+
+
+def quat_angle_between(p: ArrayLike, q: ArrayLike) -> FloatArray:
+    """Angle [rad] in [0, pi] of the rotation taking ``p`` to ``q``: ``2 acos |<p, q>|`` computed
+    stably as ``2 atan2(|vec(p* q)|, |scalar(p* q)|)``."""
+    d = quat_mul(quat_conj(p), q)
+    s = np.sqrt(np.sum(d[..., 1:] ** 2, axis=-1))
+    return 2.0 * np.arctan2(s, np.abs(d[..., 0]))
+
+
+def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike) -> FloatArray:
+    """Spherical linear interpolation along the shorter arc: ``p (x) exp(t log(p* q))``.
+
+    Written through the log/exp maps, so it is exact at ``t = 0, 1`` and stable when ``p`` and
+    ``q`` are (nearly) equal or (nearly) opposite rotations (where ``sin(theta)`` vanishes).
+
+    Args:
+        p: (..., 4) unit quaternion at ``t = 0``.
+        q: (..., 4) unit quaternion at ``t = 1``.
+        t: (...,) interpolation parameter.
+    """
+    d = quat_mul(quat_conj(p), q)
+    rv = quat_to_rotvec(d)
+    return quat_mul(p, quat_from_rotvec(_as_float(t)[..., None] * rv))
+
+
+def quat_integrate_exp(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> FloatArray:
+    """Advance orientation with constant body angular velocity: ``q (x) exp(h w / 2)``.
+
+    Exact for constant ``w``; renormalised against round-off.
+
+    Args:
+        q: (..., 4) unit quaternion body -> world.
+        w_body: (..., 3) angular velocity, body frame [rad/s].
+        h: time step [s].
+    """
+    return quat_normalize(quat_mul(q, quat_from_rotvec(_as_float(h) * _as_float(w_body))))
+
+
+def quat_integrate_linear(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> FloatArray:
+    """The seed's linear update ``q + h/2 q (x) (0, w)`` then normalise.
+
+    Kept to show its lag: per step it rotates by ``2 atan(h|w|/2)`` instead of ``h|w|``, an
+    error of about ``(h|w|)^3 / 12`` rad per step.
+    """
+    q = _as_float(q)
+    w_body = _as_float(w_body)
+    wq = np.concatenate([np.zeros(w_body.shape[:-1] + (1,)), w_body], axis=-1)
+    return quat_normalize(q + 0.5 * _as_float(h) * quat_mul(q, wq))
+
+
+# --------------------------------------------------------------------------------------------
+# Matrices
+# --------------------------------------------------------------------------------------------
+
+
+def quat_to_matrix(q: ArrayLike) -> FloatArray:
+    """Rotation matrix (..., 3, 3) of unit quaternions (w, x, y, z); columns are the body axes
+    in the world frame."""
+    q = _as_float(q)
+    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
+    out = np.empty(q.shape[:-1] + (3, 3), dtype=np.float64)
+    out[..., 0, 0] = 1.0 - 2.0 * (y * y + z * z)
+    out[..., 0, 1] = 2.0 * (x * y - w * z)
+    out[..., 0, 2] = 2.0 * (x * z + w * y)
+    out[..., 1, 0] = 2.0 * (x * y + w * z)
+    out[..., 1, 1] = 1.0 - 2.0 * (x * x + z * z)
+    out[..., 1, 2] = 2.0 * (y * z - w * x)
+    out[..., 2, 0] = 2.0 * (x * z - w * y)
+    out[..., 2, 1] = 2.0 * (y * z + w * x)
+    out[..., 2, 2] = 1.0 - 2.0 * (x * x + y * y)
+    return out
+
+
+def matrix_to_quat(m: ArrayLike) -> FloatArray:
+    """Unit quaternion (w >= 0) of rotation matrices (..., 3, 3).
+
+    Shepperd's method (J. Guidance and Control 1(3), 1978): of the four candidate formulas the
+    one with the largest diagonal term is used, so the square root never takes a small number.
+    """
+    m = _as_float(m)
+    m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
+    trace = m00 + m11 + m22
+    cands = np.stack([trace, m00, m11, m22], axis=-1)
+    k = np.argmax(cands, axis=-1)
+    # 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22, ... ; off-diagonals give the products.
+    q_w = np.stack([1.0 + trace, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
+                    m[..., 1, 0] - m[..., 0, 1]], axis=-1)
+    q_x = np.stack([m[..., 2, 1] - m[..., 1, 2], 1.0 + m00 - m11 - m22,
+                    m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], axis=-1)
+    q_y = np.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0],
+                    1.0 - m00 + m11 - m22, m[..., 1, 2] + m[..., 2, 1]], axis=-1)
+    q_z = np.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0],
+                    m[..., 1, 2] + m[..., 2, 1], 1.0 - m00 - m11 + m22], axis=-1)
+    all_q = np.stack([q_w, q_x, q_y, q_z], axis=-2)
+    q = np.take_along_axis(all_q, k[..., None, None], axis=-2)[..., 0, :]
+    return canonical(quat_normalize(q))
+
+
+def skew(v: ArrayLike) -> FloatArray:
+    """Cross-product matrix (..., 3, 3) with ``skew(a) b = a x b``."""
+    v = _as_float(v)
+    out = np.zeros(v.shape[:-1] + (3, 3))
+    out[..., 0, 1] = -v[..., 2]
+    out[..., 0, 2] = v[..., 1]
+    out[..., 1, 0] = v[..., 2]
+    out[..., 1, 2] = -v[..., 0]
+    out[..., 2, 0] = -v[..., 1]
+    out[..., 2, 1] = v[..., 0]
+    return out
+
+
+def rodrigues(rotvec: ArrayLike) -> FloatArray:
+    """Rotation matrix of a rotation vector by Rodrigues' formula
+    ``R = 1 + sin(a) K + (1 - cos(a)) K^2`` with ``K = skew(axis)`` (independent of the
+    quaternion path; used to cross-check it)."""
+    rotvec = _as_float(rotvec)
+    a = np.sqrt(np.sum(rotvec * rotvec, axis=-1))
+    small = a < _SMALL_ANGLE
+    safe = np.where(small, 1.0, a)
+    # sin(a)/a and (1 - cos a)/a^2 with series near 0.
+    s1 = np.where(small, 1.0 - a * a / 6.0, np.sin(a) / safe)
+    s2 = np.where(small, 0.5 - a * a / 24.0, (1.0 - np.cos(a)) / (safe * safe))
+    k = skew(rotvec)
+    eye = np.broadcast_to(np.eye(3), k.shape)
+    return eye + s1[..., None, None] * k + s2[..., None, None] * (k @ k)
+
+
+# --------------------------------------------------------------------------------------------
+# Euler angles, Unity convention (Z, then X, then Y; extrinsic)
+# --------------------------------------------------------------------------------------------
+
+
+def euler_to_quat(angles: ArrayLike) -> FloatArray:
+    """Quaternion of Euler angles ``(x, y, z)`` [rad], Unity order: ``R = Ry(y) Rx(x) Rz(z)``.
+
+    Args:
+        angles: (..., 3) rotation angles about x (pitch), y (yaw), z (roll) [rad].
+
+    Returns:
+        (..., 4) unit quaternion (w, x, y, z).
+    """
+    angles = _as_float(angles)
+    ex = np.zeros_like(angles)
+    ex[..., 0] = angles[..., 0]
+    ey = np.zeros_like(angles)
+    ey[..., 1] = angles[..., 1]
+    ez = np.zeros_like(angles)
+    ez[..., 2] = angles[..., 2]
+    return quat_mul(quat_from_rotvec(ey), quat_mul(quat_from_rotvec(ex), quat_from_rotvec(ez)))
+
+
+def matrix_to_euler(m: ArrayLike) -> FloatArray:
+    """Euler angles ``(x, y, z)`` [rad] (Unity order) of rotation matrices (..., 3, 3).
+
+    ``R = Ry Rx Rz`` has ``R[1, 2] = -sin x``, ``R[0, 2] / R[2, 2] = tan y`` and
+    ``R[1, 0] / R[1, 1] = tan z``. At gimbal lock (``cos x = 0``) only ``y -+ z`` is defined; we
+    set ``z = 0`` and put the whole rotation into ``y`` from the top-left block, so the round
+    trip gives the same rotation and no NaN.
+
+    Returns:
+        (..., 3) angles with x in [-pi/2, pi/2], y and z in (-pi, pi].
+    """
+    m = _as_float(m)
+    sx = np.clip(-m[..., 1, 2], -1.0, 1.0)
+    cx = np.hypot(m[..., 1, 0], m[..., 1, 1])
+    x = np.arctan2(sx, cx)
+    # cos(x) below ~1e-12 means lock: the regular formulas divide noise by noise there.
+    locked = cx < 1.0e-12
+    y_reg = np.arctan2(m[..., 0, 2], m[..., 2, 2])
+    z_reg = np.arctan2(m[..., 1, 0], m[..., 1, 1])
+    # With z = 0 and x = +-pi/2: R[0,0] = cos y, R[2,0] = -sin y.
+    y_lock = np.arctan2(-m[..., 2, 0], m[..., 0, 0])
+    out = np.empty(m.shape[:-2] + (3,), dtype=np.float64)
+    out[..., 0] = x
+    out[..., 1] = np.where(locked, y_lock, y_reg)
+    out[..., 2] = np.where(locked, 0.0, z_reg)
+    return out
+
+
+def quat_to_euler(q: ArrayLike) -> FloatArray:
+    """Euler angles ``(x, y, z)`` [rad] (Unity order) of unit quaternions; see
+    :func:`matrix_to_euler` for ranges and the gimbal-lock rule."""
+    return matrix_to_euler(quat_to_matrix(q))
+
+
+def euler_to_matrix(angles: ArrayLike) -> FloatArray:
+    """Rotation matrices (..., 3, 3) of Unity-order Euler angles ``(x, y, z)`` [rad]."""
+    return quat_to_matrix(euler_to_quat(angles))
+
+
+# --------------------------------------------------------------------------------------------
+# 6-D representation (Zhou et al., "On the Continuity of Rotation Representations", CVPR 2019)
+# --------------------------------------------------------------------------------------------
+
+
+def quat_to_sixd(q: ArrayLike) -> FloatArray:
+    """First two columns of ``R(q)``, flattened column-major: (..., 6). Continuous in ``q``."""
+    m = quat_to_matrix(q)
+    return np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)

@@ -1,0 +1,118 @@
+"""Batched rigid-body model (static) and state (dynamic), struct-of-arrays.
+
+As MJX's ``Model``/``Data`` and Brax's ``System``/``State``: :class:`BodyModel` is the frozen
+description of the bodies, :class:`State` the small mutable batch that integrators advance.
+Every array carries a leading batch axis ``N``, also for a single body.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+FloatArray = NDArray[np.float64]
+
+# Relative spread below which the principal moments count as equal (isotropic body: the
+# gyroscopic term w x (I w) vanishes identically and is skipped).
+ISOTROPY_RTOL = 1.0e-14
+
+
+@dataclass(frozen=True)
+class BodyModel:
+    """Mass properties of a batch of bodies in their principal frames.
+
+    Attributes:
+        mass: (N,) or (1,) mass [kg]; (1,) broadcasts over the batch.
+        inertia: (N, 3) or (1, 3) principal moments of inertia [kg m^2] about the centre of mass,
+            body axes = principal axes.
+    """
+
+    mass: FloatArray
+    inertia: FloatArray
+    inv_mass: FloatArray = field(init=False, repr=False)
+    """(N, 1) reciprocal mass [1/kg], shaped to broadcast against (N, 3) vectors."""
+    inv_inertia: FloatArray = field(init=False, repr=False)
+    """(N, 3) reciprocal principal moments [1/(kg m^2)]."""
+    isotropic: bool = field(init=False)
+    """True when every body has three equal moments (no gyroscopic term)."""
+
+    def __post_init__(self) -> None:
+        mass = np.atleast_1d(np.asarray(self.mass, dtype=np.float64)).reshape(-1)
+        inertia = np.atleast_2d(np.asarray(self.inertia, dtype=np.float64))
+        if inertia.shape[-1] != 3 or inertia.ndim != 2:
+            raise ValueError(f"inertia: expected shape (N, 3) principal moments, got {inertia.shape}")
+        if not (np.all(np.isfinite(mass)) and np.all(mass > 0.0)):
+            raise ValueError("mass: every mass must be finite and > 0 [kg]")
+        if not (np.all(np.isfinite(inertia)) and np.all(inertia > 0.0)):
+            raise ValueError("inertia: every principal moment must be finite and > 0 [kg m^2]")
+        object.__setattr__(self, "mass", mass)
+        object.__setattr__(self, "inertia", inertia)
+        object.__setattr__(self, "inv_mass", (1.0 / mass)[:, None])
+        object.__setattr__(self, "inv_inertia", 1.0 / inertia)
+        spread = inertia.max(axis=1) - inertia.min(axis=1)
+        object.__setattr__(self, "isotropic", bool(np.all(spread <= ISOTROPY_RTOL * inertia.max(axis=1))))
+
+    @property
+    def n(self) -> int:
+        """Batch length of the model arrays (1 when shared by all bodies)."""
+        return max(self.mass.shape[0], self.inertia.shape[0])
+
+    @classmethod
+    def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
+        """One body's mass [kg] and principal moments (3,) [kg m^2], shared by the whole batch."""
+        return cls(np.array([mass], dtype=np.float64), np.asarray(inertia, dtype=np.float64)[None, :])
+
+
+@dataclass
+class State:
+    """Dynamic state of ``N`` bodies.
+
+    Attributes:
+        x: (N, 3) centre-of-mass position, world frame [m].
+        v: (N, 3) centre-of-mass velocity, world frame [m/s].
+        q: (N, 4) orientation body -> world, unit quaternion (w, x, y, z).
+        w: (N, 3) angular velocity, body (principal) frame [rad/s].
+    """
+
+    x: FloatArray
+    v: FloatArray
+    q: FloatArray
+    w: FloatArray
+
+    @property
+    def n(self) -> int:
+        """Number of bodies."""
+        return self.x.shape[0]
+
+    def copy(self) -> State:
+        """Deep copy of the arrays."""
+        return State(self.x.copy(), self.v.copy(), self.q.copy(), self.w.copy())
+
+    @classmethod
+    def zeros(cls, n: int) -> State:
+        """``n`` bodies at rest at the origin with identity orientation."""
+        q = np.zeros((n, 4))
+        q[:, 0] = 1.0
+        return cls(np.zeros((n, 3)), np.zeros((n, 3)), q, np.zeros((n, 3)))
+
+    @classmethod
+    def from_arrays(cls, x: ArrayLike, v: ArrayLike, q: ArrayLike, w: ArrayLike) -> State:
+        """Build from array-likes, promoting single-body (3,)/(4,) inputs to N = 1 and checking
+        shapes."""
+        arrs = [np.array(a, dtype=np.float64, ndmin=2) for a in (x, v, q, w)]
+        n = arrs[0].shape[0]
+        for name, a, d in zip("xvqw", arrs, (3, 3, 4, 3), strict=True):
+            if a.shape != (n, d):
+                raise ValueError(f"state.{name}: expected shape ({n}, {d}), got {a.shape}")
+        return cls(*arrs)
+
+    def take(self, index: ArrayLike) -> State:
+        """The bodies at ``index`` as a new state."""
+        return State(self.x[index], self.v[index], self.q[index], self.w[index])
+
+    def put(self, mask: NDArray[np.bool_], other: State) -> None:
+        """Overwrite the bodies where ``mask`` (N,) is true with the same bodies of ``other``."""
+        for name in ("x", "v", "q", "w"):
+            getattr(self, name)[mask] = getattr(other, name)[mask]
