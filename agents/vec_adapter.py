@@ -1,0 +1,123 @@
+"""SB3 ``VecEnv`` over our batched task layer (SB3 cannot take a Gymnasium ``VectorEnv``).
+
+SB3's semantics, as its ``DummyVecEnv`` over single envs gives them:
+
+* ``reset()`` seeds sub-env ``i`` with ``seed + i`` after ``seed(seed)`` (else continues each
+  env's generator), and returns the first observations;
+* ``step_wait()`` returns ``done = terminated or truncated``; a done env is reset in the same
+  call: its returned observation is the new episode's first, the last one is in
+  ``infos[i]["terminal_observation"]``, and ``infos[i]["TimeLimit.truncated"]`` says whether the
+  episode was cut by the time limit (or a numerical failure) rather than ended by the task.
+
+All sub-envs step in one NumPy call; only the few envs that finished are reset one by one
+(each from its own generator, which is what makes it match ``DummyVecEnv`` bit for bit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils import seeding
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
+
+from rigid_env.envs.base import TaskBatch
+
+
+class RigidBodySB3VecEnv(VecEnv):
+    """``num_envs`` copies of a registered ``RigidEnv`` task as one SB3 ``VecEnv``.
+
+    Args:
+        env_id: registered id, e.g. ``"RigidEnv/Detumble-v0"``.
+        num_envs: number of sub-environments.
+        max_episode_steps: time limit; the registry's value if None.
+        **kwargs: passed to the task, as to ``gym.make(env_id, **kwargs)``.
+    """
+
+    def __init__(self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None,
+                 **kwargs: Any) -> None:
+        import rigid_env  # noqa: F401  (registers the ids)
+
+        spec = gym.spec(env_id)
+        entry = spec.vector_entry_point
+        if not isinstance(entry, str) or not entry.startswith("rigid_env."):
+            raise ValueError(f"env_id: {env_id!r} is not a rigid_env environment")
+        vec_cls = gym.envs.registration.load_env_creator(entry)
+        self.env_id = env_id
+        self.task: TaskBatch = vec_cls.task_cls(num_envs, **kwargs)
+        self.max_episode_steps = max_episode_steps or spec.max_episode_steps
+        self.render_mode = None
+        super().__init__(num_envs, self.task.single_observation_space, self.task.single_action_space)
+        self._rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        self._actions: np.ndarray | None = None
+
+    # ---- SB3 VecEnv API ------------------------------------------------------------------
+    def reset(self) -> np.ndarray:
+        """Reset all sub-envs, seeding those given by :meth:`seed`."""
+        for i, s in enumerate(self._seeds):
+            if s is not None:
+                self._rngs[i] = seeding.np_random(s)[0]
+        self._reset_seeds()
+        self._reset_options()
+        self.task.reset_envs(np.arange(self.num_envs), self._rngs)
+        return self.task.observe(self._rngs)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        act = self.task.check_action(np.asarray(self._actions).reshape(self.num_envs, -1))
+        reward, terminated, failed = self.task.step(act)
+        truncated = failed.copy()
+        if self.max_episode_steps is not None:
+            truncated |= self.task.steps >= self.max_episode_steps
+        done = terminated | truncated
+        obs = self.task.observe(self._rngs)
+        raw = self.task.infos()
+        infos: list[dict[str, Any]] = [
+            {k: (v[i].copy() if v.ndim > 1 else v[i].item()) for k, v in raw.items()}
+            for i in range(self.num_envs)
+        ]
+        if done.any():
+            idx = np.flatnonzero(done)
+            for i in idx:
+                infos[i]["terminal_observation"] = obs[i].copy()
+                infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+            rngs = [self._rngs[i] for i in idx]
+            self.task.reset_envs(idx, rngs)
+            obs[idx] = self.task.observe(rngs, idx)
+        return obs, reward.astype(np.float32), done, infos
+
+    def close(self) -> None:
+        pass
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """The attribute of the task (shared by every sub-env), once per index."""
+        value = getattr(self.task, attr_name, getattr(self, attr_name, None))
+        return [value for _ in self._indices(indices)]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        """Set an attribute on the task (shared by every sub-env)."""
+        setattr(self.task, attr_name, value)
+
+    def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None,
+                   **method_kwargs: Any) -> list[Any]:
+        """Call a task method once (the task is shared); result repeated per index."""
+        result = getattr(self.task, method_name)(*method_args, **method_kwargs)
+        return [result for _ in self._indices(indices)]
+
+    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+        """Sub-envs are never wrapped by Gymnasium wrappers."""
+        return [False for _ in self._indices(indices)]
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [None] * self.num_envs
+
+    def _indices(self, indices: VecEnvIndices) -> Iterable[int]:
+        if indices is None:
+            return range(self.num_envs)
+        if isinstance(indices, int):
+            return [indices]
+        return indices

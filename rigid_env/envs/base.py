@@ -1,0 +1,448 @@
+"""The task layer shared by every environment, written once for a batch of ``N`` bodies.
+
+:class:`TaskBatch` owns a :class:`~rigid_env.core.world.World` of ``N`` bodies and a task's reset
+distribution, observation, reward and episode end. :class:`RigidBodyEnv` (a ``gymnasium.Env``)
+is the ``N = 1`` case of it and :class:`RigidBodyVectorEnv` (a native
+``gymnasium.vector.VectorEnv``) the ``N`` case: there is no second copy of the physics.
+
+Randomness comes only from per-environment generators (``np_random`` of the single env; one
+generator per sub-environment, seeded ``seed + i``, in the vector env), so sub-environment ``i``
+of a vector env reset with ``seed`` replays a single env reset with ``seed + i`` bit for bit.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+from numpy.typing import ArrayLike, NDArray
+
+from rigid_env.core.effects import LinearActuator
+from rigid_env.core.rotation import canonical, quat_rotate, quat_to_sixd
+from rigid_env.core.state import BodyModel
+from rigid_env.core.world import kinetic_energy
+from rigid_env.envs.rewards import fuel_rate
+from rigid_env.scene import Scene, load_scene
+
+FloatArray = NDArray[np.float64]
+SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
+
+
+def default_scene_path(name: str) -> Path:
+    """Path of a scene shipped in ``configs/scenes`` (also found when installed as a package)."""
+    for base in (SCENE_DIR, Path(__file__).resolve().parent / "scenes"):
+        p = base / f"{name}.yaml"
+        if p.exists():
+            return p
+    raise FileNotFoundError(f"scene: {name}.yaml not found in {SCENE_DIR}")
+
+
+@dataclass(frozen=True)
+class Randomization:
+    """Domain randomisation, drawn per episode from the environment's own generator.
+
+    Attributes:
+        mass: relative half-width ``a``: mass times ``U(1 - a, 1 + a)``.
+        inertia: relative half-width for each principal moment (the largest is then clipped
+            onto the triangle inequality so the body stays physical).
+        thrust: relative half-width for each actuator's strength.
+        sensor_noise: standard deviation of Gaussian noise on the observed angular velocity
+            [rad/s] (drawn every step, for every env: a per-env loop, so off by default).
+    """
+
+    mass: float = 0.0
+    inertia: float = 0.0
+    thrust: float = 0.0
+    sensor_noise: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("mass", "inertia", "thrust"):
+            val = getattr(self, name)
+            if not (np.isfinite(val) and 0.0 <= val < 1.0):
+                raise ValueError(f"randomization.{name}: must lie in [0, 1), got {val}")
+        if not (np.isfinite(self.sensor_noise) and self.sensor_noise >= 0.0):
+            raise ValueError(f"randomization.sensor_noise: must be >= 0 [rad/s], got {self.sensor_noise}")
+
+    @property
+    def physical(self) -> bool:
+        """Whether any mass-property draw is needed at reset."""
+        return self.mass > 0.0 or self.inertia > 0.0
+
+
+def random_unit_vectors(rng: np.random.Generator, n: int | None = None) -> FloatArray:
+    """Directions uniform on the sphere, (3,) or (n, 3)."""
+    v = rng.normal(size=(3,) if n is None else (n, 3))
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def random_quaternion(rng: np.random.Generator) -> FloatArray:
+    """Rotation uniform on SO(3) as a unit quaternion (4,) (normalised 4-D Gaussian)."""
+    q = rng.normal(size=4)
+    return q / np.linalg.norm(q)
+
+
+class TaskBatch:
+    """A task on ``num_envs`` bodies: reset distribution, observation, reward, episode end.
+
+    Subclasses set :attr:`scene_name` and implement :meth:`sample` (one env's initial state and
+    target from its generator), :meth:`task_observation`, :meth:`evaluate` and the extra
+    observation bounds. Everything else (actions, thrusters, counters, randomisation, spaces)
+    lives here.
+
+    Args:
+        num_envs: number of bodies ``N``.
+        scene: path or dict of a scene file to use instead of the task's default.
+        integrator, dt, substeps: overrides of the scene's values.
+        rotation_repr: ``"quaternion"`` (canonical, 4 numbers) or ``"sixd"`` (first two columns
+            of the rotation matrix, 6 numbers).
+        randomization: domain randomisation (a :class:`Randomization` or a dict of its fields).
+    """
+
+    scene_name: ClassVar[str]
+    task_obs_dim: ClassVar[int] = 0
+    task_obs_bound: ClassVar[float] = 1.0
+
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        scene: str | os.PathLike[str] | dict[str, Any] | None = None,
+        integrator: str | None = None,
+        dt: float | None = None,
+        substeps: int | None = None,
+        rotation_repr: str = "quaternion",
+        randomization: Randomization | dict[str, float] | None = None,
+    ) -> None:
+        if int(num_envs) != num_envs or num_envs < 1:
+            raise ValueError(f"num_envs: must be an integer >= 1, got {num_envs}")
+        if rotation_repr not in ("quaternion", "sixd"):
+            raise ValueError(f"rotation_repr: must be 'quaternion' or 'sixd', got {rotation_repr!r}")
+        self.n = int(num_envs)
+        self.scene: Scene = load_scene(scene if scene is not None else default_scene_path(self.scene_name))
+        self.world = self.scene.build_world(n=self.n, integrator=integrator, dt=dt,
+                                            substeps=substeps, on_error="freeze")
+        if self.world.action_dim == 0:
+            raise ValueError("scene: a task needs actuators (thrusters or point_forces); the scene has none")
+        self.dt = self.world.dt
+        self.rotation_repr = rotation_repr
+        if isinstance(randomization, dict):
+            randomization = Randomization(**randomization)
+        self.randomization = randomization or Randomization()
+        self.base_model = self.world.model
+        # Per-component force at |u| = 1 [N], for the fuel measure.
+        actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
+        self.max_force = np.concatenate([np.linalg.norm(a.force_map, axis=1) for a in actuators])
+        self.action_dim = self.world.action_dim
+        self.thrust_scale: FloatArray | None = None  # (N, A) when thrust is randomised
+        self.steps = np.zeros(self.n, dtype=np.int64)
+        self.fuel = np.zeros(self.n)
+        self.success = np.zeros(self.n, dtype=bool)
+        self.last_action = np.zeros((self.n, self.action_dim))
+        self.target = np.zeros((self.n, self.target_dim))
+        self.w_scale = self.angular_velocity_scale()
+        rot_dim = 4 if rotation_repr == "quaternion" else 6
+        self.obs_dim = rot_dim + 6 + self.task_obs_dim
+        bound = np.concatenate([np.ones(rot_dim), np.full(3, 5.0), np.ones(3),
+                                np.full(self.task_obs_dim, self.task_obs_bound)]).astype(np.float32)
+        self.single_observation_space = spaces.Box(-bound, bound, dtype=np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
+
+    # ---- task interface ------------------------------------------------------------------
+    target_dim: ClassVar[int] = 0
+
+    def angular_velocity_scale(self) -> float:
+        """Typical angular speed [rad/s] that the observation divides by."""
+        raise NotImplementedError
+
+    def sample(self, rng: np.random.Generator) -> tuple[FloatArray, ...]:
+        """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
+        raise NotImplementedError
+
+    def task_observation(self) -> FloatArray:
+        """(N, task_obs_dim) extra observation components (inside ``+-task_obs_bound``)."""
+        return np.zeros((self.n, 0))
+
+    def evaluate(self, action: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+        """Reward (N,) and ``terminated`` (N,) after a step; updates :attr:`success`."""
+        raise NotImplementedError
+
+    # ---- shared machinery ----------------------------------------------------------------
+    def check_action(self, action: ArrayLike) -> FloatArray:
+        """Validate and clip a command to (N, A) in [-1, 1].
+
+        Raises:
+            ValueError: wrong shape, or a NaN/inf entry (never silently simulated).
+        """
+        act = np.asarray(action, dtype=np.float64)
+        if act.shape == (self.action_dim,) and self.n == 1:
+            act = act[None, :]
+        if act.shape != (self.n, self.action_dim):
+            raise ValueError(f"action: expected shape ({self.n}, {self.action_dim})"
+                             f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                             f"got {act.shape}")
+        if not np.all(np.isfinite(act)):
+            raise ValueError("action: contains NaN or inf; send finite thruster commands in [-1, 1]")
+        # Huge finite commands saturate like a real thruster: clipped to [-1, 1].
+        return np.clip(act, -1.0, 1.0)
+
+    def reset_envs(self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
+        """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index)."""
+        s = self.world.state
+        for k, i in enumerate(idx):
+            x, v, q, w, target = self.sample(rngs[k])
+            s.x[i], s.v[i], s.q[i], s.w[i] = x, v, q, w
+            self.target[i] = target
+            self._randomize(i, rngs[k])
+        self.steps[idx] = 0
+        self.fuel[idx] = 0.0
+        self.success[idx] = False
+        self.last_action[idx] = 0.0
+        self.world.failed[idx] = False
+        self.on_reset(np.asarray(idx))
+
+    def on_reset(self, idx: NDArray[np.int64]) -> None:
+        """Hook for task counters after :meth:`reset_envs`."""
+
+    def _randomize(self, i: int, rng: np.random.Generator) -> None:
+        r = self.randomization
+        if r.physical:
+            if self.world.model.n == 1:  # first randomised reset: give every body its own copy
+                self.world.set_model(BodyModel(np.repeat(self.base_model.mass, self.n),
+                                               np.repeat(self.base_model.inertia, self.n, axis=0)))
+            m0 = self.base_model.mass[0]
+            i0 = self.base_model.inertia[0]
+            mass = m0 * rng.uniform(1.0 - r.mass, 1.0 + r.mass) if r.mass > 0 else m0
+            inertia = i0 * rng.uniform(1.0 - r.inertia, 1.0 + r.inertia, size=3) if r.inertia > 0 else i0.copy()
+            # Keep I_max <= I_a + I_b (a physical body), clipping the largest moment.
+            k = int(np.argmax(inertia))
+            inertia[k] = min(inertia[k], inertia.sum() - inertia[k])
+            model = self.world.model
+            model.mass[i] = mass
+            model.inertia[i] = inertia
+            self.world.set_model(BodyModel(model.mass, model.inertia))
+        if r.thrust > 0.0:
+            if self.thrust_scale is None:
+                self.thrust_scale = np.ones((self.n, self.action_dim))
+            self.thrust_scale[i] = rng.uniform(1.0 - r.thrust, 1.0 + r.thrust, size=self.action_dim)
+
+    def step(self, action: FloatArray) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+        """Advance every body by ``dt`` with a checked command (N, A).
+
+        Returns:
+            reward (N,), terminated (N,), failed (N,) (state turned non-finite this step; the
+            body is frozen at its last finite state and the episode must end).
+        """
+        command = action if self.thrust_scale is None else action * self.thrust_scale
+        failed = self.world.step(command)
+        self.steps += 1
+        self.fuel += fuel_rate(command, self.max_force) * self.dt
+        self.last_action = action
+        reward, terminated = self.evaluate(command)
+        return reward, terminated, failed
+
+    def observe(self, rngs: Sequence[np.random.Generator],
+                idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
+        """(N, obs_dim) float32 observation, clipped into the observation space.
+
+        Args:
+            rngs: one generator per env (``idx=None``) or per entry of ``idx``; drawn from only
+                when sensor noise is on.
+            idx: observe only these envs (rows in that order); None = all.
+        """
+        s = self.world.state
+        q, w = (s.q, s.w) if idx is None else (s.q[idx], s.w[idx])
+        rot = canonical(q) if self.rotation_repr == "quaternion" else quat_to_sixd(q)
+        if self.randomization.sensor_noise > 0.0:
+            noise = np.stack([rng.normal(0.0, self.randomization.sensor_noise, 3) for rng in rngs])
+            w = w + noise
+        extra = self.task_observation()
+        parts = [rot, np.clip(w / self.w_scale, -5.0, 5.0), np.tanh(w / 0.1),
+                 extra if idx is None else extra[idx]]
+        obs = np.concatenate(parts, axis=1).astype(np.float32)
+        return np.clip(obs, self.single_observation_space.low, self.single_observation_space.high)
+
+    def angular_speed(self) -> FloatArray:
+        """(N,) |w| [rad/s]."""
+        w = self.world.state.w
+        return np.sqrt(np.sum(w * w, axis=1))
+
+    def infos(self) -> dict[str, NDArray[Any]]:
+        """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
+        s = self.world.state
+        return {
+            "angular_speed": self.angular_speed(),
+            "energy": kinetic_energy(self.world.model, s),
+            "fuel": self.fuel.copy(),
+            "success": self.success.copy(),
+            "numerical_error": self.world.failed.copy(),
+            "angular_velocity_world": quat_rotate(s.q, s.w),
+        }
+
+
+def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:
+    return {k: (v[0].copy() if v.ndim > 1 else v[0].item()) for k, v in info.items()}
+
+
+class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
+    """Base of the single environments: a :class:`TaskBatch` of one body.
+
+    Keyword arguments go to the task (see its class); ``render_mode`` is ``None``,
+    ``"rgb_array"`` or ``"human"``.
+    """
+
+    task_cls: ClassVar[type[TaskBatch]]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array", "human"], "render_fps": 20}
+
+    def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']}")
+        self.task = self.task_cls(1, **kwargs)
+        self.observation_space = self.task.single_observation_space
+        self.action_space = self.task.single_action_space
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.render_mode = render_mode
+        self._renderer: Any = None
+        self._has_reset = False
+
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        """Start an episode; ``seed`` reseeds :attr:`np_random`."""
+        super().reset(seed=seed)
+        self.task.reset_envs([0], [self.np_random])
+        self._has_reset = True
+        obs = self.task.observe([self.np_random])[0]
+        if self.render_mode == "human":
+            self.render()
+        return obs, _single_info(self.task.infos())
+
+    def step(self, action: ArrayLike):
+        """One control step of ``dt``; see the task class for reward and episode end."""
+        if not self._has_reset:
+            raise RuntimeError("Call reset before using step method.")
+        act = self.task.check_action(action)
+        reward, terminated, failed = self.task.step(act)
+        obs = self.task.observe([self.np_random])[0]
+        info = _single_info(self.task.infos())
+        if self.render_mode == "human":
+            self.render()
+        return obs, float(reward[0]), bool(terminated[0]), bool(failed[0]), info
+
+    def render(self):
+        """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""
+        if self.render_mode is None:
+            gym.logger.warn("render: no render_mode was given; pass render_mode='rgb_array' to gym.make")
+            return None
+        from rigid_env.render import TaskRenderer
+
+        if self._renderer is None:
+            self._renderer = TaskRenderer(self.task, mode=self.render_mode, fps=self.metadata["render_fps"])
+        return self._renderer.render(0)
+
+    def close(self) -> None:
+        """Close the window, if any."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+
+class RigidBodyVectorEnv(VectorEnv):
+    """Base of the native vector environments: all ``num_envs`` bodies in one NumPy call.
+
+    Autoreset mode ``NEXT_STEP``: an env that terminates or truncates in one ``step`` is reset
+    by the next ``step`` (its action then is ignored, its reward is 0, and the returned
+    observation is the first of the new episode).
+
+    Args:
+        num_envs: number of sub-environments.
+        max_episode_steps: truncation length (given by ``gym.make_vec`` from the registry).
+        render_mode: ``None`` or ``"rgb_array"`` (renders sub-environment 0).
+        **kwargs: passed to the task (see the single env's class).
+    """
+
+    task_cls: ClassVar[type[TaskBatch]]
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 20,
+                                          "autoreset_mode": AutoresetMode.NEXT_STEP}
+
+    def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
+                 render_mode: str | None = None, **kwargs: Any) -> None:
+        self.task = self.task_cls(num_envs, **kwargs)
+        self.num_envs = self.task.n
+        self.max_episode_steps = max_episode_steps
+        self.single_observation_space = self.task.single_observation_space
+        self.single_action_space = self.task.single_action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.render_mode = render_mode
+        self._renderer: Any = None
+        self._rngs: list[np.random.Generator] = []
+        self._autoreset = np.zeros(self.num_envs, dtype=bool)
+
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+        """Reset every sub-environment; an int ``seed`` seeds sub-env ``i`` with ``seed + i``."""
+        super().reset(seed=seed if isinstance(seed, int) else None)
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, int):
+            seeds = [seed + i for i in range(self.num_envs)]
+        else:
+            if len(seed) != self.num_envs:
+                raise ValueError(f"seed: expected {self.num_envs} seeds, got {len(seed)}")
+            seeds = list(seed)
+        if not self._rngs or seed is not None:
+            self._rngs = [seeding.np_random(s)[0] for s in seeds]
+        self.task.reset_envs(np.arange(self.num_envs), self._rngs)
+        self._autoreset[:] = False
+        return self.task.observe(self._rngs), self._vector_info(self.task.infos())
+
+    def step(self, actions: ArrayLike):
+        """Step all sub-environments; see the class docstring for autoreset."""
+        if not self._rngs:
+            raise RuntimeError("Call reset before using step method.")
+        act = self.task.check_action(actions)
+        reward, terminated, failed = self.task.step(act)
+        truncated = failed.copy()
+        if self.max_episode_steps is not None:
+            truncated |= self.task.steps >= self.max_episode_steps
+        restarting = self._autoreset
+        if restarting.any():
+            idx = np.flatnonzero(restarting)
+            self.task.reset_envs(idx, [self._rngs[i] for i in idx])
+            reward[idx] = 0.0
+            terminated[idx] = False
+            truncated[idx] = False
+        self._autoreset = terminated | truncated
+        obs = self.task.observe(self._rngs)
+        return obs, reward, terminated, truncated, self._vector_info(self.task.infos())
+
+    def _vector_info(self, info: dict[str, NDArray[Any]]) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        mask = np.ones(self.num_envs, dtype=bool)
+        for k, v in info.items():
+            out[k] = v
+            out[f"_{k}"] = mask
+        return out
+
+    def render(self):
+        """RGB frame of sub-environment 0."""
+        if self.render_mode is None:
+            return None
+        from rigid_env.render import TaskRenderer
+
+        if self._renderer is None:
+            self._renderer = TaskRenderer(self.task, mode=self.render_mode, fps=self.metadata["render_fps"])
+        return self._renderer.render(0)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Close the renderer."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None

@@ -1,0 +1,127 @@
+"""Detumble: bring a spinning body to rest with thrusters."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rigid_env.envs.base import (
+    RigidBodyEnv,
+    RigidBodyVectorEnv,
+    TaskBatch,
+    random_quaternion,
+    random_unit_vectors,
+)
+from rigid_env.envs.rewards import tolerance
+
+
+class DetumbleTask(TaskBatch):
+    """Task definition of :class:`DetumbleEnv` (see there); extra keyword arguments:
+
+    Args:
+        max_initial_spin: initial |w| is uniform in [0, max_initial_spin] [rad/s].
+        success_threshold: |w| below which the body counts as at rest [rad/s].
+        fuel_weight: weight of the fuel term (mean |u| per step) in the reward.
+        success_bonus: reward on the step that reaches rest (the episode ends there).
+    """
+
+    scene_name = "detumble"
+
+    def __init__(self, num_envs: int, *, max_initial_spin: float = 3.0,
+                 success_threshold: float = 0.05, fuel_weight: float = 0.1,
+                 success_bonus: float = 1.0, **kwargs: Any) -> None:
+        if not (np.isfinite(max_initial_spin) and max_initial_spin > 0.0):
+            raise ValueError(f"max_initial_spin: must be > 0 [rad/s], got {max_initial_spin}")
+        if not (np.isfinite(success_threshold) and success_threshold > 0.0):
+            raise ValueError(f"success_threshold: must be > 0 [rad/s], got {success_threshold}")
+        self.max_initial_spin = float(max_initial_spin)
+        self.success_threshold = float(success_threshold)
+        self.fuel_weight = float(fuel_weight)
+        self.success_bonus = float(success_bonus)
+        super().__init__(num_envs, **kwargs)
+
+    def angular_velocity_scale(self) -> float:
+        return self.max_initial_spin
+
+    def sample(self, rng: np.random.Generator):
+        q = random_quaternion(rng)
+        w = rng.uniform(0.0, self.max_initial_spin) * random_unit_vectors(rng)
+        return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
+
+    def evaluate(self, action):
+        speed = self.angular_speed()
+        self.success = speed < self.success_threshold
+        # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
+        spin_cost = 1.0 - tolerance(speed, (0.0, self.success_threshold),
+                                    margin=self.max_initial_spin, sigmoid="linear",
+                                    value_at_margin=0.0)
+        fuel = np.mean(np.abs(action), axis=1)
+        reward = -spin_cost - self.fuel_weight * fuel + self.success_bonus * self.success
+        return reward, self.success.copy()
+
+
+class DetumbleEnv(RigidBodyEnv):
+    """## Description
+
+    A box (0.4 x 0.3 x 0.2 m, 2 kg, principal moments 0.0217, 0.0333, 0.0417 kg m^2) floats in
+    free space (no gravity, no drag: the scene does not compute them) spinning at a random rate
+    up to ``max_initial_spin`` about a random axis. Six thrusters in three couples on its faces
+    can push it; the goal is to bring the spin to rest with little fuel.
+
+    ## Action Space
+
+    ``Box(-1, 1, (6,), float32)``: thruster commands; thruster ``k`` pushes with
+    ``u_k * 0.1 N`` along its direction at its point (``configs/scenes/detumble.yaml``).
+    Pairs (0, 1), (2, 3), (4, 5) make torques about body x, y, z. Commands outside [-1, 1] are
+    clipped (a saturated thruster); NaN or inf raises ``ValueError``.
+
+    ## Observation Space
+
+    ``Box(float32)`` of 10 numbers (12 with ``rotation_repr="sixd"``):
+
+    | index | observation | range |
+    |---|---|---|
+    | 0-3 | orientation, canonical quaternion (w >= 0) body -> world (or 6-D: 0-5) | [-1, 1] |
+    | 4-6 | body angular velocity / ``max_initial_spin`` | [-5, 5] |
+    | 7-9 | ``tanh(w / 0.1 rad/s)``: fine resolution near rest | [-1, 1] |
+
+    ## Rewards
+
+    Per step ``-(|w| - 0.05) / max_initial_spin`` (clipped to [-1, 0]; a linear
+    ``tolerance``), ``- fuel_weight * mean |u|``, and ``+ success_bonus`` on reaching rest.
+
+    ## Starting State
+
+    Orientation uniform on SO(3); angular velocity uniform in magnitude on
+    [0, ``max_initial_spin``], direction uniform; at rest in translation.
+
+    ## Episode End
+
+    Terminates when ``|w| < success_threshold`` (success). Truncates after 400 steps (20 s), or
+    when the simulation reports a non-finite state (``info["numerical_error"]``).
+
+    ## Arguments
+
+    ``gym.make("RigidEnv/Detumble-v0", max_initial_spin=3.0, success_threshold=0.05,
+    fuel_weight=0.1, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
+    rotation_repr="quaternion", randomization=None, render_mode=None)``; ``randomization`` takes
+    ``{"mass": a, "inertia": a, "thrust": a, "sensor_noise": sigma}``.
+
+    ## Info
+
+    ``angular_speed`` [rad/s], ``energy`` [J], ``fuel`` (impulse spent) [N s], ``success``,
+    ``numerical_error``, ``angular_velocity_world``.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    task_cls = DetumbleTask
+
+
+class DetumbleVectorEnv(RigidBodyVectorEnv):
+    """Native vector version of :class:`DetumbleEnv`: all bodies in one NumPy call."""
+
+    task_cls = DetumbleTask

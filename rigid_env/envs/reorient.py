@@ -1,0 +1,120 @@
+"""Reorient: stop the spin and hold a target orientation."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rigid_env.core.rotation import canonical, quat_angle_between, quat_conj, quat_mul
+from rigid_env.envs.base import (
+    RigidBodyEnv,
+    RigidBodyVectorEnv,
+    TaskBatch,
+    random_quaternion,
+    random_unit_vectors,
+)
+from rigid_env.envs.rewards import tolerance
+
+
+class ReorientTask(TaskBatch):
+    """Task definition of :class:`ReorientEnv`; extra keyword arguments:
+
+    Args:
+        max_initial_spin: initial |w| uniform in [0, max_initial_spin] [rad/s].
+        success_angle: orientation error allowed for success [rad].
+        success_spin: |w| allowed for success [rad/s].
+        fuel_weight: weight of the fuel term.
+    """
+
+    scene_name = "reorient"
+    task_obs_dim = 4
+    target_dim = 4
+
+    def __init__(self, num_envs: int, *, max_initial_spin: float = 1.0,
+                 success_angle: float = np.deg2rad(5.0), success_spin: float = 0.05,
+                 fuel_weight: float = 0.05, **kwargs: Any) -> None:
+        if not (np.isfinite(max_initial_spin) and max_initial_spin > 0.0):
+            raise ValueError(f"max_initial_spin: must be > 0 [rad/s], got {max_initial_spin}")
+        self.max_initial_spin = float(max_initial_spin)
+        self.success_angle = float(success_angle)
+        self.success_spin = float(success_spin)
+        self.fuel_weight = float(fuel_weight)
+        super().__init__(num_envs, **kwargs)
+
+    def angular_velocity_scale(self) -> float:
+        return self.max_initial_spin
+
+    def sample(self, rng: np.random.Generator):
+        q = random_quaternion(rng)
+        w = rng.uniform(0.0, self.max_initial_spin) * random_unit_vectors(rng)
+        target = canonical(random_quaternion(rng))
+        return np.zeros(3), np.zeros(3), q, w, target
+
+    def error_quaternion(self) -> np.ndarray:
+        """(N, 4) rotation from the current to the target orientation, body frame, w >= 0."""
+        return canonical(quat_mul(quat_conj(self.world.state.q), self.target))
+
+    def task_observation(self):
+        return self.error_quaternion()
+
+    def evaluate(self, action):
+        angle = quat_angle_between(self.world.state.q, self.target)
+        speed = self.angular_speed()
+        self.success = (angle < self.success_angle) & (speed < self.success_spin)
+        r_angle = tolerance(angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear",
+                            value_at_margin=0.0)
+        r_spin = tolerance(speed, (0.0, self.success_spin), margin=self.max_initial_spin,
+                           sigmoid="linear", value_at_margin=0.0)
+        reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * np.mean(np.abs(action), axis=1)
+        return reward, np.zeros(self.n, dtype=bool)
+
+
+class ReorientEnv(RigidBodyEnv):
+    """## Description
+
+    The detumble box starts at a random orientation with a random spin; stop the spin and turn
+    it to a target orientation (random per episode, given in the observation) and hold it.
+
+    ## Action Space
+
+    ``Box(-1, 1, (6,), float32)``: six thrusters as in ``Detumble-v0`` (0.1 N each).
+
+    ## Observation Space
+
+    14 numbers (16 with ``rotation_repr="sixd"``): orientation (4), body w /
+    ``max_initial_spin`` (3), ``tanh(w / 0.1)`` (3), and the error quaternion
+    ``canonical(q^-1 (x) q_target)`` (4), the rotation still to make in the body frame.
+
+    ## Rewards
+
+    ``r_angle (0.5 + 0.5 r_spin) - fuel_weight mean |u|`` with linear tolerances
+    ``r_angle`` (1 within 5 deg, 0 at 180 deg) and ``r_spin`` (1 below 0.05 rad/s, 0 at
+    ``max_initial_spin``).
+
+    ## Starting State
+
+    Orientation and target uniform on SO(3); |w| uniform on [0, ``max_initial_spin``].
+
+    ## Episode End
+
+    No termination (hold the target); truncates after 300 steps (15 s) or on a non-finite state.
+    ``info["success"]``: angle error < ``success_angle`` and |w| < ``success_spin`` now.
+
+    ## Arguments
+
+    ``max_initial_spin=1.0, success_angle=5 deg, success_spin=0.05, fuel_weight=0.05``, plus
+    the common ``integrator, dt, substeps, scene, rotation_repr, randomization, render_mode``.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    task_cls = ReorientTask
+
+
+class ReorientVectorEnv(RigidBodyVectorEnv):
+    """Native vector version of :class:`ReorientEnv`."""
+
+    task_cls = ReorientTask
