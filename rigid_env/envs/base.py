@@ -273,14 +273,17 @@ class TaskBatch:
     def angular_speed(self) -> FloatArray:
         """(N,) |w| [rad/s]."""
         w = self.world.state.w
-        return np.sqrt(np.sum(w * w, axis=1))
+        with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf, not a warning
+            return np.sqrt(np.sum(w * w, axis=1))
 
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
         s = self.world.state
+        with np.errstate(over="ignore"):
+            energy = kinetic_energy(self.world.model, s)
         return {
             "angular_speed": self.angular_speed(),
-            "energy": kinetic_energy(self.world.model, s),
+            "energy": energy,
             "fuel": self.fuel.copy(),
             "success": self.success.copy(),
             "numerical_error": self.world.failed.copy(),

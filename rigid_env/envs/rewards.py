@@ -8,6 +8,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.effects import apply_map
+
 FloatArray = NDArray[np.float64]
 
 
@@ -57,4 +59,4 @@ def tolerance(
 def fuel_rate(action: FloatArray, max_force: FloatArray) -> FloatArray:
     """Total thrust magnitude ``sum_k |u_k| F_k`` [N] of a command (N, K); times ``dt`` it is the
     impulse spent (our fuel measure) [N s]."""
-    return np.abs(action) @ max_force
+    return apply_map(np.abs(action), max_force[:, None])[:, 0]

@@ -1,0 +1,295 @@
+"""Contracts of every registered environment: checkers, seeding, vector = singles, bad input."""
+
+from __future__ import annotations
+
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+
+import rigid_env
+from rigid_env.core.effects import Gravity, QuadraticDrag
+from rigid_env.envs.base import RigidBodyVectorEnv
+
+ENV_IDS = rigid_env.envs.ENV_IDS
+
+
+def rollout_single(env_id: str, seed: int, actions: np.ndarray, **kwargs):
+    """Observations, rewards and flags of one single env driven by ``actions`` (T, A)."""
+    env = gym.make(env_id, **kwargs)
+    obs, _ = env.reset(seed=seed)
+    out = [obs]
+    rewards, flags = [], []
+    for a in actions:
+        obs, r, term, trunc, _ = env.step(a)
+        out.append(obs)
+        rewards.append(r)
+        flags.append((term, trunc))
+        if term or trunc:
+            break
+    env.close()
+    return np.array(out), np.array(rewards), flags
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_gymnasium_check_env(env_id):
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any checker warning is a failure
+        gym_check_env(env.unwrapped, skip_render_check=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_sb3_check_env(env_id):
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sb3_check_env(env, warn=True)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_same_seed_same_episode_bit_for_bit(env_id):
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, size=(60, 6)).astype(np.float32)
+    obs_a, rew_a, _ = rollout_single(env_id, 7, actions)
+    obs_b, rew_b, _ = rollout_single(env_id, 7, actions)
+    obs_c, _, _ = rollout_single(env_id, 8, actions)
+    assert np.array_equal(obs_a, obs_b) and np.array_equal(rew_a, rew_b)
+    assert not np.array_equal(obs_a[0], obs_c[0])  # another seed, another start
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_vector_env_equals_single_envs(env_id):
+    """Sub-env i of make_vec reset with seed s replays a single env reset with seed s + i."""
+    n, steps, seed = 4, 40, 100
+    rng = np.random.default_rng(1)
+    actions = rng.uniform(-1, 1, size=(steps, n, 6)).astype(np.float32)
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    assert isinstance(venv.unwrapped, RigidBodyVectorEnv)
+    obs, _ = venv.reset(seed=seed)
+    vec_obs = [obs]
+    vec_rew = []
+    for t in range(steps):
+        obs, r, term, trunc, _ = venv.step(actions[t])
+        assert not (term | trunc).any(), "pick a horizon inside every episode"
+        vec_obs.append(obs)
+        vec_rew.append(r)
+    vec_obs = np.array(vec_obs)
+    vec_rew = np.array(vec_rew)
+    for i in range(n):
+        single_obs, single_rew, _ = rollout_single(env_id, seed + i, actions[:, i])
+        assert np.array_equal(vec_obs[:, i], single_obs), f"env {i} observations differ"
+        assert np.array_equal(vec_rew[:, i], single_rew), f"env {i} rewards differ"
+
+
+def test_vector_spaces_and_autoreset_next_step():
+    n = 3
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=n,
+                        vectorization_mode="vector_entry_point", max_episode_steps=5)
+    assert venv.metadata["autoreset_mode"] == gym.vector.AutoresetMode.NEXT_STEP
+    assert venv.observation_space.shape == (n, *venv.single_observation_space.shape)
+    assert venv.action_space.shape == (n, 6)
+    obs, info = venv.reset(seed=0)
+    assert venv.observation_space.contains(obs)
+    assert set(info) >= {"angular_speed", "energy", "fuel", "success", "numerical_error"}
+    for _ in range(5):
+        obs, rew, term, trunc, _ = venv.step(np.zeros((n, 6), np.float32))
+    assert trunc.all() and not term.any()  # time limit of 5 steps
+    # NEXT_STEP: the following step resets, reward 0, flags cleared, a fresh start.
+    obs, rew, term, trunc, info = venv.step(np.ones((n, 6), np.float32))
+    assert np.array_equal(rew, np.zeros(n)) and not (term | trunc).any()
+    assert np.array_equal(info["fuel"], np.zeros(n))
+    assert venv.observation_space.contains(obs)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_non_finite_action_raises_value_error(bad):
+    env = gym.make("RigidEnv/Detumble-v0")
+    env.reset(seed=0)
+    action = np.zeros(6, np.float32)
+    action[2] = bad
+    with pytest.raises(ValueError, match="action"):
+        env.step(action)
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    venv.reset(seed=0)
+    actions = np.zeros((2, 6), np.float32)
+    actions[1, 0] = bad
+    with pytest.raises(ValueError, match="action"):
+        venv.step(actions)
+
+
+def test_huge_finite_action_is_clipped_like_a_saturated_thruster():
+    actions = np.full((5, 6), 1.0e6, np.float32)
+    big, _, _ = rollout_single("RigidEnv/Detumble-v0", 3, actions)
+    one, _, _ = rollout_single("RigidEnv/Detumble-v0", 3, np.ones((5, 6), np.float32))
+    assert np.array_equal(big, one)
+
+
+def test_diverging_body_ends_only_its_own_episode():
+    """explicit_euler at a huge step blows up a fast asymmetric spin; with four bodies, only the
+    one we spin up diverges: it is truncated with info['numerical_error'], the others go on
+    exactly as in a vector env without the bad body."""
+    kwargs = dict(integrator="explicit_euler", dt=0.5)
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=4,
+                        vectorization_mode="vector_entry_point", **kwargs)
+    ref = gym.make_vec("RigidEnv/Detumble-v0", num_envs=4,
+                       vectorization_mode="vector_entry_point", **kwargs)
+    venv.reset(seed=0)
+    ref.reset(seed=0)
+    venv.unwrapped.task.world.state.w[2] = [300.0, 300.0, 300.0]  # rad/s: diverges
+    zeros = np.zeros((4, 6), np.float32)
+    for _ in range(60):
+        obs, _, term, trunc, info = venv.step(zeros)
+        r_obs, *_ = ref.step(zeros)
+        assert np.all(np.isfinite(obs))
+        if trunc[2]:
+            break
+    assert trunc[2] and info["numerical_error"][2]
+    assert not info["numerical_error"][[0, 1, 3]].any()
+    assert np.array_equal(obs[[0, 1, 3]], r_obs[[0, 1, 3]])
+
+
+def test_single_env_reports_numerical_error_as_truncation():
+    env = gym.make("RigidEnv/Detumble-v0", integrator="explicit_euler", dt=0.5)
+    env.reset(seed=0)
+    env.unwrapped.task.world.state.w[0] = [300.0, 300.0, 300.0]
+    for _ in range(60):
+        obs, _, term, trunc, info = env.step(np.zeros(6, np.float32))
+        assert np.all(np.isfinite(obs))
+        if trunc:
+            break
+    assert trunc and info["numerical_error"]
+
+
+def test_scene_without_gravity_or_drag_never_calls_them(monkeypatch):
+    calls = {"gravity": 0, "drag": 0}
+    orig_g, orig_d = Gravity.accumulate, QuadraticDrag.accumulate
+
+    def count_g(self, *a):
+        calls["gravity"] += 1
+        return orig_g(self, *a)
+
+    def count_d(self, *a):
+        calls["drag"] += 1
+        return orig_d(self, *a)
+
+    monkeypatch.setattr(Gravity, "accumulate", count_g)
+    monkeypatch.setattr(QuadraticDrag, "accumulate", count_d)
+    env = gym.make("RigidEnv/Detumble-v0")
+    env.reset(seed=0)
+    for _ in range(20):
+        env.step(env.action_space.sample())
+    assert calls == {"gravity": 0, "drag": 0}
+    fall = gym.make("RigidEnv/TumblingFall-v0")
+    fall.reset(seed=0)
+    fall.step(fall.action_space.sample())
+    substeps = fall.unwrapped.task.world.substeps
+    assert calls["gravity"] > 0 and calls["drag"] >= substeps  # the fall scene does use them
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_envs_pickle_and_continue_identically(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=5)
+    clone = pickle.loads(pickle.dumps(env))
+    a = np.full(6, 0.3, np.float32)
+    assert np.array_equal(env.step(a)[0], clone.step(a)[0])
+    venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    venv.reset(seed=5)
+    vclone = pickle.loads(pickle.dumps(venv))
+    a2 = np.full((2, 6), -0.2, np.float32)
+    assert np.array_equal(venv.step(a2)[0], vclone.step(a2)[0])
+
+
+def test_async_vector_env_runs_our_envs():
+    """Pickling is what AsyncVectorEnv / SubprocVecEnv need; run two workers for real."""
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=2, vectorization_mode="async")
+    obs, _ = venv.reset(seed=3)
+    ref, _, _ = rollout_single("RigidEnv/Detumble-v0", 4, np.zeros((1, 6), np.float32))
+    assert np.array_equal(obs[1], ref[0])
+    venv.close()
+
+
+def test_overrides_and_options():
+    env = gym.make("RigidEnv/Detumble-v0", integrator="rk4", dt=0.02, substeps=3,
+                   rotation_repr="sixd", max_initial_spin=1.0)
+    task = env.unwrapped.task
+    assert task.world.integrator.name == "rk4" and task.world.dt == 0.02 and task.world.substeps == 3
+    obs, _ = env.reset(seed=0)
+    assert obs.shape == (12,)
+    assert env.metadata["render_fps"] == 50
+    with pytest.raises(ValueError, match="integrator"):
+        gym.make("RigidEnv/Detumble-v0", integrator="nope")
+    with pytest.raises(ValueError, match="rotation_repr"):
+        gym.make("RigidEnv/Detumble-v0", rotation_repr="euler")
+    with pytest.raises(ValueError, match="max_initial_spin"):
+        gym.make("RigidEnv/Detumble-v0", max_initial_spin=-1.0)
+
+
+def test_scene_override_as_dict():
+    base = rigid_env.scene.load_scene(rigid_env.envs.base.default_scene_path("detumble")).to_dict()
+    base["body"]["mass"] = 4.0
+    env = gym.make("RigidEnv/Detumble-v0", scene=base)
+    assert env.unwrapped.task.world.model.mass[0] == 4.0
+
+
+def test_domain_randomization_draws_from_env_generator_only():
+    rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.3, "sensor_noise": 0.01}
+    acts = np.full((10, 6), 0.5, np.float32)
+    a, _, _ = rollout_single("RigidEnv/Detumble-v0", 11, acts, randomization=rand)
+    b, _, _ = rollout_single("RigidEnv/Detumble-v0", 11, acts, randomization=rand)
+    c, _, _ = rollout_single("RigidEnv/Detumble-v0", 11, acts)
+    assert np.array_equal(a, b) and not np.array_equal(a, c)
+    env = gym.make("RigidEnv/Detumble-v0", randomization=rand)
+    masses = set()
+    for s in range(5):
+        env.reset(seed=s)
+        model = env.unwrapped.task.world.model
+        masses.add(float(model.mass[0]))
+        i = np.sort(model.inertia[0])
+        assert i[2] <= i[0] + i[1] + 1e-15  # still a physical body
+        assert 1.6 <= model.mass[0] <= 2.4
+    assert len(masses) == 5
+    with pytest.raises(ValueError, match="randomization.mass"):
+        gym.make("RigidEnv/Detumble-v0", randomization={"mass": 1.5})
+
+
+def test_thruster_torque_reaches_body_as_r_cross_f():
+    """Command the +z couple only: w_z grows at 2 r F / I_z per second, nothing else moves
+    (a check of the action -> force-at-point -> torque chain, at zero initial spin)."""
+    env = gym.make("RigidEnv/Detumble-v0", integrator="symplectic_euler")
+    env.reset(seed=0)
+    task = env.unwrapped.task
+    task.world.state.w[:] = 0.0
+    a = np.zeros(6, np.float32)
+    a[4] = a[5] = 1.0
+    steps = 10
+    for _ in range(steps):
+        env.step(a)
+    i_z = task.world.model.inertia[0, 2]
+    expected = 2 * 0.2 * 0.1 / i_z * steps * task.dt  # two thrusters, lever 0.2 m, 0.1 N
+    assert task.world.state.w[0, 2] == pytest.approx(expected, rel=1e-12)
+    assert np.abs(task.world.state.w[0, :2]).max() < 1e-15
+    fuel_expected = 2 * 0.1 * steps * task.dt  # N s
+    assert env.unwrapped.task.fuel[0] == pytest.approx(fuel_expected, rel=1e-12)
+
+
+def test_observation_is_canonical_and_inside_space():
+    env = gym.make("RigidEnv/Detumble-v0")
+    for s in range(20):
+        obs, _ = env.reset(seed=s)
+        assert obs[0] >= 0.0 and abs(np.linalg.norm(obs[:4]) - 1) < 1e-6
+        assert env.observation_space.contains(obs)
+
+
+def test_step_before_reset_is_an_error():
+    env = gym.make("RigidEnv/Detumble-v0")
+    with pytest.raises((RuntimeError, gym.error.ResetNeeded)):
+        env.step(np.zeros(6, np.float32))
