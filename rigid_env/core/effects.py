@@ -36,6 +36,19 @@ def _vec3(value: ArrayLike, name: str) -> FloatArray:
     return arr
 
 
+def apply_map(u: FloatArray, m: FloatArray) -> FloatArray:
+    """``u (N, A) @ m (A, 3)`` accumulated column by column in a fixed order.
+
+    BLAS chooses its kernel by matrix size, so ``(u @ m)[i]`` can differ in the last bit
+    between a batch and the same row alone; this loop over the ``A`` (a handful of) columns is
+    bit-identical for any ``N``, which keeps a vector env equal to its single envs.
+    """
+    out = u[:, 0:1] * m[0]
+    for a in range(1, m.shape[0]):
+        out += u[:, a:a + 1] * m[a]
+    return out
+
+
 class ForceEffect:
     """A term that adds force (world frame, on the centre of mass) and/or torque (body frame).
 
@@ -107,12 +120,12 @@ class Gravity(ForceEffect):
     def __post_init__(self) -> None:
         object.__setattr__(self, "g", _vec3(self.g, "gravity.g"))
 
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:  # noqa: D102
+    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         force_world += model.mass[:, None] * self.g
 
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
         """``U = -m g . x`` [J]."""
-        return -model.mass * (x @ self.g)
+        return -model.mass * apply_map(x, self.g[:, None])[:, 0]
 
 
 @dataclass(frozen=True)
@@ -156,7 +169,7 @@ class QuadraticDrag(ForceEffect):
         """Makes torque only when the centre of pressure is off the centre of mass."""
         return self.offset
 
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:  # noqa: D102
+    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         if self.offset:
             v_p = v + quat_rotate(q, cross(w, self.center_of_pressure))
         else:
@@ -187,7 +200,7 @@ class LinearDamping(StepMap):
         if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
             raise ValueError(f"linear_damping.alpha: must lie in (0, 1], got {self.alpha}")
 
-    def apply(self, state: State) -> None:  # noqa: D102
+    def apply(self, state: State) -> None:
         state.v *= self.alpha
 
 
@@ -207,7 +220,7 @@ class AngularDamping(StepMap):
         if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
             raise ValueError(f"angular_damping.alpha: must lie in (0, 1], got {self.alpha}")
 
-    def apply(self, state: State) -> None:  # noqa: D102
+    def apply(self, state: State) -> None:
         state.w *= self.alpha
 
 
@@ -236,13 +249,13 @@ class LinearActuator(ForceEffect):
 
     def body_wrench(self, action: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Force (N, 3) [N] and torque (N, 3) [N m], both body frame, of a command (N, A)."""
-        return action @ self.force_map, action @ self.torque_map
+        return apply_map(action, self.force_map), apply_map(action, self.torque_map)
 
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:  # noqa: D102
+    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         if action is None:
             return
-        force_world += quat_rotate(q, action @ self.force_map)
-        torque_body += action @ self.torque_map
+        force_world += quat_rotate(q, apply_map(action, self.force_map))
+        torque_body += apply_map(action, self.torque_map)
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,13 @@
 ``World.step`` reads as its stages: check the command -> integrate ``substeps`` times (each
 step of the integrator evaluates only the active effects) -> per-step maps (damping) -> guard
 against non-finite states.
+
+The guard. A body whose state turns NaN or inf is never handed back silently: by default the
+step raises :class:`NumericalInstabilityError` (a ``FloatingPointError``) naming the body, the
+step, the integrator and what to do; with ``on_error="freeze"`` the failed bodies are held at
+their last finite state and flagged in :attr:`World.failed`, and every other body goes on
+exactly (bit for bit) as it would without them: no step mixes bodies, the guard's test is per
+body, and the implicit solvers iterate each body to its own tolerance.
 """
 
 from __future__ import annotations
@@ -30,7 +37,10 @@ class NumericalInstabilityError(FloatingPointError):
         self.bodies = list(bodies)
         self.step = step
         self.integrator = integrator
-        shown = ", ".join(str(b) for b in self.bodies[:5]) + (" ..." if len(self.bodies) > 5 else "")
+        self.dt = dt
+        shown = ", ".join(str(b) for b in self.bodies[:5])
+        if len(self.bodies) > 5:
+            shown += f" ... ({len(self.bodies)} bodies)"
         super().__init__(
             f"state of body {shown} became non-finite at step {step} (integrator "
             f"{integrator!r}, dt {dt:g} s); use a smaller dt or more substeps, or a stable "
@@ -49,8 +59,14 @@ class World:
         substeps: integrator steps per :meth:`step` (each of ``dt / substeps``).
         state: initial state; ``n`` bodies at rest if omitted.
         n: number of bodies when ``state`` is omitted.
-        max_angular_speed: optional clamp on ``|w|`` [rad/s] after every substep (PhysX's
-            ``maxAngularVelocity``: ``w`` is scaled down to this length); None = off.
+        max_angular_speed: optional limit on ``|w|`` [rad/s]; None (the default) = off, and then
+            it costs nothing. As PhysX's ``PxRigidDynamic::setMaxAngularVelocity``
+            (``DyBodyCoreIntegrator.h``, ``bodyCoreComputeUnconstrainedVelocity``: ``w *=
+            sqrt(max^2 / |w|^2)`` when ``|w| > max``), an angular velocity above the limit is
+            scaled down to it, its direction kept: before every substep (the velocity the
+            integrator starts from, as PhysX clamps the velocity that then moves the pose) and
+            after the last one (so the stored state obeys the limit). A safety valve against
+            runaway spin, not physics: it removes energy and angular momentum.
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
             non-finite; ``"freeze"`` keeps the failed bodies at their last finite state, flags
             them in :attr:`failed` and lets the others go on (what vector envs use).
@@ -72,8 +88,11 @@ class World:
             raise ValueError(f"dt: must be a finite time step > 0 [s], got {dt}")
         if int(substeps) != substeps or substeps < 1:
             raise ValueError(f"substeps: must be an integer >= 1, got {substeps}")
-        if max_angular_speed is not None and not (max_angular_speed > 0.0):
-            raise ValueError(f"max_angular_speed: must be > 0 [rad/s] or omitted, got {max_angular_speed}")
+        if max_angular_speed is not None and not (
+            np.isfinite(max_angular_speed) and max_angular_speed > 0.0
+        ):
+            raise ValueError(f"max_angular_speed: must be a finite number > 0 [rad/s] or None "
+                             f"(off), got {max_angular_speed}")
         if on_error not in ("raise", "freeze"):
             raise ValueError(f"on_error: must be 'raise' or 'freeze', got {on_error!r}")
         self.model = model
@@ -87,8 +106,10 @@ class World:
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.h = self.dt / self.substeps
-        self.max_angular_speed = max_angular_speed
+        self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
         self.on_error = on_error
+        if state is not None:
+            check_state(state)
         self.state = state.copy() if state is not None else State.zeros(n)
         if model.n not in (1, self.state.n):
             raise ValueError(f"model: has {model.n} bodies but the state has {self.state.n}")
@@ -111,10 +132,22 @@ class World:
         """Simulated time since the last :meth:`reset` [s]."""
         return self.step_count * self.dt
 
+    def set_model(self, model: BodyModel) -> None:
+        """Replace the mass properties (per body or shared), e.g. for domain randomisation."""
+        if model.n not in (1, self.n):
+            raise ValueError(f"model: has {model.n} bodies but the world has {self.n}")
+        self.model = model
+        self.dynamics = Dynamics(model, self.force_effects)
+
     def reset(self, state: State) -> None:
-        """Replace the state (copied), clear failures and the step counter."""
+        """Replace the state (copied), clear failures and the step counter.
+
+        Raises:
+            ValueError: for a wrong body count, shape, a non-finite number or a zero quaternion.
+        """
         if state.n != self.n:
             raise ValueError(f"state: has {state.n} bodies, this world has {self.n}")
+        check_state(state)
         self.state = state.copy()
         self.failed[:] = False
         self.step_count = 0
@@ -151,7 +184,8 @@ class World:
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if action is None or self.action_dim == 0:
             if action is not None and np.size(action) != 0:
-                raise ValueError(f"action: this world has no actuators, got {np.size(action)} numbers")
+                raise ValueError(
+                    f"action: this world has no actuators, got {np.size(action)} numbers")
             return None
         act = np.asarray(action, dtype=np.float64)
         if act.ndim == 1:
@@ -164,13 +198,19 @@ class World:
         return act
 
     def _integrate(self, s: State, act: FloatArray | None) -> State:
-        step, dyn, h = self.integrator.step, self.dynamics, self.h
+        step, dyn, h, w_max = self.integrator.step, self.dynamics, self.h, self.max_angular_speed
+        before = s
         for _ in range(self.substeps):
+            if w_max is not None:
+                s = _clamped(s, w_max)
             s = step(dyn, s, act, h)
-            if self.max_angular_speed is not None:
-                clamp_angular_speed(s.w, self.max_angular_speed)
-        if s is self.state:  # an integrator that returned its input (cannot happen today)
-            s = s.copy()
+        if w_max is not None:
+            s = _clamped(s, w_max)
+        # Integrators may pass an unchanged array through (x' = 0 leaves x as it was); copy it so
+        # that the step maps, which work in place, cannot reach the state kept for a rollback.
+        if any(getattr(s, k) is getattr(before, k) for k in "xvqw"):
+            s = State(*(getattr(s, k).copy() if getattr(s, k) is getattr(before, k)
+                        else getattr(s, k) for k in "xvqw"))
         return s
 
     def _guard(self, s: State) -> BoolArray | None:
@@ -210,11 +250,47 @@ class World:
 
 
 def clamp_angular_speed(w: FloatArray, max_speed: float) -> None:
-    """Scale rows of ``w`` (N, 3) in place so that ``|w| <= max_speed`` (PhysX's clamp)."""
+    """Scale rows of ``w`` (N, 3) in place so that ``|w| <= max_speed`` (PhysX's clamp: the
+    direction is kept). A non-finite row stays non-finite (inf becomes NaN) for the guard."""
     speed = np.sqrt(np.sum(w * w, axis=1))
     over = speed > max_speed
     if over.any():
         w[over] *= (max_speed / speed[over])[:, None]
+
+
+def _clamped(s: State, max_speed: float) -> State:
+    """``s`` itself if every ``|w| <= max_speed``, else a state sharing ``x, v, q`` with a
+    clamped copy of ``w`` (the input is never modified)."""
+    if not np.any(np.sum(s.w * s.w, axis=1) > max_speed * max_speed):
+        return s
+    w = s.w.copy()
+    clamp_angular_speed(w, max_speed)
+    return State(s.x, s.v, s.q, w)
+
+
+def check_state(state: State) -> None:
+    """Check a state given from outside: shapes ``(N, 3|4)``, finite numbers, no zero
+    quaternion.
+
+    Raises:
+        ValueError: naming the field, the first bad body and the fix.
+    """
+    n = state.x.shape[0] if np.ndim(state.x) == 2 else -1
+    for name, width in (("x", 3), ("v", 3), ("q", 4), ("w", 3)):
+        a = np.asarray(getattr(state, name))
+        if a.shape != (n, width):
+            raise ValueError(f"state.{name}: expected shape ({max(n, 1)}, {width}) like state.x, "
+                             f"got {a.shape}")
+        finite = np.isfinite(a).all(axis=1)
+        if not finite.all():
+            b = int(np.flatnonzero(~finite)[0])
+            raise ValueError(f"state.{name}: body {b} has a non-finite entry {a[b].tolist()}; "
+                             "every state number must be finite")
+    zero = ~np.any(state.q != 0.0, axis=1)
+    if zero.any():
+        b = int(np.flatnonzero(zero)[0])
+        raise ValueError(f"state.q: body {b} is the zero quaternion, which is no rotation; give "
+                         "a unit quaternion (w, x, y, z), e.g. [1, 0, 0, 0]")
 
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
@@ -232,7 +308,8 @@ def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[
     """Step ``world`` ``steps`` times with a constant command and record the trajectory.
 
     Returns:
-        Arrays of every body with a leading time axis of length ``T = steps + 1``: ``t (T,)``, ``position (T, N, 3)``, ``velocity``, ``orientation (T, N, 4)``,
+        Arrays of every body with a leading time axis of length ``T = steps + 1``: ``t (T,)``,
+        ``position (T, N, 3)``, ``velocity``, ``orientation (T, N, 4)``,
         ``angular_velocity_body``, ``angular_velocity_world``, ``energy (T, N)``,
         ``angular_momentum_world (T, N, 3)``.
     """
