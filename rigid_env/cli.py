@@ -1,0 +1,374 @@
+"""The ``rigid-env`` command line.
+
+    rigid-env simulate SCENE.yaml --steps N [--dt H] [--integrator NAME] [--substeps K]
+                       [--action A1,A2,...] --out FILE.npz [--force]
+    rigid-env bench accuracy [...]      work-precision benchmark (rigid_env.bench.accuracy)
+    rigid-env bench speed [...]         throughput benchmark (rigid_env.bench.speed)
+    rigid-env scenes [--dir DIR]        the example scenes with a one-line summary each
+    rigid-env integrators               the integrator registry
+
+A user's mistake (a bad file, scene or flag value) ends with exit status 2 and one line on
+stderr, ``rigid-env: error: ...``; a simulation that turns non-finite ends with status 1 and one
+line. No traceback is printed for either (set ``RIGID_ENV_DEBUG=1`` to get one). The benchmark
+modules are imported only when their command runs, so ``simulate`` never loads matplotlib or
+MuJoCo.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rigid_env import __version__
+from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.world import NumericalInstabilityError, simulate
+from rigid_env.scene import SceneError, load_scene
+
+PROG = "rigid-env"
+SCENE_DIR = Path(__file__).resolve().parents[1] / "configs" / "scenes"
+BENCHMARKS = {
+    "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
+    "speed": "throughput: body-steps per second against batch size, peers in the same run",
+}
+
+
+class UsageError(Exception):
+    """A user's mistake on the command line; the message is one line."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block) raised as :class:`UsageError`."""
+
+    def error(self, message: str) -> NoReturn:
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# --------------------------------------------------------------------------------------------
+# Flag value types: each raises ArgumentTypeError with what to do
+# --------------------------------------------------------------------------------------------
+
+
+def _positive_float(text: str) -> float:
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}") from None
+    if not (math.isfinite(x) and x > 0.0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return x
+
+
+def _int_at_least(low: int) -> Callable[[str], int]:
+    def parse(text: str) -> int:
+        try:
+            k = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected an integer >= {low}, got {text!r}") from None
+        if k < low:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {k}")
+        return k
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+def _integrator(text: str) -> str:
+    if text not in INTEGRATORS:
+        raise argparse.ArgumentTypeError(
+            f"unknown integrator {text!r}; choose one of: {', '.join(INTEGRATORS)}")
+    return text
+
+
+def _action(text: str) -> list[float]:
+    """``A1,A2,...``: finite numbers in [-1, 1]."""
+    values = []
+    for item in text.split(","):
+        try:
+            x = float(item)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected comma-separated numbers in [-1, 1], got {item.strip()!r} "
+                f"in {text!r}") from None
+        if not math.isfinite(x):
+            raise argparse.ArgumentTypeError(
+                f"{item.strip()!r} is not a finite number; give commands in [-1, 1]")
+        if not -1.0 <= x <= 1.0:
+            raise argparse.ArgumentTypeError(
+                f"{x:g} is outside [-1, 1]; every command is a fraction of the actuator's "
+                "max_force")
+        values.append(x)
+    return values
+
+
+# --------------------------------------------------------------------------------------------
+# Parser
+# --------------------------------------------------------------------------------------------
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser (the benchmark commands add their own flags when run)."""
+    parser = _Parser(prog=PROG, description="Rigid-body simulation, benchmarks and scenes.")
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    sim = sub.add_parser(
+        "simulate", help="integrate a scene and write its trajectory (.npz)",
+        description="Integrate one body of a scene with a constant command and write the "
+        "trajectory: t (N+1,), position, velocity, orientation (w, x, y, z), "
+        "angular_velocity_body, angular_velocity_world (N+1, 3|4), energy (N+1,), "
+        "angular_momentum_world (N+1, 3).")
+    sim.add_argument("scene", metavar="SCENE.yaml", help="scene file (see configs/scenes/)")
+    sim.add_argument("--steps", type=_int_at_least(1), required=True, metavar="N",
+                     help="number of steps of dt")
+    sim.add_argument("--dt", type=_positive_float, metavar="H",
+                     help="time per step [s] (default: the scene's)")
+    sim.add_argument("--integrator", type=_integrator, metavar="NAME",
+                     help=f"one of {', '.join(INTEGRATORS)} (default: the scene's)")
+    sim.add_argument("--substeps", type=_int_at_least(1), metavar="K",
+                     help="integrator steps per dt (default: the scene's)")
+    sim.add_argument("--action", type=_action, metavar="A1,A2,...",
+                     help="constant command, one number in [-1, 1] per actuator component "
+                     "(default: zeros)")
+    sim.add_argument("--out", required=True, metavar="FILE.npz", help="output file")
+    sim.add_argument("--force", action="store_true", help="overwrite --out if it exists")
+    sim.set_defaults(handler=_cmd_simulate)
+
+    bench = sub.add_parser("bench", help="accuracy and speed benchmarks",
+                           description="Benchmarks; each writes a figure and tables.")
+    bench_sub = bench.add_subparsers(dest="benchmark", metavar="BENCHMARK")
+    for name, text in BENCHMARKS.items():
+        # add_help=False: `--help` and every flag go to the benchmark's own parser.
+        b = bench_sub.add_parser(name, help=text, add_help=False)
+        b.set_defaults(handler=_cmd_bench, takes_extra=True)
+    bench.set_defaults(handler=_cmd_bench_missing)
+
+    scenes = sub.add_parser("scenes", help="list the example scenes",
+                            description="List scene files with a one-line summary each.")
+    scenes.add_argument("--dir", type=Path, default=None, metavar="DIR",
+                        help=f"directory of .yaml scenes (default: {SCENE_DIR})")
+    scenes.set_defaults(handler=_cmd_scenes)
+
+    integ = sub.add_parser("integrators", help="list the integrators",
+                           description="Name, order and a note for every integrator.")
+    integ.set_defaults(handler=_cmd_integrators)
+    return parser
+
+
+def _join_action_value(argv: list[str]) -> list[str]:
+    """``--action -0.5,1`` -> ``--action=-0.5,1`` (argparse would take ``-0.5,1`` for a flag)."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        if argv[i] == "--action" and i + 1 < len(argv) and argv[i + 1].startswith("-"):
+            out.append(f"--action={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line.
+
+    Args:
+        argv: arguments without the program name (default: ``sys.argv[1:]``).
+
+    Returns:
+        Exit status: 0 on success, 2 for a user's mistake, 1 if a simulation turned
+        non-finite.
+    """
+    args_in = _join_action_value(list(sys.argv[1:] if argv is None else argv))
+    parser = build_parser()
+    try:
+        args, extra = parser.parse_known_args(args_in)
+        if extra and not getattr(args, "takes_extra", False):
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+        handler = getattr(args, "handler", None)
+        if handler is None:
+            parser.print_help(sys.stderr)
+            return 2
+        return int(handler(args, extra))
+    except SystemExit as exc:  # --help, --version, or a benchmark that exits itself
+        return exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    except NumericalInstabilityError as exc:
+        return _fail(exc, 1)
+    except (UsageError, SceneError) as exc:
+        return _fail(exc, 2)
+    except (ValueError, OSError) as exc:  # a user's value the core rejected, or a file error
+        return _fail(exc, 2)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+def _fail(exc: BaseException, status: int) -> int:
+    if os.environ.get("RIGID_ENV_DEBUG"):
+        raise exc
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    print(f"{PROG}: error: {text}", file=sys.stderr)
+    return status
+
+
+# --------------------------------------------------------------------------------------------
+# Commands
+# --------------------------------------------------------------------------------------------
+
+
+def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
+    scene = load_scene(args.scene)
+    world = scene.build_world(1, integrator=args.integrator, dt=args.dt, substeps=args.substeps)
+    action = _check_action(args.action, world.action_dim)
+    out = Path(args.out)
+    if out.is_dir():
+        raise UsageError(f"--out: {out} is a directory; give a file name such as "
+                         f"{out / 'trajectory.npz'}")
+    if out.exists() and not args.force:
+        raise UsageError(f"--out: {out} exists; pass --force to overwrite it, or choose "
+                         "another file")
+    out.parent.mkdir(parents=True, exist_ok=True)
+
+    start = time.perf_counter()
+    # A diverging run may overflow the recorded energy a step before the state itself turns
+    # non-finite; the world's guard then reports it in one line, without NumPy warnings.
+    with np.errstate(over="ignore", invalid="ignore"):
+        traj = simulate(world, args.steps, action)
+    wall = time.perf_counter() - start
+    arrays = {key: (val if key == "t" else val[:, 0]) for key, val in traj.items()}
+    _write_npz(out, arrays)
+    print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall,
+                   out))
+    return 0
+
+
+def _check_action(values: list[float] | None, action_dim: int) -> NDArray[np.float64] | None:
+    if values is None:
+        return None
+    if len(values) != action_dim:
+        have = (f"{action_dim} actuator component{'s' if action_dim != 1 else ''}"
+                if action_dim else "no actuators")
+        raise UsageError(f"argument --action: the scene has {have}, got {len(values)} "
+                         "number(s); give one number in [-1, 1] per component"
+                         + ("" if action_dim else " or leave --action out"))
+    return np.array(values, dtype=np.float64)
+
+
+def _write_npz(out: Path, arrays: dict[str, Any]) -> None:
+    """Write next to ``out`` and rename into place, so a failed write leaves no partial file."""
+    tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+        os.replace(tmp, out)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def _drift(series: NDArray[np.float64]) -> str:
+    """``start -> end (change, relative change)``."""
+    a, b = float(series[0]), float(series[-1])
+    rel = f", {(b - a) / abs(a):+.3e} relative" if a != 0.0 else ""
+    return f"{a:.6g} -> {b:.6g} (change {b - a:+.3e}{rel})"
+
+
+def _summary(name: str, integrator: str, dt: float, substeps: int,
+             arrays: dict[str, NDArray[np.float64]], wall: float, out: Path) -> str:
+    steps = arrays["t"].shape[0] - 1
+    l_norm = np.linalg.norm(arrays["angular_momentum_world"], axis=1)
+    w_final = float(np.linalg.norm(arrays["angular_velocity_body"][-1]))
+    rate = f" ({steps / wall:,.0f} steps/s)" if wall > 0.0 else ""
+    return "\n".join([
+        f"{name}: {steps} steps of {dt:g} s = {steps * dt:g} s simulated with {integrator}"
+        f" ({substeps} substep{'s' if substeps != 1 else ''} per step)",
+        f"  energy [J]:          {_drift(arrays['energy'])}",
+        f"  |L| [kg m^2/s]:      {_drift(l_norm)}",
+        f"  final |w| [rad/s]:   {w_final:.6g}",
+        f"  wall time:           {wall:.3f} s{rate}",
+        f"  wrote {out}",
+    ])
+
+
+def _cmd_bench_missing(args: argparse.Namespace, extra: list[str]) -> int:
+    raise UsageError(f"bench: choose a benchmark: {', '.join(BENCHMARKS)} "
+                     f"(e.g. '{PROG} bench accuracy --quick')")
+
+
+def _cmd_bench(args: argparse.Namespace, extra: list[str]) -> int:
+    name = args.benchmark
+    module_name = f"rigid_env.bench.{name}"
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name == module_name:
+            raise UsageError(f"bench {name}: not available in this installation "
+                             f"({module_name} is missing)") from None
+        raise UsageError(f"bench {name}: needs the package {exc.name!r}; install the "
+                         "benchmark extras with: pip install -e '.[bench]'") from None
+    parser = _Parser(prog=f"{PROG} bench {name}", description=BENCHMARKS[name])
+    module.add_arguments(parser)
+    return int(module.run(parser.parse_args(extra)))
+
+
+def _header_sentence(path: Path) -> str:
+    """The first sentence of the ``#`` comment block that opens a file ("" if none)."""
+    lines = []
+    try:
+        with open(path, encoding="utf-8") as fh:
+            for line in fh:
+                if not line.strip().startswith("#"):
+                    break
+                lines.append(line.strip().lstrip("#").strip())
+    except (OSError, UnicodeDecodeError):
+        return ""
+    text = " ".join(lines)
+    end = text.find(". ")
+    return text if end < 0 else text[: end + 1]
+
+
+def _cmd_scenes(args: argparse.Namespace, extra: list[str]) -> int:
+    folder: Path = args.dir if args.dir is not None else SCENE_DIR
+    if not folder.is_dir():
+        raise UsageError(f"--dir: {folder} is not a directory; give the folder of the "
+                         ".yaml scenes")
+    files = sorted(folder.glob("*.yaml"))
+    if not files:
+        print(f"no .yaml scenes in {folder}")
+        return 0
+    rows = []
+    for path in files:
+        try:
+            scene = load_scene(path)
+            rows.append((scene.name, _header_sentence(path) or scene.summary(), scene.summary()))
+        except SceneError as exc:
+            rows.append((path.stem, f"(invalid: {exc.problem}; {exc.fix})", ""))
+    width = max(len(r[0]) for r in rows)
+    print(f"scenes in {folder}:")
+    for name, text, detail in rows:
+        print(f"  {name:<{width}}  {text}")
+        if detail and detail != text:
+            print(f"  {'':<{width}}  {detail}")
+    return 0
+
+
+def _cmd_integrators(args: argparse.Namespace, extra: list[str]) -> int:
+    width = max(len(n) for n in INTEGRATORS)
+    print(f"{'name':<{width}}  order  note")
+    for name, info in INTEGRATORS.items():
+        print(f"{name:<{width}}  {info.order:>5}  {info.note}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

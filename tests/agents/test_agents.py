@@ -1,0 +1,194 @@
+"""Baseline agents: controllers, the SB3 adapter, configs, training smoke runs and resume."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+import rigid_env  # noqa: F401
+from agents.config import ConfigError, load_config
+from agents.controllers import BoundedAllocator, PDController
+from agents.evaluate import evaluate, main as evaluate_main
+from agents.vec_adapter import RigidBodySB3VecEnv
+
+ROOT = Path(__file__).resolve().parents[2]
+PRETRAINED = ROOT / "agents" / "pretrained"
+
+
+def test_bounded_allocator_matches_scipy_lsq_linear():
+    """Bounded least squares by projected gradient agrees with scipy's solver (a second,
+    independent computation) to 1e-6 in the achieved torque, saturated cases included."""
+    from scipy.optimize import lsq_linear
+
+    env = gym.make("RigidEnv/Detumble-v0")
+    ctrl = PDController(env)
+    t = ctrl.allocate.t
+    alloc = BoundedAllocator(t.T, iterations=2000)
+    rng = np.random.default_rng(0)
+    taus = rng.normal(scale=0.05, size=(40, 3))  # many beyond the 0.02-0.04 N m authority
+    u = alloc(taus)
+    assert np.all(np.abs(u) <= 1.0)
+    for k in range(len(taus)):
+        ref = lsq_linear(t, taus[k], bounds=(-1.0, 1.0), tol=1e-12).x
+        # The minimiser's torque is unique (strictly convex in T u): compare residuals.
+        assert np.linalg.norm(t @ u[k] - taus[k]) <= np.linalg.norm(t @ ref - taus[k]) + 1e-6
+
+
+def test_pd_controller_detumbles_every_episode():
+    res = evaluate(None, "RigidEnv/Detumble-v0", episodes=20, seed=500, only=["pd", "zero"])
+    assert res["pd"]["success_rate"] == 1.0
+    assert res["pd"]["mean_final_angular_speed"] < 0.05
+    assert res["zero"]["success_rate"] < 0.3  # without control only near-still starts pass
+
+
+def test_adapter_matches_dummy_vec_env_transitions():
+    """Same seeds and actions: our adapter and SB3's DummyVecEnv over single envs give the same
+    observations, rewards, dones, terminal observations and TimeLimit flags."""
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    n, steps, limit = 3, 25, 7
+    kwargs = {"randomization": {"sensor_noise": 0.01, "thrust": 0.2}}
+    ours = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=n, max_episode_steps=limit, **kwargs)
+    ref = DummyVecEnv([lambda: gym.make("RigidEnv/Detumble-v0", max_episode_steps=limit, **kwargs)
+                       for _ in range(n)])
+    ours.seed(42)
+    ref.seed(42)
+    o1, o2 = ours.reset(), ref.reset()
+    assert np.array_equal(o1, o2)
+    rng = np.random.default_rng(0)
+    seen_done = 0
+    for _ in range(steps):
+        a = rng.uniform(-1, 1, size=(n, 6)).astype(np.float32)
+        o1, r1, d1, i1 = ours.step(a)
+        o2, r2, d2, i2 = ref.step(a)
+        assert np.array_equal(o1, o2) and np.array_equal(r1, r2) and np.array_equal(d1, d2)
+        for k in np.flatnonzero(d1):
+            seen_done += 1
+            assert np.array_equal(i1[k]["terminal_observation"], i2[k]["terminal_observation"])
+            assert i1[k]["TimeLimit.truncated"] == i2[k]["TimeLimit.truncated"]
+    assert seen_done >= n  # the time limit made every env reset at least once
+
+
+def test_config_validation_errors(tmp_path):
+    good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
+    cases = {
+        "unknown_key": ({**good, "learning_rat": 1}, "learning_rat"),
+        "bad_type": ({**good, "total_timesteps": "1e6"}, "total_timesteps"),
+        "bad_algo": ({**good, "algo": "dqn"}, "algo"),
+        "bad_hyper": ({**good, "hyperparams": {"n_stepz": 3}}, "hyperparams.n_stepz"),
+        "bad_env": ({**good, "env_id": "RigidEnv/Nope-v0"}, "env_id"),
+        "nested_unknown": ({**good, "eval": {"freq": 10, "epsiodes": 2}}, "eval.epsiodes"),
+    }
+    for name, (data, field) in cases.items():
+        p = tmp_path / f"{name}.yaml"
+        p.write_text(yaml.safe_dump(data))
+        with pytest.raises(ConfigError) as exc:
+            load_config(p)
+        msg = str(exc.value)
+        assert field in msg and str(p) in msg and "\n" not in msg, (name, msg)
+    with pytest.raises(ConfigError, match="file not found"):
+        load_config(tmp_path / "missing.yaml")
+
+
+def _run(args: list[str], timeout: float = 240) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def test_train_cli_bad_config_is_one_line(tmp_path):
+    p = tmp_path / "bad.yaml"
+    p.write_text("env_id: RigidEnv/Detumble-v0\nalgo: ppo\ntotal_timesteps: 10\nfoo: 1\n")
+    out = _run(["-m", "agents.train", str(p), "--runs-dir", str(tmp_path)])
+    assert out.returncode == 2
+    assert "Traceback" not in out.stderr and out.stderr.strip().count("\n") == 0
+    assert "foo" in out.stderr
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+def test_training_smoke_run(algo, tmp_path):
+    cfg = ROOT / f"configs/agents/{algo}_detumble.yaml"
+    extra = ["--n-envs", "2"]
+    out = _run(["-m", "agents.train", str(cfg), "--total-timesteps", "300", "--runs-dir",
+                str(tmp_path), "--no-progress", *extra])
+    assert out.returncode == 0, out.stderr[-2000:]
+    run = tmp_path / f"Detumble__{algo}__0"
+    meta = json.loads((run / "model.json").read_text())
+    assert meta["env_id"] == "RigidEnv/Detumble-v0" and meta["num_timesteps"] >= 300
+    resolved = yaml.safe_load((run / "config.yaml").read_text())
+    assert resolved["total_timesteps"] == 300 and resolved["algo"] == algo
+    assert (run / "tb").is_dir()
+
+
+def test_checkpoint_kill_and_resume(tmp_path):
+    """Kill training right after a checkpoint; --resume continues from its step count with the
+    saved VecNormalize statistics (their sample count keeps growing, never restarts)."""
+    cfg = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
+    cfg.update(total_timesteps=100_000, n_envs=2, checkpoint_freq=256,
+               hyperparams={**cfg["hyperparams"], "n_steps": 64, "batch_size": 64, "n_epochs": 1},
+               eval={"freq": 100_000, "episodes": 1, "seed": 99})
+    path = tmp_path / "cfg.yaml"
+    path.write_text(yaml.safe_dump(cfg))
+    run = tmp_path / "runs" / "Detumble__ppo__0"
+    proc = subprocess.Popen([sys.executable, "-m", "agents.train", str(path), "--runs-dir",
+                             str(tmp_path / "runs"), "--no-progress"], cwd=ROOT,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    deadline = time.time() + 180
+    ckpt = run / "checkpoints" / "model_vecnormalize_512_steps.pkl"
+    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
+        time.sleep(0.2)
+    time.sleep(0.5)  # let the write finish
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert ckpt.exists(), proc.stderr.read().decode()[-2000:] if proc.stderr else ""
+    assert not (run / "model.zip").exists()  # really killed mid-run
+
+    import pickle
+
+    from agents.train import _latest_checkpoint
+
+    latest_zip, latest_steps = _latest_checkpoint(run / "checkpoints")
+    with open(run / "checkpoints" / f"model_vecnormalize_{latest_steps}_steps.pkl", "rb") as fh:
+        count_at_ckpt = pickle.load(fh).obs_rms.count
+    target = latest_steps + 512
+    out = _run(["-m", "agents.train", str(path), "--runs-dir", str(tmp_path / "runs"),
+                "--resume", "--total-timesteps", str(target), "--no-progress"])
+    assert out.returncode == 0, out.stderr[-2000:]
+    meta = json.loads((run / "model.json").read_text())
+    assert meta["num_timesteps"] == target  # continued, not restarted (would be 2x)
+    with open(run / "vecnormalize.pkl", "rb") as fh:
+        count_after = pickle.load(fh).obs_rms.count
+    # 512 new observations, plus the 2 (n_envs) first observations of the resumed reset.
+    assert count_after == pytest.approx(count_at_ckpt + 512 + 2, abs=1e-6)
+
+
+def test_evaluate_cli_errors(tmp_path, capsys):
+    assert evaluate_main([str(tmp_path / "missing.zip"), "--env", "RigidEnv/Detumble-v0"]) == 2
+    err = capsys.readouterr().err
+    assert "not found" in err and "Traceback" not in err
+    assert evaluate_main(["none", "--env", "RigidEnv/Nope-v0"]) == 2
+
+
+@pytest.mark.skipif(not (PRETRAINED / "ppo_detumble.zip").exists(), reason="no pretrained policy")
+def test_pretrained_detumble_policy_reaches_95_percent():
+    res = evaluate(PRETRAINED / "ppo_detumble.zip", "RigidEnv/Detumble-v0", episodes=20,
+                   seed=777_000, only=["model", "pd"])
+    assert res["model"]["success_rate"] >= 0.95
+    assert res["model"]["mean_fuel"] <= 1.5 * res["pd"]["mean_fuel"]
+
+
+@pytest.mark.skipif(not (PRETRAINED / "ppo_detumble.zip").exists(), reason="no pretrained policy")
+def test_model_for_another_env_is_refused(capsys):
+    code = evaluate_main([str(PRETRAINED / "ppo_detumble.zip"), "--env", "RigidEnv/Reorient-v0"])
+    assert code == 2
+    assert "Detumble" in capsys.readouterr().err
