@@ -17,8 +17,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.core.dynamics import gyroscopic
-from rigid_env.core.effects import LinearActuator
-from rigid_env.core.rotation import quat_to_rotvec
+from rigid_env.core.effects import LinearActuator, QuadraticDrag
+from rigid_env.core.rotation import (
+    cross,
+    matrix_to_quat,
+    quat_rotate,
+    quat_rotate_inv,
+    quat_to_rotvec,
+)
 
 FloatArray = NDArray[np.float64]
 
@@ -29,6 +35,15 @@ def task_of(env: Any) -> Any:
     if not hasattr(inner, "task"):
         raise TypeError(f"env: {type(inner).__name__} is not a rigid_env environment")
     return inner.task
+
+
+def orientation_from_obs(obs: FloatArray, rot_dim: int) -> FloatArray:
+    """(N, 4) unit quaternion from the observation's rotation part (quaternion or 6-D)."""
+    if rot_dim == 4:
+        return obs[:, :4] / np.linalg.norm(obs[:, :4], axis=1, keepdims=True)
+    c1, c2 = obs[:, 0:3], obs[:, 3:6]
+    m = np.stack([c1, c2, cross(c1, c2)], axis=-1)  # columns: body x, y, z in the world
+    return matrix_to_quat(m)
 
 
 class BoundedAllocator:
@@ -64,9 +79,12 @@ class PDController:
 
     Desired body torque, per task:
 
-    * Detumble, TumblingFall: ``tau = -k_d I w``: for a principal-axis body ``I w`` is the
-      angular momentum ``L``, so the torque always points against ``L`` and no impulse is wasted
-      (the fuel spent is close to the minimum ``|L0| / lever``).
+    * Detumble: ``tau = -k_d I w``: for a principal-axis body ``I w`` is the angular momentum
+      ``L``, so the torque always points against ``L`` and no impulse is wasted (the fuel spent
+      is close to the minimum ``|L0| / lever``).
+    * TumblingFall: the same damping plus a feed-forward that cancels the predicted drag torque
+      ``r_cp x R^T F`` at the centre of pressure, ``F = -1/2 rho C_D A |v_p| v_p`` with the
+      (vertical) velocity and orientation read from the observation.
     * SpinStabilize: ``tau = w x I w - k_d I (w - Omega e_y)``: the feed-forward cancels the
       gyroscopic term, leaving ``w' = -k_d (w - w_target)``, a stable linear error.
     * Reorient: ``tau = I (k_p phi - k_d w)`` with ``phi`` the body-frame rotation vector of the
@@ -107,8 +125,24 @@ class PDController:
             tau = inertia * (self.k_p * quat_to_rotvec(q_err) - self.k_d * w)
         else:
             tau = -self.k_d * inertia * w
+            if self.kind == "TumblingFall":
+                tau = tau - self._drag_torque(obs, w)
         u = self.allocate(tau).astype(np.float32)
         return u[0] if single else u
+
+
+    def _drag_torque(self, obs: FloatArray, w: FloatArray) -> FloatArray:
+        """Predicted aerodynamic torque (N, 3) body frame [N m] from the observation."""
+        drag = [e for e in self.task.world.force_effects if isinstance(e, QuadraticDrag)]
+        if not drag or not drag[0].offset:
+            return np.zeros_like(w)
+        d = drag[0]
+        q = orientation_from_obs(obs, self.rot_dim)
+        v = np.zeros_like(w)
+        v[:, 2] = obs[:, self.rot_dim + 7] * 20.0  # vertical speed, as TumblingFallTask scales it
+        v_p = v + quat_rotate(q, cross(w, d.center_of_pressure))
+        f = -d.k * np.linalg.norm(v_p, axis=1, keepdims=True) * v_p
+        return cross(d.center_of_pressure, quat_rotate_inv(q, f))
 
 
 class ZeroController:
