@@ -82,8 +82,11 @@ def rollout(env_id: str, policy: Policy, episodes: int, seed: int,
 
 
 def _sidecar(model_path: Path, suffix: str) -> Path | None:
+    """``<stem><suffix>`` beside the model, else the run folder's ``model.json`` /
+    ``vecnormalize.pkl`` (as agents.train writes them)."""
     stem = model_path.with_suffix("")
-    for cand in (Path(f"{stem}{suffix}"), model_path.parent / suffix.lstrip("_")):
+    fallback = "model.json" if suffix == ".json" else suffix.lstrip("_")
+    for cand in (Path(f"{stem}{suffix}"), model_path.parent / fallback):
         if cand.exists():
             return cand
     return None
