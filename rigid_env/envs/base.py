@@ -286,6 +286,7 @@ class TaskBatch:
             "energy": energy,
             "fuel": self.fuel.copy(),
             "success": self.success.copy(),
+            "is_success": self.success.copy(),  # SB3 EvalCallback logs this key
             "numerical_error": self.world.failed.copy(),
             "angular_velocity_world": quat_rotate(s.q, s.w),
         }
