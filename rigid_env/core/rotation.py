@@ -30,6 +30,10 @@ FloatArray = NDArray[np.float64]
 # Below this angle [rad] the series of sin(a)/a and friends are used. The first dropped term
 # of sin(a)/a = 1 - a^2/6 + a^4/120 is a^6/5040: at a = 1e-3 that is 2e-22, far below eps.
 _SMALL_ANGLE = 1.0e-3
+# Range of |q| in which sum(q^2) neither underflows into subnormals nor overflows:
+# sqrt(smallest normal) ~ 1.5e-154, sqrt(largest) ~ 1.3e154; outside it quat_normalize rescales.
+_NORM_TINY = 1.0e-150
+_NORM_HUGE = 1.0e150
 
 
 def _as_float(a: ArrayLike) -> FloatArray:
@@ -90,7 +94,17 @@ def quat_inv(q: ArrayLike) -> FloatArray:
 
 
 def quat_normalize(q: ArrayLike) -> FloatArray:
-    """Unit quaternion along ``q``; a zero (or non-finite-norm) input maps to the identity.
+    """Unit quaternion along ``q``; never divides by zero and never hides a bad number.
+
+    * the zero quaternion (no direction) maps to the identity;
+    * a quaternion with a NaN or inf component maps to all-NaN, so that a non-finite state
+      stays visible to the world's guard instead of turning into a silent identity;
+    * a quaternion whose squared norm would under- or overflow (``|q|`` outside
+      ``[1e-150, 1e150]``) is first divided by its largest component (as LAPACK's ``dnrm2``
+      scales), so it still normalises to full precision.
+
+    Rows in the ordinary range take the plain ``q / |q|`` whatever the other rows hold, so one
+    bad body in a batch does not change the rounding of the others.
 
     Args:
         q: (..., 4) quaternion (w, x, y, z).
@@ -99,10 +113,18 @@ def quat_normalize(q: ArrayLike) -> FloatArray:
         (..., 4) unit quaternion.
     """
     q = _as_float(q)
-    n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
-    ok = n > 0.0
-    out = np.where(ok, q / np.where(ok, n, 1.0), identity_quat(q.shape[:-1]))
-    return out
+    with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
+        n = np.sqrt(np.sum(q * q, axis=-1, keepdims=True))
+        plain = (n > _NORM_TINY) & (n < _NORM_HUGE)  # False for 0, NaN, inf, under/overflow
+        if np.all(plain):
+            return q / n
+        scale = np.max(np.abs(q), axis=-1, keepdims=True)  # NaN/inf if any component is
+        usable = np.isfinite(scale) & (scale > 0.0)
+        qs = q / np.where(usable, scale, 1.0)
+        careful = qs / np.sqrt(np.sum(qs * qs, axis=-1, keepdims=True))  # norm in [1, 2]
+        careful = np.where(scale == 0.0, identity_quat(q.shape[:-1]), careful)
+        careful = np.where(np.isfinite(scale), careful, np.nan)
+        return np.where(plain, q / np.where(plain, n, 1.0), careful)
 
 
 def identity_quat(shape: tuple[int, ...] = ()) -> FloatArray:
@@ -148,7 +170,7 @@ def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
     tx = 2.0 * (y * vz - z * vy)
     ty = 2.0 * (z * vx - x * vz)
     tz = 2.0 * (x * vy - y * vx)
-    out = np.empty(np.broadcast_shapes(q.shape[:-1], v.shape[:-1]) + (3,), dtype=np.float64)
+    out = np.empty((*np.broadcast_shapes(q.shape[:-1], v.shape[:-1]), 3), dtype=np.float64)
     out[..., 0] = vx + w * tx + (y * tz - z * ty)
     out[..., 1] = vy + w * ty + (z * tx - x * tz)
     out[..., 2] = vz + w * tz + (x * ty - y * tx)
@@ -196,7 +218,7 @@ def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
     safe_a = np.where(small, 1.0, a)
     half = 0.5 * a
     s = np.where(small, 0.5 - a2 / 48.0 + a2 * a2 / 3840.0, np.sin(half) / safe_a)
-    out = np.empty(rotvec.shape[:-1] + (4,), dtype=np.float64)
+    out = np.empty((*rotvec.shape[:-1], 4), dtype=np.float64)
     out[..., 0] = np.cos(half)
     out[..., 1:] = s[..., None] * rotvec
     return out
@@ -220,12 +242,13 @@ def quat_to_rotvec(q: ArrayLike) -> FloatArray:
     u = sign[..., None] * q[..., 1:]
     s = np.sqrt(np.sum(u * u, axis=-1))
     angle = 2.0 * np.arctan2(s, w)
-    # angle / s -> 2 / w as s -> 0 (series of 2 atan(s/w)/s = 2/w (1 - s^2/(3 w^2))).
+    # angle / s = 2 atan(x) / (x w) with x = s / w; near x = 0 the series
+    # atan(x) / x = 1 - x^2/3 + x^4/5 - x^6/7: below x = 1e-3 the first dropped term is 1.4e-19.
     small = s < _SMALL_ANGLE * np.maximum(w, 1e-300)
     safe_s = np.where(small, 1.0, s)
     safe_w = np.where(w > 0.0, w, 1.0)
-    factor = np.where(small, 2.0 / safe_w * (1.0 - s * s / (3.0 * safe_w * safe_w)),
-                      angle / safe_s)
+    x2 = (s / safe_w) ** 2
+    factor = np.where(small, 2.0 / safe_w * (1.0 - x2 / 3.0 + x2 * x2 / 5.0), angle / safe_s)
     return factor[..., None] * u
 
 
@@ -257,6 +280,65 @@ def quat_angle_between(p: ArrayLike, q: ArrayLike) -> FloatArray:
     d = quat_mul(quat_conj(p), q)
     s = np.sqrt(np.sum(d[..., 1:] ** 2, axis=-1))
     return 2.0 * np.arctan2(s, np.abs(d[..., 0]))
+
+
+def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """Shortest-arc unit quaternion rotating the direction of ``a`` onto that of ``b``.
+
+    With unit ``a``, ``b`` and the half-way vector ``m = a + b``, ``q ~ (a.m, a x m)`` rotates by
+    twice the angle between ``a`` and ``m`` about ``a x m``, i.e. takes ``a`` to ``b``; and
+    ``a.m = 1 + a.b = |m|^2 / 2``. The textbook ``(1 + a.b, a x b)`` loses ``1 + a.b`` to
+    cancellation when ``a`` and ``b`` are nearly antiparallel (an angle error of ``eps / |m|``,
+    1e-4 rad at ``|m| = 1e-12``). Here ``w = |m|^2 / 2`` instead, with the axis ``a x m``.
+    Past 90 degrees one more step: the rounded unit vectors differ in length by ~eps, which puts
+    a spurious component of that size into ``m`` along ``d = a - b`` (~``2 a``), comparable to
+    ``m`` itself when the vectors are nearly opposite; removing it
+    (``m <- m - (m.d / d.d) d``, exact for unit vectors since ``m.d = |a|^2 - |b|^2``) leaves
+    ``m`` perpendicular to ``a``, so ``w`` and ``a x m`` are both known to ``eps`` *relative*
+    and ``R(q) a`` lands on ``b`` to a few ulps at any angle. For exactly antiparallel inputs
+    (``m = 0``) the axis is any direction perpendicular to ``a``; we take ``a x e_k`` with
+    ``e_k`` the basis vector least aligned with ``a``.
+
+    Args:
+        a: (..., 3) non-zero vector.
+        b: (..., 3) non-zero vector.
+
+    Returns:
+        (..., 4) unit quaternion (w, x, y, z) with ``w >= 0`` and ``R(q) a / |a| = b / |b|``.
+
+    Raises:
+        ValueError: if ``a`` or ``b`` has a zero or non-finite length.
+    """
+    a = _as_float(a)
+    b = _as_float(b)
+    out_shape = np.broadcast_shapes(a.shape, b.shape)
+    a = np.broadcast_to(a, out_shape)
+    b = np.broadcast_to(b, out_shape)
+    na = np.sqrt(np.sum(a * a, axis=-1, keepdims=True))
+    nb = np.sqrt(np.sum(b * b, axis=-1, keepdims=True))
+    for name, n in (("a", na), ("b", nb)):
+        if not np.all(np.isfinite(n) & (n > 0.0)):
+            raise ValueError(f"quat_from_two_vectors: {name} must be a finite, non-zero vector")
+    ua = a / na
+    ub = b / nb
+    mid = ua + ub
+    diff = ua - ub
+    obtuse = np.sum(mid * mid, axis=-1, keepdims=True) < np.sum(diff * diff, axis=-1, keepdims=True)
+    coef = np.sum(mid * diff, axis=-1, keepdims=True) / np.where(
+        obtuse, np.sum(diff * diff, axis=-1, keepdims=True), 1.0)
+    mid = np.where(obtuse, mid - coef * diff, mid)
+    q = np.empty((*out_shape[:-1], 4), dtype=np.float64)
+    q[..., 0] = 0.5 * np.sum(mid * mid, axis=-1)
+    q[..., 1:] = cross(ua, mid)
+    opposite = np.all(mid == 0.0, axis=-1)
+    if np.any(opposite):
+        least = np.argmin(np.abs(ua), axis=-1)
+        basis = np.eye(3)[least]
+        axis = cross(ua, basis)
+        axis = axis / np.sqrt(np.sum(axis * axis, axis=-1, keepdims=True))
+        q[..., 0] = np.where(opposite, 0.0, q[..., 0])
+        q[..., 1:] = np.where(opposite[..., None], axis, q[..., 1:])
+    return quat_normalize(q)
 
 
 def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike) -> FloatArray:
@@ -296,7 +378,7 @@ def quat_integrate_linear(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> Floa
     """
     q = _as_float(q)
     w_body = _as_float(w_body)
-    wq = np.concatenate([np.zeros(w_body.shape[:-1] + (1,)), w_body], axis=-1)
+    wq = np.concatenate([np.zeros((*w_body.shape[:-1], 1)), w_body], axis=-1)
     return quat_normalize(q + 0.5 * _as_float(h) * quat_mul(q, wq))
 
 
@@ -310,7 +392,7 @@ def quat_to_matrix(q: ArrayLike) -> FloatArray:
     in the world frame."""
     q = _as_float(q)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    out = np.empty(q.shape[:-1] + (3, 3), dtype=np.float64)
+    out = np.empty((*q.shape[:-1], 3, 3), dtype=np.float64)
     out[..., 0, 0] = 1.0 - 2.0 * (y * y + z * z)
     out[..., 0, 1] = 2.0 * (x * y - w * z)
     out[..., 0, 2] = 2.0 * (x * z + w * y)
@@ -351,7 +433,7 @@ def matrix_to_quat(m: ArrayLike) -> FloatArray:
 def skew(v: ArrayLike) -> FloatArray:
     """Cross-product matrix (..., 3, 3) with ``skew(a) b = a x b``."""
     v = _as_float(v)
-    out = np.zeros(v.shape[:-1] + (3, 3))
+    out = np.zeros((*v.shape[:-1], 3, 3))
     out[..., 0, 1] = -v[..., 2]
     out[..., 0, 2] = v[..., 1]
     out[..., 1, 0] = v[..., 2]
@@ -369,9 +451,12 @@ def rodrigues(rotvec: ArrayLike) -> FloatArray:
     a = np.sqrt(np.sum(rotvec * rotvec, axis=-1))
     small = a < _SMALL_ANGLE
     safe = np.where(small, 1.0, a)
-    # sin(a)/a and (1 - cos a)/a^2 with series near 0.
-    s1 = np.where(small, 1.0 - a * a / 6.0, np.sin(a) / safe)
-    s2 = np.where(small, 0.5 - a * a / 24.0, (1.0 - np.cos(a)) / (safe * safe))
+    # sin(a)/a and (1 - cos a)/a^2 = 2 sin^2(a/2)/a^2 (no cancellation in 1 - cos a), with
+    # series near 0: first dropped terms a^6/5040 and a^6/40320.
+    a2 = a * a
+    s1 = np.where(small, 1.0 - a2 / 6.0 + a2 * a2 / 120.0, np.sin(a) / safe)
+    s2 = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0,
+                  2.0 * (np.sin(0.5 * a) / safe) ** 2)
     k = skew(rotvec)
     eye = np.broadcast_to(np.eye(3), k.shape)
     return eye + s1[..., None, None] * k + s2[..., None, None] * (k @ k)
@@ -404,10 +489,14 @@ def euler_to_quat(angles: ArrayLike) -> FloatArray:
 def matrix_to_euler(m: ArrayLike) -> FloatArray:
     """Euler angles ``(x, y, z)`` [rad] (Unity order) of rotation matrices (..., 3, 3).
 
-    ``R = Ry Rx Rz`` has ``R[1, 2] = -sin x``, ``R[0, 2] / R[2, 2] = tan y`` and
-    ``R[1, 0] / R[1, 1] = tan z``. At gimbal lock (``cos x = 0``) only ``y -+ z`` is defined; we
-    set ``z = 0`` and put the whole rotation into ``y`` from the top-left block, so the round
-    trip gives the same rotation and no NaN.
+    ``R = Ry Rx Rz`` has ``R[1, 2] = -sin x`` and ``R[1, 0] / R[1, 1] = tan z``. Near gimbal
+    lock (``cos x -> 0``) ``R[1, 0]`` and ``R[1, 1]`` are both of size ``cos x``, so ``z`` (like
+    any one angle there) is known only to ``eps / cos x``; ``y`` is therefore not read from its
+    own pair of entries but from ``R Rz(-z) = Ry Rx``, whose first column is
+    ``(cos y, 0, -sin y)``. Then ``y`` absorbs the error of ``z`` and the round trip
+    ``euler -> matrix`` gives back ``R`` to rounding even next to the lock (the third angle taken
+    from the matrix with the others removed, as Eigen's ``eulerAngles`` does). At the lock itself
+    (``cos x < 1e-15``) only ``y -+ z`` is defined and we set ``z = 0``.
 
     Returns:
         (..., 3) angles with x in [-pi/2, pi/2], y and z in (-pi, pi].
@@ -416,16 +505,18 @@ def matrix_to_euler(m: ArrayLike) -> FloatArray:
     sx = np.clip(-m[..., 1, 2], -1.0, 1.0)
     cx = np.hypot(m[..., 1, 0], m[..., 1, 1])
     x = np.arctan2(sx, cx)
-    # cos(x) below ~1e-12 means lock: the regular formulas divide noise by noise there.
-    locked = cx < 1.0e-12
-    y_reg = np.arctan2(m[..., 0, 2], m[..., 2, 2])
-    z_reg = np.arctan2(m[..., 1, 0], m[..., 1, 1])
-    # With z = 0 and x = +-pi/2: R[0,0] = cos y, R[2,0] = -sin y.
-    y_lock = np.arctan2(-m[..., 2, 0], m[..., 0, 0])
-    out = np.empty(m.shape[:-2] + (3,), dtype=np.float64)
+    # Below cos(x) = 1e-15 (x within 1e-15 rad of +-pi/2) setting z = 0 moves R by < 1e-15;
+    # above it the consistent y below keeps the round trip exact whatever noise z carries.
+    locked = cx < 1.0e-15
+    z = np.where(locked, 0.0, np.arctan2(m[..., 1, 0], m[..., 1, 1]))
+    cz, sz = np.cos(z), np.sin(z)
+    # First column of R Rz(-z): cz R[:, 0] - sz R[:, 1] = (cos y, 0, -sin y).
+    c0 = cz * m[..., 0, 0] - sz * m[..., 0, 1]
+    c2 = cz * m[..., 2, 0] - sz * m[..., 2, 1]
+    out = np.empty((*m.shape[:-2], 3), dtype=np.float64)
     out[..., 0] = x
-    out[..., 1] = np.where(locked, y_lock, y_reg)
-    out[..., 2] = np.where(locked, 0.0, z_reg)
+    out[..., 1] = np.arctan2(-c2, c0)
+    out[..., 2] = z
     return out
 
 

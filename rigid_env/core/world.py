@@ -173,7 +173,7 @@ class World:
             after = self._integrate(before, act)
             for m in self.step_maps:
                 m.apply(after)
-        bad = self._guard(after)
+            bad = self._guard(after)
         if bad is not None:
             after.put(bad, before)
             self.failed |= bad
@@ -190,7 +190,7 @@ class World:
         act = np.asarray(action, dtype=np.float64)
         if act.ndim == 1:
             act = act[None, :]
-        if act.shape[-1] != self.action_dim or act.shape[0] not in (1, self.n):
+        if act.ndim != 2 or act.shape[-1] != self.action_dim or act.shape[0] not in (1, self.n):
             raise ValueError(f"action: expected shape ({self.n}, {self.action_dim}) or "
                              f"({self.action_dim},), got {np.shape(action)}")
         if not np.all(np.isfinite(act)):

@@ -1,0 +1,353 @@
+"""World: the batch equals a loop of single bodies bit for bit, determinism, input checks,
+the non-finite guard, effect composition, the angular speed limit and energy bookkeeping."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from rigid_env.core import (
+    INTEGRATORS,
+    AngularDamping,
+    BodyModel,
+    ForceEffect,
+    Gravity,
+    LinearDamping,
+    NumericalInstabilityError,
+    QuadraticDrag,
+    State,
+    Thrusters,
+    World,
+)
+
+FloatArray = NDArray[np.float64]
+
+ENERGY_RTOL = 1.0e-12
+"""Relative change of the total energy in free fall under rk4 over 100 steps (exact in exact
+arithmetic: rk4 integrates the quadratic x(t) exactly, so E is kept up to round-off)."""
+CLAMP_RTOL = 4.0e-16
+"""|w| may exceed the limit by the rounding of one scaling: a couple of ulps."""
+
+N = 5
+rng = np.random.default_rng(11)
+MASS = rng.uniform(0.5, 3.0, N)
+INERTIA = np.column_stack([rng.uniform(0.5, 1.0, N), rng.uniform(1.5, 2.0, N),
+                           rng.uniform(2.5, 3.0, N)])  # per body: asymmetric, ...
+INERTIA[2] = 1.3  # ... one isotropic (no gyroscopic term: the world skips it for it alone) ...
+INERTIA[3, :2] = 0.7  # ... and one symmetric top
+Q = rng.standard_normal((N, 4))
+Q /= np.linalg.norm(Q, axis=1, keepdims=True)
+STATE0 = State.from_arrays(rng.uniform(-2, 2, (N, 3)), rng.uniform(-3, 3, (N, 3)), Q,
+                           rng.uniform(-3, 3, (N, 3)))
+ACTIONS = rng.uniform(-1, 1, (8, N, 2))
+
+
+def effects() -> tuple:
+    """Every kind of term: constant force, velocity-dependent force with torque (offset centre
+    of pressure), actuators, per-step maps."""
+    return (
+        Gravity([0.0, 0.0, -9.81]),
+        QuadraticDrag(rho=1.2, cd=1.0, area=0.2, center_of_pressure=[0.05, 0.0, -0.1]),
+        Thrusters(points=[[0.3, 0.0, 0.0], [0.0, -0.2, 0.1]],
+                  directions=[[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], max_force=[1.0, 2.0]),
+        LinearDamping(0.999),
+        AngularDamping(0.995),
+    )
+
+
+def world_of(model: BodyModel, state: State, name: str, **kw) -> World:
+    return World(model, effects(), name, 0.02, substeps=2, state=state, **kw)
+
+
+@pytest.mark.parametrize("name", list(INTEGRATORS))
+def test_batch_equals_loop_of_single_bodies_bitwise(name: str) -> None:
+    """Per-body mass and inertia (asymmetric, isotropic and symmetric bodies mixed), per-body
+    commands, every kind of effect, two substeps: body i of the batch is, bit for bit, body i
+    stepped alone (no step mixes bodies or lets one body's numbers change another's rounding).
+    """
+    batch = world_of(BodyModel(MASS, INERTIA), STATE0, name)
+    singles = [world_of(BodyModel(MASS[i:i + 1], INERTIA[i:i + 1]), STATE0.take([i]), name)
+               for i in range(N)]
+    for u in ACTIONS:
+        batch.step(u)
+        for i, world in enumerate(singles):
+            world.step(u[i])
+    for i, world in enumerate(singles):
+        for k in "xvqw":
+            assert np.array_equal(getattr(batch.state, k)[i], getattr(world.state, k)[0]), (i, k)
+    assert np.all(np.isfinite(batch.state.w))
+
+
+@pytest.mark.parametrize("name", list(INTEGRATORS))
+def test_same_inputs_give_bitwise_same_results(name: str) -> None:
+    a = world_of(BodyModel(MASS, INERTIA), STATE0, name)
+    b = world_of(BodyModel(MASS, INERTIA), STATE0, name)
+    for u in ACTIONS[:5]:
+        a.step(u)
+        b.step(u.copy())
+    for k in "xvqw":
+        assert np.array_equal(getattr(a.state, k), getattr(b.state, k))
+
+
+def test_shared_model_broadcasts_like_per_body_model() -> None:
+    """A (1,) model shared by N bodies gives what N copies of it give."""
+    shared = world_of(BodyModel.single(MASS[0], INERTIA[0]), STATE0, "rk4")
+    tiled = world_of(BodyModel(np.full(N, MASS[0]), np.tile(INERTIA[0], (N, 1))), STATE0, "rk4")
+    for u in ACTIONS[:5]:
+        shared.step(u)
+        tiled.step(u)
+    for k in "xvqw":
+        assert np.array_equal(getattr(shared.state, k), getattr(tiled.state, k))
+
+
+# --------------------------------------------------------------------------------------------
+# Input checks
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("action", [
+    np.zeros((N, 3)),          # wrong action_dim
+    np.zeros((N - 1, 2)),      # wrong body count
+    np.zeros(3),               # flat, wrong length
+    np.zeros((1, N, 2)),       # an extra axis
+    np.float64(0.5),           # a scalar
+    np.full((N, 2), np.nan),
+    np.array([[0.0, np.inf]] * N),
+    np.array([-np.inf, 0.0]),
+])
+def test_bad_action_raises_value_error_naming_action(action: FloatArray) -> None:
+    world = world_of(BodyModel(MASS, INERTIA), STATE0, "rk4")
+    with pytest.raises(ValueError, match="action"):
+        world.step(action)
+    assert world.step_count == 0
+
+
+def test_action_for_world_without_actuators() -> None:
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (Gravity(),), "rk4", 0.01)
+    with pytest.raises(ValueError, match="action"):
+        world.step([0.5])
+    world.step()  # None is fine
+    world.step(np.zeros(0))  # so is an empty command
+
+
+def test_one_action_row_broadcasts_over_bodies() -> None:
+    a = world_of(BodyModel(MASS, INERTIA), STATE0, "rk4")
+    b = world_of(BodyModel(MASS, INERTIA), STATE0, "rk4")
+    a.step([0.3, -0.7])
+    b.step(np.tile([0.3, -0.7], (N, 1)))
+    for k in "xvqw":
+        assert np.array_equal(getattr(a.state, k), getattr(b.state, k))
+
+
+# --------------------------------------------------------------------------------------------
+# Non-finite guard
+# --------------------------------------------------------------------------------------------
+
+# Three asymmetric bodies; body 1 spins so fast that explicit Euler at dt = 0.1
+# (h |w| = 11) overflows within 10 steps, the others are tame.
+W_BLOWUP = np.array([[1.0, 0.1, 2.0], [50.0, 1.0, 100.0], [0.5, 0.5, 0.5]])
+
+
+def blowup_world(bodies: list[int], on_error: str) -> World:
+    n = len(bodies)
+    state = State.from_arrays(np.zeros((n, 3)), np.zeros((n, 3)), np.tile([1.0, 0, 0, 0], (n, 1)),
+                              W_BLOWUP[bodies])
+    return World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), "explicit_euler", 0.1,
+                 state=state, on_error=on_error)
+
+
+def test_raise_names_body_step_and_integrator() -> None:
+    world = blowup_world([0, 1, 2], "raise")
+    with pytest.raises(NumericalInstabilityError) as info:
+        for _ in range(50):
+            world.step()
+    err = info.value
+    assert isinstance(err, FloatingPointError)
+    assert err.bodies == [1]
+    assert err.integrator == "explicit_euler"
+    msg = str(err)
+    assert "body 1" in msg
+    assert f"step {err.step}" in msg
+    assert "explicit_euler" in msg
+    assert err.step == world.step_count + 1  # the step that failed was not counted
+    # The state is left as it was before the failing step: finite.
+    assert np.all(np.isfinite(world.state.w))
+
+
+class InjectInf(ForceEffect):
+    """Test effect: adds an infinite force to one body when armed (a stand-in for any bug or
+    overflow in a force model)."""
+
+    name = "inject_inf"
+    translational = True
+    rotational = False
+
+    def __init__(self, body: int) -> None:
+        self.body = body
+        self.armed = False
+
+    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
+        if self.armed:
+            force_world[self.body] += np.inf
+
+
+@pytest.mark.parametrize("name", list(INTEGRATORS))
+def test_injected_inf_is_caught_for_every_integrator(name: str) -> None:
+    effect = InjectInf(body=2)
+    world = World(BodyModel(MASS, INERTIA), (effect,), name, 0.01, state=STATE0)
+    for _ in range(3):
+        world.step()
+    effect.armed = True
+    with pytest.raises(NumericalInstabilityError, match="body 2") as info:
+        world.step()
+    assert info.value.step == 4
+    assert info.value.integrator == name
+
+
+def test_freeze_flags_only_the_bad_body_and_others_go_on_bitwise() -> None:
+    world = blowup_world([0, 1, 2], "freeze")
+    without = blowup_world([0, 2], "raise")
+    last_finite = None
+    failed_at = None
+    for k in range(25):
+        before = world.state.copy()
+        bad = world.step()
+        without.step()
+        if bad.any() and failed_at is None:
+            failed_at = k + 1
+            last_finite = before.take([1])
+        assert np.array_equal(bad, [False, failed_at is not None, False])
+        for k_ in "xvqw":
+            assert np.array_equal(getattr(world.state, k_)[[0, 2]], getattr(without.state, k_))
+    assert failed_at is not None  # the scenario does blow up (at step 10)
+    assert np.array_equal(world.failed, [False, True, False])
+    for k_ in "xvqw":
+        assert np.array_equal(getattr(world.state, k_)[1], getattr(last_finite, k_)[0])
+        assert np.all(np.isfinite(getattr(world.state, k_)))
+    # reset clears the flags.
+    world.reset(blowup_world([0, 1, 2], "freeze").state)
+    assert not world.failed.any()
+    assert world.step_count == 0
+
+
+# --------------------------------------------------------------------------------------------
+# Effects are composed only when listed
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", list(INTEGRATORS))
+def test_unlisted_effect_is_never_called(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    calls = {"n": 0}
+    original = Gravity.accumulate
+
+    def counting(self, *args, **kwargs):
+        calls["n"] += 1
+        return original(self, *args, **kwargs)
+
+    monkeypatch.setattr(Gravity, "accumulate", counting)
+    # A gravity object exists (as in a scene library) but this world does not list it.
+    _unused = Gravity()
+    for listed in ((), (LinearDamping(0.99), AngularDamping(0.99))):
+        world = World(BodyModel(MASS, INERTIA), listed, name, 0.01, state=STATE0)
+        assert world.dynamics.wrench(STATE0.x, STATE0.v, STATE0.q, STATE0.w, None) == (None, None)
+        for _ in range(3):
+            world.step()
+    assert calls["n"] == 0
+    # Control: listed, it is called (so the counter does count).
+    world = World(BodyModel(MASS, INERTIA), (Gravity(),), name, 0.01, state=STATE0)
+    world.step()
+    assert calls["n"] > 0
+
+
+def test_torque_free_world_leaves_translation_alone() -> None:
+    """No force effect: v is untouched bit for bit and x moves by exactly h v per step."""
+    world = World(BodyModel(MASS, INERTIA), (), "rk4", 0.25, state=STATE0)
+    world.step()
+    assert np.array_equal(world.state.v, STATE0.v)
+    assert np.array_equal(world.state.x, STATE0.x + 0.25 * STATE0.v)
+
+
+# --------------------------------------------------------------------------------------------
+# Angular speed limit, energy
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["rk4", "explicit_euler", "splitting"])
+def test_max_angular_speed_clamps(name: str) -> None:
+    w_max = 5.0
+    w0 = np.array([[10.0, 1.0, 20.0], [0.1, 0.2, 0.3]])
+    state = State.from_arrays(np.zeros((2, 3)), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)),
+                              w0)
+    thr = Thrusters(points=[[0.5, 0.0, 0.0]], directions=[[0.0, 1.0, 0.0]], max_force=[50.0])
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state,
+                  max_angular_speed=w_max)
+    # Without the limit (explicit Euler then overflows at h |w| > 1: the limit as safety valve).
+    free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state,
+                 on_error="freeze")
+    free_max = 0.0
+    for _ in range(40):
+        world.step([1.0])
+        free.step([1.0])
+        speed = np.linalg.norm(world.state.w, axis=1)
+        assert speed.max() <= w_max * (1.0 + CLAMP_RTOL)
+        free_max = max(free_max, np.abs(free.state.w).max())
+    assert not world.failed.any()
+    assert free_max > 2 * w_max  # the limit did something
+    # A body that stays below the limit is untouched, bit for bit (the clamp is a no-op).
+    slow = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05, state=state.take([1]),
+                 max_angular_speed=w_max)
+    slow_free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05,
+                      state=state.take([1]))
+    for _ in range(10):
+        slow.step()
+        slow_free.step()
+    assert np.array_equal(slow.state.w, slow_free.state.w)
+
+
+def test_clamp_keeps_direction() -> None:
+    state = State.from_arrays(np.zeros(3), np.zeros(3), [1.0, 0, 0, 0], [0.0, 0.0, 30.0])
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), "symplectic_euler", 0.01,
+                  state=state, max_angular_speed=3.0)
+    world.step()
+    # About a principal axis w stays on it; its size is the limit.
+    assert np.array_equal(world.state.w[0, :2], [0.0, 0.0])
+    assert abs(world.state.w[0, 2] - 3.0) <= 3.0 * CLAMP_RTOL
+
+
+def test_energy_includes_gravity_potential_and_is_conserved_in_free_fall() -> None:
+    """rk4, gravity only, isotropic spinning bodies: E = 1/2 m v^2 + 1/2 I w^2 - m g.x is kept."""
+    state = State.from_arrays(STATE0.x, STATE0.v, STATE0.q, STATE0.w)
+    model = BodyModel(MASS, np.column_stack([INERTIA[:, 0]] * 3))
+    world = World(model, (Gravity([0.0, 0.0, -9.81]),), "rk4", 0.01, state=state)
+    e0 = world.energy()
+    ke0 = world.kinetic_energy()
+    expected = ke0 + MASS * 9.81 * state.x[:, 2]
+    assert np.abs(e0 - expected).max() < 1e-14 * np.abs(expected).max()
+    for _ in range(100):
+        world.step()
+    e1 = world.energy()
+    assert np.abs(e1 - e0).max() < ENERGY_RTOL * np.abs(e0).max()
+    assert np.abs(world.kinetic_energy() - ke0).max() > 1.0  # KE did change (it fell 1 s)
+
+
+def test_world_rejects_bad_configuration() -> None:
+    model = BodyModel.single(1.0, [1.0, 2.0, 3.0])
+    with pytest.raises(ValueError, match="dt"):
+        World(model, (), "rk4", 0.0)
+    with pytest.raises(ValueError, match="substeps"):
+        World(model, (), "rk4", 0.01, substeps=0)
+    with pytest.raises(ValueError, match="on_error"):
+        World(model, (), "rk4", 0.01, on_error="ignore")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="max_angular_speed"):
+        World(model, (), "rk4", 0.01, max_angular_speed=-1.0)
+    bad = STATE0.copy()
+    bad.q[2] = 0.0
+    with pytest.raises(ValueError, match=r"state\.q"):
+        World(model, (), "rk4", 0.01, state=bad)
+    bad = STATE0.copy()
+    bad.v[1, 0] = np.nan
+    with pytest.raises(ValueError, match=r"state\.v"):
+        World(model, (), "rk4", 0.01, state=bad)
+    with pytest.raises(ValueError, match="model"):
+        World(BodyModel(MASS[:2], INERTIA[:2]), (), "rk4", 0.01, state=STATE0)
