@@ -39,6 +39,7 @@ SCENE_DIR = Path(__file__).resolve().parents[1] / "configs" / "scenes"
 BENCHMARKS = {
     "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
     "speed": "throughput: body-steps per second against batch size, peers in the same run",
+    "stability": "hard cases at full length (flips, fast spin, thin bodies, separatrix, long horizon)",
 }
 
 

@@ -293,7 +293,7 @@ class Scene:
     actuators: ActuatorsSpec = field(default_factory=ActuatorsSpec)
     """Thrusters and point forces."""
     max_angular_speed: float | None = None
-    """Clamp on ``|w|`` after every substep [rad/s] (PhysX's maxAngularVelocity); None = off."""
+    """Clamp on ``|w|`` before every substep and after the last [rad/s] (PhysX's maxAngularVelocity); None = off."""
     source: str | None = field(default=None, compare=False, repr=False)
     """File the scene was read from (used in error messages); not part of the scene."""
 

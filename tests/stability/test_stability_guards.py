@@ -1,0 +1,297 @@
+"""Guards in the core: a non-finite state is an error, never a silent NaN; one diverging body
+in a batch leaves the others bit for bit as they were; the optional angular-speed clamp; bad
+numbers in (command, state, scene) are clear errors; the triangle inequality of a scene."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigid_env.bench.stability import HARD_BODIES, torque_free_world
+from rigid_env.core import (
+    INTEGRATORS,
+    BodyModel,
+    Gravity,
+    NumericalInstabilityError,
+    State,
+    Thrusters,
+    World,
+)
+from rigid_env.scene import SceneError, load_scene
+
+FAST_SPIN_INERTIA, FAST_SPIN_W = HARD_BODIES["fast_spin"]
+
+# A body whose rates square to inf at the first step (|w|^2 ~ 1e400): every integrator that
+# forms w x I w overflows at once. splitting never forms it (it turns L by angles h L_k / I_k)
+# and stays finite: there the body is merely wild.
+WILD_W = (1.0e200, -2.0e200, 1.5e200)
+
+
+BATCH_INERTIA = np.array([[1.0, 2.0, 3.0], [0.5, 0.7, 1.1], [2.0, 2.5, 4.0], [1.0, 1.5, 2.4]])
+
+
+def _thruster_world(integrator: str, w0: np.ndarray, bodies=(0, 1, 2, 3),
+                    on_error: str = "freeze") -> World:
+    """Bodies ``bodies`` of a batch of four with asymmetric inertias, gravity and two thrusters
+    (per-body commands); body k starts at rates ``w0[k]`` moving along x at k m/s."""
+    idx = list(bodies)
+    n = len(idx)
+    effects = [Gravity(),
+               Thrusters(points=np.array([[0.3, 0.0, 0.0], [0.0, 0.0, -0.2]]),
+                         directions=np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+                         max_force=np.array([2.0, 1.0]))]
+    state = State.zeros(n)
+    state.w[:] = w0[idx]
+    state.v[:, 0] = idx
+    return World(BodyModel(np.ones(n), BATCH_INERTIA[idx]), effects, integrator=integrator,
+                 dt=0.01, state=state, on_error=on_error)  # type: ignore[arg-type]
+
+
+def _commands(steps: int, n: int) -> np.ndarray:
+    return np.random.default_rng(3).uniform(-1.0, 1.0, size=(steps, n, 2))
+
+
+# --------------------------------------------------------------------------------------------
+# The error
+# --------------------------------------------------------------------------------------------
+
+
+def test_error_names_body_step_integrator_and_advice():
+    """Three bodies, the middle one spinning at |w| dt = 2 under forward Euler (the others
+    calm): the overflow at step 19 raises, naming body 1, the step, the integrator and the fix;
+    the world keeps its last finite state."""
+    w0 = np.array([[0.1, 0.2, 0.3], FAST_SPIN_W, [0.3, -0.1, 0.2]])
+    inertia = np.array([FAST_SPIN_INERTIA] * 3)
+    world = torque_free_world(inertia, w0, "explicit_euler", 0.01)
+    with pytest.raises(NumericalInstabilityError) as info:
+        for _ in range(100):
+            world.step()
+    err = info.value
+    assert isinstance(err, FloatingPointError)
+    assert (err.bodies, err.step, err.integrator, err.dt) == ([1], 19, "explicit_euler", 0.01)
+    msg = str(err)
+    for part in ("body 1", "step 19", "'explicit_euler'", "smaller dt", "'implicit_gyro'",
+                 "'splitting'"):
+        assert part in msg
+    assert world.step_count == 18
+    for a in (world.state.x, world.state.v, world.state.q, world.state.w):
+        assert np.isfinite(a).all()
+
+
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_no_integrator_hands_back_a_nan(integrator):
+    """A wild body (|w| = 2.7e200): after every step the state is finite, or the step raised."""
+    world = torque_free_world(FAST_SPIN_INERTIA, WILD_W, integrator, 0.01)
+    try:
+        for _ in range(5):
+            world.step()
+            for a in (world.state.x, world.state.v, world.state.q, world.state.w):
+                assert np.isfinite(a).all()
+    except NumericalInstabilityError as err:
+        assert err.bodies == [0] and err.step == world.step_count + 1
+
+
+# --------------------------------------------------------------------------------------------
+# One diverging body does not take the others down
+# --------------------------------------------------------------------------------------------
+
+STEPS = 30
+
+
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_diverging_body_leaves_the_others_bit_identical(integrator):
+    """Four bodies with thrusters and gravity, body 1 wild. The other three end bit for bit
+    where they end (a) when body 1 is calm instead and (b) in a world without body 1. The
+    world flags body 1 (except under splitting, which keeps even the wild body finite) and
+    holds it at its last finite state."""
+    calm = np.array([[0.3, 1.0, -0.5], [0.2, 0.1, 0.4], [-1.0, 0.5, 2.0], [0.7, -0.3, 0.1]])
+    wild = calm.copy()
+    wild[1] = WILD_W
+    cmd = _commands(STEPS, 4)
+    worlds = {"wild": _thruster_world(integrator, wild),
+              "calm": _thruster_world(integrator, calm)}
+    for k in range(STEPS):
+        for w in worlds.values():
+            w.step(cmd[k])
+    others = [0, 2, 3]
+    alone = _thruster_world(integrator, calm, bodies=others)
+    for k in range(STEPS):
+        alone.step(cmd[k][others])
+    for name in ("x", "v", "q", "w"):
+        got = getattr(worlds["wild"].state, name)[others]
+        assert np.array_equal(got, getattr(worlds["calm"].state, name)[others]), name
+        assert np.array_equal(got, getattr(alone.state, name)), name
+    failed = worlds["wild"].failed
+    assert not failed[others].any()
+    if failed[1]:
+        start = _thruster_world(integrator, wild).state
+        assert np.array_equal(worlds["wild"].state.w[1], start.w[1])  # held, finite
+    else:
+        assert integrator not in ("explicit_euler", "rk4", "implicit_euler", "implicit_gyro")
+    assert np.isfinite(worlds["wild"].state.w).all()
+
+
+def test_step_reports_the_failed_mask_and_reset_clears_it():
+    w0 = np.array([[0.1, 0.2, 0.3], WILD_W])
+    world = torque_free_world([FAST_SPIN_INERTIA] * 2, w0, "rk4", 0.01, on_error="freeze")
+    bad = world.step()
+    assert bad.tolist() == [False, True] and world.failed.tolist() == [False, True]
+    world.step()
+    assert world.failed.tolist() == [False, True]  # stays flagged
+    calm = world.state.copy()
+    calm.w[1] = (0.1, 0.0, 0.0)
+    world.reset(calm)
+    assert not world.failed.any()
+    assert not world.step().any()
+
+
+# --------------------------------------------------------------------------------------------
+# max_angular_speed: PhysX's clamp, off by default
+# --------------------------------------------------------------------------------------------
+
+# |w| after the clamp may exceed the limit by rounding of the scale factor: 4 ulps relative.
+CLAMP_RTOL = 4.0 * np.finfo(float).eps
+
+
+def test_clamp_is_off_by_default():
+    world = torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, "splitting", 0.01)
+    assert world.max_angular_speed is None
+    world.step()
+    assert np.linalg.norm(world.state.w) > 199.0
+
+
+def test_clamp_scales_w_down_to_the_limit_keeping_its_direction():
+    """An isotropic body (w constant): the first step starts from the clamped w, as PhysX
+    clamps the velocity that then moves the pose, so the body turns by h * 10 rad/s."""
+    w0 = np.array([3.0, -4.0, 120.0])
+    world = torque_free_world((1.0, 1.0, 1.0), w0, "splitting", 0.01, max_angular_speed=10.0)
+    world.step()
+    w = world.state.w[0]
+    assert np.linalg.norm(w) == pytest.approx(10.0, rel=CLAMP_RTOL)
+    np.testing.assert_allclose(w / np.linalg.norm(w), w0 / np.linalg.norm(w0), rtol=0, atol=1e-15)
+    turned = 2.0 * np.arctan2(np.linalg.norm(world.state.q[0, 1:]), world.state.q[0, 0])
+    assert turned == pytest.approx(0.1, rel=1e-12)
+
+
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_clamp_holds_after_every_step_and_tames_the_fast_spin(integrator):
+    """Fast spin (200 rad/s, dt 0.01) under a 50 rad/s clamp: |w| <= 50 after every step, and
+    even forward Euler stays finite (the clamp bounds the energy it can pump in)."""
+    world = torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, integrator, 0.01,
+                              max_angular_speed=50.0)
+    for _ in range(300):
+        world.step()
+        assert np.linalg.norm(world.state.w[0]) <= 50.0 * (1.0 + CLAMP_RTOL)
+    assert np.isfinite(world.state.q).all() and np.isfinite(world.state.w).all()
+
+
+@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
+def test_clamp_rejects_bad_limits(bad):
+    with pytest.raises(ValueError, match="max_angular_speed"):
+        torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, "rk4", 0.01, max_angular_speed=bad)
+
+
+def _scene(**top) -> dict:
+    scene = {"name": "t", "body": {"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]}}}
+    scene.update(top)
+    return scene
+
+
+def test_scene_sets_the_clamp():
+    assert load_scene(_scene(max_angular_speed=50.0)).build_world().max_angular_speed == 50.0
+    assert load_scene(_scene()).build_world().max_angular_speed is None
+
+
+# --------------------------------------------------------------------------------------------
+# Bad numbers in
+# --------------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), -float("inf")])
+def test_non_finite_command_is_an_error(bad):
+    world = _thruster_world("rk4", np.zeros((4, 3)), bodies=(0, 1), on_error="raise")
+    with pytest.raises(ValueError, match="NaN or inf"):
+        world.step(np.array([[0.5, bad], [0.0, 0.0]]))
+    assert world.step_count == 0
+
+
+@pytest.mark.parametrize(("field", "body", "value"), [
+    ("x", 1, float("nan")), ("v", 0, float("inf")), ("q", 2, float("nan")),
+    ("w", 1, -float("inf")),
+])
+def test_non_finite_state_is_an_error(field, body, value):
+    state = State.zeros(3)
+    getattr(state, field)[body, 0] = value
+    model = BodyModel.single(1.0, FAST_SPIN_INERTIA)
+    with pytest.raises(ValueError, match=rf"state\.{field}: body {body} .*non-finite"):
+        World(model, state=state)
+    world = World(model, n=3)
+    with pytest.raises(ValueError, match=rf"state\.{field}: body {body}"):
+        world.reset(state)
+
+
+def test_zero_quaternion_in_a_state_is_an_error():
+    state = State.zeros(2)
+    state.q[1] = 0.0
+    with pytest.raises(ValueError, match=r"state\.q: body 1 is the zero quaternion"):
+        World(BodyModel.single(1.0, FAST_SPIN_INERTIA), state=state)
+
+
+@pytest.mark.parametrize(("top", "field"), [
+    ({"dt": float("nan")}, "dt"),
+    ({"max_angular_speed": float("inf")}, "max_angular_speed"),
+    ({"body": {"mass": float("nan"), "shape": {"box": [0.3, 0.2, 0.1]}}}, "body.mass"),
+    ({"body": {"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]},
+               "inertia": [1.0, float("inf"), 2.0]}}, "body.inertia"),
+    ({"initial": {"angular_velocity": [0.0, float("nan"), 0.0]}}, "initial.angular_velocity"),
+    ({"actuators": {"thrusters": [{"point": [float("nan"), 0.0, 0.0],
+                                   "direction": [0.0, 1.0, 0.0], "max_force": 1.0}]}},
+     "actuators.thrusters"),
+])
+def test_non_finite_scene_number_is_an_error(top, field):
+    with pytest.raises(SceneError, match=field.replace(".", r"\.")):
+        load_scene(_scene(**top))
+
+
+def test_non_finite_core_parameters_are_errors():
+    with pytest.raises(ValueError, match="inertia"):
+        BodyModel.single(1.0, [1.0, float("nan"), 2.0])
+    with pytest.raises(ValueError, match="gravity"):
+        Gravity(np.array([0.0, 0.0, float("inf")]))
+    with pytest.raises(ValueError, match="thrusters"):
+        Thrusters(points=np.zeros((1, 3)), directions=np.array([[0.0, 1.0, 0.0]]),
+                  max_force=np.array([float("nan")]))
+    with pytest.raises(ValueError, match="dt"):
+        World(BodyModel.single(1.0, FAST_SPIN_INERTIA), dt=float("nan"))
+
+
+# --------------------------------------------------------------------------------------------
+# The triangle inequality: a flat plate sits on it and passes, a broken one fails
+# --------------------------------------------------------------------------------------------
+
+
+def _inertia_scene(inertia) -> dict:
+    return _scene(body={"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]},
+                        "inertia": [float(i) for i in inertia]})
+
+
+@pytest.mark.parametrize("inertia", [
+    (1.0, 2.0, 3.0),                     # I3 = I1 + I2: a flat plate, exactly
+    (0.25, 1.0, 1.25),                   # a 1 m x 0.5 m plate of zero thickness, m = 12 kg
+    (0.1, 0.2, 0.1 + 0.2),               # 0.1 + 0.2 = 0.30000000000000004 in binary
+    (1.0, 2.0, 3.0 * (1.0 + 1.0e-12)),   # 3e-12 over: within the tolerance (1e-9 of the sum)
+    (1.0e-6, 1.0, 1.0),                  # a thin rod, I1 / I3 = 1e-6
+])
+def test_scene_accepts_a_flat_plate_on_the_triangle_inequality(inertia):
+    world = load_scene(_inertia_scene(inertia)).build_world()
+    np.testing.assert_array_equal(world.model.inertia[0], inertia)
+
+
+@pytest.mark.parametrize("inertia", [
+    (1.0, 2.0, 3.1),
+    (1.0, 2.0, 3.0 * (1.0 + 1.0e-6)),   # 3e-6 over: far beyond rounding
+    (5.0, 1.0, 2.0),
+])
+def test_scene_rejects_inertia_that_breaks_the_triangle_inequality(inertia):
+    with pytest.raises(SceneError, match="triangle inequality"):
+        load_scene(_inertia_scene(inertia))
