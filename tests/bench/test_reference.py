@@ -1,0 +1,124 @@
+"""The reference solutions of rigid_env.bench.reference against solve_ivp and the invariants."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigid_env.bench.reference import (
+    euler_ivp,
+    ivp_reference,
+    reference_trajectory,
+    torque_free_angular_velocity,
+    torque_free_orientation,
+)
+from rigid_env.core.dynamics import Dynamics
+from rigid_env.core.effects import AngularDamping, Gravity
+from rigid_env.core.integrators import free_rotation_exact
+from rigid_env.core.rotation import quat_angle_between, quat_normalize, quat_rotate
+from rigid_env.core.state import BodyModel, State
+
+# Agreement of the elliptic solution with solve_ivp (DOP853, rtol = atol = 1e-13) over 10 s:
+# the two agree to ~3e-13 rad/s on these cases; 1e-10 rad/s leaves room for the solver.
+IVP_AGREEMENT = 1.0e-10
+# Relative drift of E and |L| along the elliptic solution: only rounding of sn, cn, dn (~1e-16
+# each) enters; 1e-13 is 500 ulp.
+INVARIANT_RTOL = 1.0e-13
+
+Q0 = quat_normalize(np.array([0.9, 0.1, -0.3, 0.2]))
+T = np.linspace(0.0, 10.0, 21)
+
+# (moments, w0, branch): "J3" when L^2 > 2 E I2 (turns about the largest axis), "J1" when
+# L^2 < 2 E I2. Unsorted moments (odd and even permutations) and negative pole components too.
+CASES = [
+    ((1.0, 2.0, 3.0), (1.0, 0.1, 2.0), "J3"),
+    ((1.0, 2.0, 3.0), (2.0, 0.3, 0.5), "J1"),
+    ((3.0, 1.0, 2.0), (0.2, 2.0, 1.0), "J1"),  # odd permutation of the sorted moments
+    ((2.0, 3.0, 1.0), (0.4, -1.0, -0.7), "J3"),  # even permutation, negative pole
+    ((1.0, 2.0, 3.0), (0.1, 10.0, 0.1), "J3"),  # Dzhanibekov: near the separatrix
+    ((2.0, 1.0, 3.0), (0.3, -2.0, 0.4), "J1"),  # odd permutation, negative pole
+]
+
+
+def _branch(inertia, w0) -> str:
+    inertia, w0 = np.asarray(inertia), np.asarray(w0)
+    two_e = np.sum(inertia * w0**2)
+    l2 = np.sum((inertia * w0) ** 2)
+    return "J3" if l2 > two_e * np.median(inertia) else "J1"
+
+
+@pytest.mark.parametrize(("inertia", "w0", "branch"), CASES)
+def test_elliptic_angular_velocity_matches_solve_ivp(inertia, w0, branch):
+    assert _branch(inertia, w0) == branch  # the case exercises the branch it claims
+    exact = torque_free_angular_velocity(inertia, w0, T)
+    ivp = euler_ivp(inertia, w0, T)
+    assert np.max(np.abs(exact - ivp)) < IVP_AGREEMENT
+
+
+@pytest.mark.parametrize(("inertia", "w0", "branch"), CASES)
+def test_elliptic_solution_conserves_energy_and_momentum(inertia, w0, branch):
+    inertia_a = np.asarray(inertia)
+    w = torque_free_angular_velocity(inertia, w0, np.linspace(0.0, 20.0, 401))
+    energy = 0.5 * np.sum(inertia_a * w**2, axis=1)
+    momentum = np.linalg.norm(inertia_a * w, axis=1)
+    assert np.max(np.abs(energy / energy[0] - 1.0)) < INVARIANT_RTOL
+    assert np.max(np.abs(momentum / momentum[0] - 1.0)) < INVARIANT_RTOL
+    assert np.allclose(w[0], w0, rtol=0.0, atol=1e-15 * np.max(np.abs(w0)) * 10)
+
+
+@pytest.mark.parametrize(("inertia", "w0", "branch"), CASES[:4])
+def test_exact_orientation_matches_solve_ivp(inertia, w0, branch):
+    model = BodyModel.single(1.0, inertia)
+    zeros = np.zeros((1, 3))
+    s0 = State(zeros, zeros, Q0[None, :], np.asarray(w0, dtype=np.float64)[None, :])
+    ivp = ivp_reference(Dynamics(model, []), s0, T, rtol=1e-13, atol=1e-13)
+    q = torque_free_orientation(inertia, w0, Q0, T)
+    assert np.max(quat_angle_between(q, ivp.q)) < IVP_AGREEMENT
+    # and the world angular momentum stays put along the exact solution
+    w = torque_free_angular_velocity(inertia, w0, T)
+    l_world = quat_rotate(q, np.asarray(inertia) * w)
+    assert np.max(np.abs(l_world - l_world[0])) < 1e-12 * np.linalg.norm(l_world[0]) * 10
+
+
+@pytest.mark.parametrize(("inertia", "w0", "branch"), CASES)
+def test_reference_and_exact_flow_agree(inertia, w0, branch):
+    """The reference's textbook formulas and the integrator's unified ones are written
+    separately; they must give the same angular velocity."""
+    w_ref = torque_free_angular_velocity(inertia, w0, T)
+    w_core = np.concatenate([
+        free_rotation_exact(Q0[None, :], np.asarray(w0, float)[None, :],
+                            np.asarray(inertia, float)[None, :], float(t), False)[1]
+        for t in T])
+    assert np.max(np.abs(w_ref - w_core)) < 1e-12 * np.max(np.abs(w0))
+
+
+def test_steady_spin_and_symmetric_body():
+    # a spin about a principal axis stays constant; so does a symmetric body about a
+    # transverse axis (I1 = I2, w3 = 0)
+    for inertia, w0 in (((1.0, 2.0, 3.0), (0.0, 0.0, 2.0)), ((1.0, 2.0, 3.0), (0.0, 1.5, 0.0)),
+                        ((1.0, 1.0, 3.0), (1.0, 0.5, 0.0))):
+        w = torque_free_angular_velocity(inertia, w0, T)
+        assert np.array_equal(w, np.tile(w0, (T.size, 1)))
+    # a symmetric body precesses: w3 constant, (w1, w2) turn at (I3 - I1) / I1 w3
+    w = torque_free_angular_velocity((1.0, 1.0, 3.0), (1.0, 0.0, 0.5), T)
+    rate = (3.0 - 1.0) / 1.0 * 0.5
+    assert np.allclose(w[:, 0], np.cos(rate * T), atol=1e-14)
+    assert np.allclose(np.abs(w[:, 1]), np.abs(np.sin(rate * T)), atol=1e-14)
+
+
+def test_ivp_reference_free_fall_is_parabola():
+    model = BodyModel.single(2.0, (1.0, 2.0, 3.0))
+    g = np.array([0.0, 0.0, -9.81])
+    s0 = State.from_arrays([1.0, 2.0, 3.0], [0.5, -1.0, 4.0], Q0, [0.3, 0.2, 1.0])
+    t = np.linspace(0.0, 2.0, 5)
+    ref = reference_trajectory(model, [Gravity(g)], s0, t)
+    parabola = s0.x[0] + np.outer(t, s0.v[0]) + 0.5 * np.outer(t**2, g)
+    assert np.max(np.abs(ref.x - parabola)) < 1e-10  # metres
+    assert np.max(np.abs(ref.w - torque_free_angular_velocity((1.0, 2.0, 3.0), s0.w[0], t))) \
+        < IVP_AGREEMENT
+
+
+def test_reference_rejects_per_step_maps():
+    model = BodyModel.single(1.0, (1.0, 2.0, 3.0))
+    with pytest.raises(ValueError, match="angular_damping"):
+        reference_trajectory(model, [AngularDamping(0.99)], State.zeros(1), T)
