@@ -1,0 +1,136 @@
+"""The speed benchmark's machinery in a tiny configuration: it runs every section and writes
+the figure and tables with the documented columns. No timing is asserted (DESIGN.md,
+"Measuring": timings live in the benchmark, never in tests)."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from rigid_env.bench import speed
+from rigid_env.cli import main
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.fixture(scope="module")
+def smoke_out(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One ``--smoke`` run of every section through the command line."""
+    out = tmp_path_factory.mktemp("speed")
+    assert main(["bench", "speed", "--smoke", "--out", str(out)]) == 0
+    return out
+
+
+def read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
+    with open(path, newline="", encoding="utf-8") as fh:
+        reader = csv.DictReader(fh)
+        return list(reader.fieldnames or []), list(reader)
+
+
+def test_smoke_run_writes_figure_and_tables(smoke_out: Path) -> None:
+    png = smoke_out / "speed.png"
+    assert png.read_bytes()[:8] == PNG_MAGIC
+    for name in ("speed.md", "speed.csv"):
+        assert (smoke_out / name).stat().st_size > 0
+
+
+def test_csv_has_the_columns_and_every_section(smoke_out: Path) -> None:
+    header, rows = read_csv(smoke_out / "speed.csv")
+    assert tuple(header) == speed.CSV_COLUMNS
+    assert {"section", "case", "n", "value", "unit", "median_s", "peer", "ratio"} <= set(header)
+    assert {r["section"] for r in rows} == set(speed.SECTIONS)
+    assert {r["clock"] for r in rows if r["note"] == ""} == {"wall"}
+    for r in rows:
+        if r["note"].startswith("not available"):
+            continue
+        assert math.isfinite(float(r["value"])) and float(r["value"]) > 0.0, r
+        assert r["peer"], r  # every measured row names the peer its ratio is taken against
+        assert math.isfinite(float(r["ratio"])), r
+
+
+def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
+    _, rows = read_csv(smoke_out / "speed.csv")
+    cases = {(r["section"], r["case"]) for r in rows}
+    for mj in ("Euler", "RK4"):
+        assert ("core", f"MuJoCo {mj} rollout") in cases
+        assert ("core", f"MuJoCo {mj} mj_step loop") in cases
+    assert {("env", "Pendulum-v1"), ("env", "InvertedPendulum-v5"),
+            ("env", speed.DETUMBLE)} <= cases
+    assert {("vec", speed.CARTPOLE_CASE), ("vec", speed.SYNC_CASE), ("vec", "Detumble")} <= cases
+    assert {("effects", speed.NO_EFFECTS), ("effects", speed.NOISE_FLOOR),
+            ("effects", "all of them")} <= cases
+    assert {("ppo", speed.PPO_ADAPTER), ("ppo", speed.PPO_DUMMY),
+            ("ppo", speed.PPO_SUBPROC)} <= cases
+    # SyncVectorEnv is measured at the small sizes only; the others are marked extrapolated.
+    sync = {int(r["n"]): r["note"] for r in rows if r["case"] == speed.SYNC_CASE}
+    for n, note in sync.items():
+        assert (n in speed.SMOKE.sync_sizes) == (note == ""), (n, note)
+
+
+def test_markdown_has_header_sections_and_targets(smoke_out: Path) -> None:
+    text = (smoke_out / "speed.md").read_text(encoding="utf-8")
+    for key in ("- Date:", "- Machine:", "- Versions:", "numpy", "mujoco", "gymnasium",
+                "stable-baselines3", "## 1. Core", "## 2. Single environment",
+                "## 3. Vector environment", "## 4. Effects", "## 5. Training",
+                "## Targets", "| target | measured | goal | status | note |"):
+        assert key in text, key
+    assert "Traceback" not in text
+
+
+def test_measure_interleaves_repeats_and_resets_before_each() -> None:
+    log: list[str] = []
+    cases = [speed.Case(name, lambda name=name: log.append(name), work=4.0,
+                        reset=lambda name=name: log.append(f"reset {name}"), calls=2)
+             for name in ("a", "b")]
+    timings = speed.measure(cases, min_time=0.0, repeats=3, warmup=False)
+    assert set(timings) == {"a", "b"}
+    for t in timings.values():
+        assert len(t.per_call) == 3 and t.calls == 2 and t.work == 4.0
+        assert t.rate == pytest.approx(t.work / t.median)
+        assert len(t.cpu_per_call) == 3 and t.seconds == t.per_call  # wall clock by default
+    # Round r starts with case r mod 2; each repeat is its reset and then its calls.
+    assert log == ["reset a", "a", "a", "reset b", "b", "b",
+                   "reset b", "b", "b", "reset a", "a", "a",
+                   "reset a", "a", "a", "reset b", "b", "b"]
+
+
+def test_mujoco_states_spin_the_free_body_at_the_given_body_rates() -> None:
+    model = speed.mujoco_model("RK4")
+    w = speed.random_spins(5, seed=3)
+    states = speed.mujoco_states(model, w)
+    data = mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
+    for k in range(5):
+        mujoco.mj_setState(model, data, states[k], spec)
+        np.testing.assert_array_equal(data.qvel[3:], w[k])
+        np.testing.assert_array_equal(data.qvel[:3], 0.0)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--only", "nope"], "unknown section"),
+    (["--repeats", "0"], "--repeats"),
+])
+def test_bad_flags_give_one_line_errors(argv: list[str], words: str,
+                                        capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bench", "speed", "--smoke", *argv]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("rigid-env") and words in err[0], err
+
+
+def test_out_must_be_a_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    target = tmp_path / "file.txt"
+    target.write_text("x")
+    assert main(["bench", "speed", "--smoke", "--only", "env", "--out", str(target)]) == 2
+    assert "is a file" in capsys.readouterr().err
+
+
+def test_cpu_clock_reports_thread_cpu_time() -> None:
+    case = speed.Case("spin", lambda: sum(range(1000)), work=1.0, calls=3)
+    (t,) = speed.measure([case], min_time=0.0, repeats=2, warmup=False, clock="cpu").values()
+    assert t.clock == "cpu" and t.seconds == t.cpu_per_call
+    assert t.median == pytest.approx(float(np.median(t.cpu_per_call)))
