@@ -16,6 +16,7 @@ import argparse
 import json
 import re
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -66,8 +67,14 @@ def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
 
 
 def train(cfg: TrainConfig, runs_dir: Path = Path("runs"), resume: bool = False,
-          progress: bool = True, verbose: int = 0) -> Path:
-    """Train and save; returns the run directory."""
+          progress: bool = True, verbose: int = 0, callbacks: Sequence[Any] = ()) -> Path:
+    """Train and save; returns the run directory.
+
+    Args:
+        callbacks: extra SB3 callbacks, called after the built-in ones (checkpoints,
+            evaluation) at every step, so on an evaluation step right after the evaluation
+            (``agents.sweep`` reports to Ray Tune this way).
+    """
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
 
     run_dir = runs_dir / cfg.run_name
@@ -108,6 +115,7 @@ def train(cfg: TrainConfig, runs_dir: Path = Path("runs"), resume: bool = False,
         EvalCallback(eval_env, n_eval_episodes=cfg.eval.episodes, eval_freq=per_env,
                      log_path=str(run_dir / "eval"), best_model_save_path=str(run_dir / "eval"),
                      deterministic=True, verbose=verbose),
+        *callbacks,
     ])
     remaining = cfg.total_timesteps - (model.num_timesteps if start is not None else 0)
     if remaining > 0:
