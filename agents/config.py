@@ -99,27 +99,44 @@ def _build(cls: type, data: Any, source: str, path: str) -> Any:
     fields = {f.name: f for f in dataclasses.fields(cls)}
     unknown = sorted(set(data) - set(fields))
     if unknown:
-        raise _err(source, f"{path + '.' if path else ''}{unknown[0]}",
-                   f"unknown key; allowed keys: {', '.join(fields)}")
+        raise _err(
+            source,
+            f"{path + '.' if path else ''}{unknown[0]}",
+            f"unknown key; allowed keys: {', '.join(fields)}",
+        )
     kwargs: dict[str, Any] = {}
     hints = {f.name: f.type for f in dataclasses.fields(cls)}
     for name, value in data.items():
         where = f"{path + '.' if path else ''}{name}"
         hint = str(hints[name])
         if hint in ("NormalizeConfig", "EvalConfig"):
-            kwargs[name] = _build({"NormalizeConfig": NormalizeConfig, "EvalConfig": EvalConfig}[hint],
-                                  value, source, where)
+            kwargs[name] = _build(
+                {"NormalizeConfig": NormalizeConfig, "EvalConfig": EvalConfig}[hint],
+                value,
+                source,
+                where,
+            )
             continue
         expected = {"str": str, "int": int, "float": (int, float), "bool": bool}.get(hint)
         if hint.startswith("dict"):
             expected = dict
-        if expected is not None and (not isinstance(value, expected)
-                                     or (expected is int and isinstance(value, bool))):
-            hint_txt = " (write floats as 1.0e-4: YAML reads 1e-4 as a string)" if isinstance(value, str) else ""
+        if expected is not None and (
+            not isinstance(value, expected) or (expected is int and isinstance(value, bool))
+        ):
+            hint_txt = (
+                " (write floats as 1.0e-4: YAML reads 1e-4 as a string)"
+                if isinstance(value, str)
+                else ""
+            )
             raise _err(source, where, f"expected {hint}, got {value!r}{hint_txt}")
         kwargs[name] = value
-    missing = [n for n, f in fields.items() if n not in kwargs
-               and f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING]
+    missing = [
+        n
+        for n, f in fields.items()
+        if n not in kwargs
+        and f.default is dataclasses.MISSING
+        and f.default_factory is dataclasses.MISSING
+    ]
     if missing:
         raise _err(source, f"{path + '.' if path else ''}{missing[0]}", "required key is missing")
     return cls(**kwargs)
@@ -148,8 +165,11 @@ def validate(cfg: TrainConfig, source: str) -> None:
         if key in reserved:
             raise _err(source, f"hyperparams.{key}", "is set by the trainer; use the top-level key")
         if key not in params:
-            raise _err(source, f"hyperparams.{key}",
-                       f"not a {algo_cls.__name__} argument; see its documentation")
+            raise _err(
+                source,
+                f"hyperparams.{key}",
+                f"not a {algo_cls.__name__} argument; see its documentation",
+            )
     act = cfg.policy_kwargs.get("activation_fn")
     if act is not None and act not in ("tanh", "relu"):
         raise _err(source, "policy_kwargs.activation_fn", f"use 'tanh' or 'relu', got {act!r}")
@@ -168,7 +188,9 @@ def algorithm_class(algo: str) -> type:
     return {"ppo": sb3.PPO, "sac": sb3.SAC, "td3": sb3.TD3}[algo]
 
 
-def load_config(source: str | os.PathLike[str] | dict[str, Any], overrides: dict[str, Any] | None = None) -> TrainConfig:
+def load_config(
+    source: str | os.PathLike[str] | dict[str, Any], overrides: dict[str, Any] | None = None
+) -> TrainConfig:
     """Read, merge ``overrides`` (top-level keys), build and validate a :class:`TrainConfig`.
 
     Raises:

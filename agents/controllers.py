@@ -99,8 +99,12 @@ class PDController:
     def __init__(self, env: Any, k_p: float | None = None, k_d: float | None = None) -> None:
         self.task = task_of(env)
         self.kind = type(self.task).__name__.removesuffix("Task")
-        defaults = {"Detumble": (0.0, 2.0), "TumblingFall": (0.0, 4.0),
-                    "SpinStabilize": (0.0, 3.0), "Reorient": (1.0, 2.0)}
+        defaults = {
+            "Detumble": (0.0, 2.0),
+            "TumblingFall": (0.0, 4.0),
+            "SpinStabilize": (0.0, 3.0),
+            "Reorient": (1.0, 2.0),
+        }
         kp0, kd0 = defaults.get(self.kind, (1.0, 2.0))
         self.k_p = kp0 if k_p is None else float(k_p)
         self.k_d = kd0 if k_d is None else float(k_d)
@@ -115,13 +119,13 @@ class PDController:
         obs = np.atleast_2d(obs)
         task = self.task
         inertia = np.broadcast_to(task.world.model.inertia, (obs.shape[0], 3))
-        w = obs[:, self.rot_dim:self.rot_dim + 3] * task.w_scale
+        w = obs[:, self.rot_dim : self.rot_dim + 3] * task.w_scale
         if self.kind == "SpinStabilize":
             w_target = np.zeros_like(w)
             w_target[:, 1] = task.target_spin
             tau = gyroscopic(w, inertia) - self.k_d * inertia * (w - w_target)
         elif self.kind == "Reorient":
-            q_err = obs[:, self.rot_dim + 6:self.rot_dim + 10]
+            q_err = obs[:, self.rot_dim + 6 : self.rot_dim + 10]
             tau = inertia * (self.k_p * quat_to_rotvec(q_err) - self.k_d * w)
         else:
             tau = -self.k_d * inertia * w
@@ -129,7 +133,6 @@ class PDController:
                 tau = tau - self._drag_torque(obs, w)
         u = self.allocate(tau).astype(np.float32)
         return u[0] if single else u
-
 
     def _drag_torque(self, obs: FloatArray, w: FloatArray) -> FloatArray:
         """Predicted aerodynamic torque (N, 3) body frame [N m] from the observation."""

@@ -38,11 +38,13 @@ class EvaluationError(ValueError):
     """A user mistake (missing model, model for another env, ...); one line."""
 
 
-def rollout(env_id: str, policy: Policy, episodes: int, seed: int,
-            env_kwargs: dict[str, Any] | None = None) -> dict[str, Any]:
+def rollout(
+    env_id: str, policy: Policy, episodes: int, seed: int, env_kwargs: dict[str, Any] | None = None
+) -> dict[str, Any]:
     """Run ``episodes`` episodes at once in the native vector env and summarise them."""
-    env = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
-                       **(env_kwargs or {}))
+    env = gym.make_vec(
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+    )
     dt = env.unwrapped.task.dt if hasattr(env.unwrapped, "task") else env.task.dt
     obs, info = env.reset(seed=seed)
     n = episodes
@@ -95,15 +97,19 @@ def _sidecar(model_path: Path, suffix: str) -> Path | None:
 def load_policy(model_path: Path, env_id: str) -> Policy:
     """A deterministic policy function from an SB3 zip (+ VecNormalize statistics)."""
     if not model_path.exists():
-        raise EvaluationError(f"{model_path}: model file not found; train one with "
-                              "`python -m agents.train` or use agents/pretrained/*.zip")
+        raise EvaluationError(
+            f"{model_path}: model file not found; train one with "
+            "`python -m agents.train` or use agents/pretrained/*.zip"
+        )
     meta_path = _sidecar(model_path, ".json")
     algo = None
     if meta_path is not None:
         meta = json.loads(meta_path.read_text())
         if meta.get("env_id") not in (None, env_id):
-            raise EvaluationError(f"{model_path}: trained on {meta['env_id']}, not {env_id}; "
-                                  f"pass --env {meta['env_id']}")
+            raise EvaluationError(
+                f"{model_path}: trained on {meta['env_id']}, not {env_id}; "
+                f"pass --env {meta['env_id']}"
+            )
         algo = meta.get("algo")
     from stable_baselines3 import PPO, SAC, TD3
 
@@ -119,12 +125,16 @@ def load_policy(model_path: Path, env_id: str) -> Policy:
     if model is None:
         raise EvaluationError(f"{model_path}: not a loadable SB3 PPO/SAC/TD3 model file")
     probe = gym.make(env_id)
-    if model.observation_space.shape != probe.observation_space.shape or \
-            model.action_space.shape != probe.action_space.shape:
-        raise EvaluationError(f"{model_path}: observation/action shapes {model.observation_space.shape}"
-                              f"/{model.action_space.shape} do not match {env_id}'s "
-                              f"{probe.observation_space.shape}/{probe.action_space.shape}; "
-                              "pass the --env it was trained on")
+    if (
+        model.observation_space.shape != probe.observation_space.shape
+        or model.action_space.shape != probe.action_space.shape
+    ):
+        raise EvaluationError(
+            f"{model_path}: observation/action shapes {model.observation_space.shape}"
+            f"/{model.action_space.shape} do not match {env_id}'s "
+            f"{probe.observation_space.shape}/{probe.action_space.shape}; "
+            "pass the --env it was trained on"
+        )
     probe.close()
     norm = None
     norm_path = _sidecar(model_path, "_vecnormalize.pkl")
@@ -136,21 +146,31 @@ def load_policy(model_path: Path, env_id: str) -> Policy:
 
     def policy(obs: np.ndarray) -> np.ndarray:
         if norm is not None and norm.norm_obs:
-            obs = np.clip((obs - norm.obs_rms.mean) / np.sqrt(norm.obs_rms.var + norm.epsilon),
-                          -norm.clip_obs, norm.clip_obs).astype(np.float32)
+            obs = np.clip(
+                (obs - norm.obs_rms.mean) / np.sqrt(norm.obs_rms.var + norm.epsilon),
+                -norm.clip_obs,
+                norm.clip_obs,
+            ).astype(np.float32)
         action, _ = model.predict(obs, deterministic=True)
         return action
 
     return policy
 
 
-def evaluate(model: Path | None, env_id: str, episodes: int, seed: int,
-             only: list[str] | None = None, env_kwargs: dict[str, Any] | None = None) -> dict[str, dict[str, Any]]:
+def evaluate(
+    model: Path | None,
+    env_id: str,
+    episodes: int,
+    seed: int,
+    only: list[str] | None = None,
+    env_kwargs: dict[str, Any] | None = None,
+) -> dict[str, dict[str, Any]]:
     """Metrics per policy name (``model`` plus the controllers)."""
     names = only or (["model"] if model is not None else []) + list(CONTROLLERS)
     results: dict[str, dict[str, Any]] = {}
-    probe = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point",
-                         **(env_kwargs or {}))
+    probe = gym.make_vec(
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+    )
     for name in names:
         if name == "model":
             if model is None:
@@ -159,7 +179,9 @@ def evaluate(model: Path | None, env_id: str, episodes: int, seed: int,
         elif name in CONTROLLERS:
             policy = CONTROLLERS[name](probe)
         else:
-            raise EvaluationError(f"--only: unknown policy {name!r}; use model, {', '.join(CONTROLLERS)}")
+            raise EvaluationError(
+                f"--only: unknown policy {name!r}; use model, {', '.join(CONTROLLERS)}"
+            )
         results[name] = rollout(env_id, policy, episodes, seed, env_kwargs)
     probe.close()
     return results
@@ -167,12 +189,16 @@ def evaluate(model: Path | None, env_id: str, episodes: int, seed: int,
 
 def markdown_table(results: dict[str, dict[str, Any]]) -> str:
     """Results as a Markdown table."""
-    lines = ["| policy | success rate | final |w| [rad/s] | fuel [N s] | return | time to success [s] |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        "| policy | success rate | final |w| [rad/s] | fuel [N s] | return | time to success [s] |",
+        "|---|---|---|---|---|---|",
+    ]
     for name, r in results.items():
         t = "-" if r["mean_time_to_success"] is None else f"{r['mean_time_to_success']:.2f}"
-        lines.append(f"| {name} | {r['success_rate']:.2f} | {r['mean_final_angular_speed']:.4f} | "
-                     f"{r['mean_fuel']:.3f} | {r['mean_return']:.2f} | {t} |")
+        lines.append(
+            f"| {name} | {r['success_rate']:.2f} | {r['mean_final_angular_speed']:.4f} | "
+            f"{r['mean_fuel']:.3f} | {r['mean_return']:.2f} | {t} |"
+        )
     return "\n".join(lines)
 
 
@@ -194,7 +220,9 @@ def record_video(model: Path | None, env_id: str, seed: int, path: Path) -> None
         from PIL import Image
 
         images = [Image.fromarray(f) for f in frames]
-        images[0].save(path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0)
+        images[0].save(
+            path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0
+        )
     else:
         from gymnasium.utils.save_video import save_video
 
@@ -203,8 +231,9 @@ def record_video(model: Path | None, env_id: str, seed: int, path: Path) -> None
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(prog="python -m agents.evaluate",
-                                     description="Evaluate a policy beside analytic baselines.")
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.evaluate", description="Evaluate a policy beside analytic baselines."
+    )
     parser.add_argument("model", help="SB3 model .zip, or 'none' for the controllers only")
     parser.add_argument("--env", required=True, help="environment id, e.g. RigidEnv/Detumble-v0")
     parser.add_argument("--episodes", type=int, default=100)

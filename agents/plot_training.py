@@ -19,8 +19,12 @@ import numpy as np
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(prog="python -m agents.plot_training", description=__doc__.split("\n")[0])
-    parser.add_argument("runs", nargs="+", type=Path, help="run folders (runs/<task>__<algo>__<seed>)")
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.plot_training", description=__doc__.split("\n")[0]
+    )
+    parser.add_argument(
+        "runs", nargs="+", type=Path, help="run folders (runs/<task>__<algo>__<seed>)"
+    )
     parser.add_argument("--out", type=Path, default=Path("docs/figures/training.png"))
     args = parser.parse_args(argv)
     import matplotlib
@@ -35,20 +39,29 @@ def main(argv: list[str] | None = None) -> int:
         log = run / "eval" / "evaluations.npz"
         meta = run / "model.json"
         if not log.exists() or not meta.exists():
-            print(f"agents.plot_training: error: {run}: no eval/evaluations.npz or model.json; "
-                  "is the run finished?", file=sys.stderr)
+            print(
+                f"agents.plot_training: error: {run}: no eval/evaluations.npz or model.json; "
+                "is the run finished?",
+                file=sys.stderr,
+            )
             return 2
         runs.append((run, np.load(log), json.loads(meta.read_text())))
     fig, axes = plt.subplots(1, len(runs), figsize=(4.2 * len(runs), 3.4), squeeze=False)
-    for ax, (run, log, meta) in zip(axes[0], runs, strict=True):
+    for ax, (_run, log, meta) in zip(axes[0], runs, strict=True):
         steps = log["timesteps"]
         ret = log["results"]
         mean, std = ret.mean(axis=1), ret.std(axis=1)
         ax.plot(steps, mean, label=f"{meta['algo'].upper()} (deterministic eval)")
         ax.fill_between(steps, mean - std, mean + std, alpha=0.25)
         cfg_seed = 1_000_000
-        pd = evaluate(None, meta["env_id"], episodes=ret.shape[1], seed=cfg_seed, only=["pd"],
-                      env_kwargs=meta.get("env_kwargs") or None)["pd"]
+        pd = evaluate(
+            None,
+            meta["env_id"],
+            episodes=ret.shape[1],
+            seed=cfg_seed,
+            only=["pd"],
+            env_kwargs=meta.get("env_kwargs") or None,
+        )["pd"]
         ax.axhline(pd["mean_return"], color="k", ls="--", lw=1, label="PD controller")
         if "successes" in log.files and log["successes"].size:
             ax2 = ax.twinx()

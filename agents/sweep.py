@@ -163,11 +163,15 @@ def _err(source: str, where: str, problem: str) -> ConfigError:
     return ConfigError(f"{source}: {where}: {problem}")
 
 
-def _check_type(source: str, where: str, value: Any, kind: type | tuple[type, ...],
-                name: str) -> None:
+def _check_type(
+    source: str, where: str, value: Any, kind: type | tuple[type, ...], name: str
+) -> None:
     if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        hint = " (write floats as 1.0e-4: YAML reads 1e-4 as a string)" \
-            if isinstance(value, str) else ""
+        hint = (
+            " (write floats as 1.0e-4: YAML reads 1e-4 as a string)"
+            if isinstance(value, str)
+            else ""
+        )
         raise _err(source, where, f"expected {name}, got {value!r}{hint}")
 
 
@@ -180,8 +184,9 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
     source = str(path)
     p = Path(path)
     if not p.is_file():
-        raise ConfigError(f"{source}: file not found; give the path of a sweep YAML "
-                          "(configs/sweeps/*.yaml)")
+        raise ConfigError(
+            f"{source}: file not found; give the path of a sweep YAML (configs/sweeps/*.yaml)"
+        )
     try:
         data = yaml.safe_load(p.read_text())
     except yaml.YAMLError as exc:
@@ -201,16 +206,21 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
 
     _check_type(source, "name", data["name"], str, "str")
     if not re.fullmatch(r"[A-Za-z0-9_.-]+", data["name"]) or data["name"] in (".", ".."):
-        raise _err(source, "name", f"{data['name']!r} is not a folder name; use letters, "
-                   "digits, _ . -")
+        raise _err(
+            source, "name", f"{data['name']!r} is not a folder name; use letters, digits, _ . -"
+        )
     kw["name"] = data["name"]
 
     _check_type(source, "base", data["base"], str, "str (path of a training config)")
     base = Path(data["base"])
     kw["base"] = (base if base.is_absolute() else p.resolve().parent / base).resolve()
     if not kw["base"].is_file():
-        raise _err(source, "base", f"{kw['base']} not found; the path is relative to the "
-                   "sweep file, e.g. ../agents/ppo_detumble.yaml")
+        raise _err(
+            source,
+            "base",
+            f"{kw['base']} not found; the path is relative to the "
+            "sweep file, e.g. ../agents/ppo_detumble.yaml",
+        )
 
     for key in ("total_timesteps", "cpus_per_trial", "max_concurrent"):
         if data.get(key) is not None:
@@ -222,8 +232,9 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
 
     if "metric" in data:
         if data["metric"] not in METRICS:
-            raise _err(source, "metric", f"unknown {data['metric']!r}; choose one of "
-                       f"{', '.join(METRICS)}")
+            raise _err(
+                source, "metric", f"unknown {data['metric']!r}; choose one of {', '.join(METRICS)}"
+            )
         kw["metric"] = data["metric"]
 
     if "evaluation" in data:
@@ -232,8 +243,9 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
         names = [f.name for f in dataclasses.fields(SweepEvalConfig)]
         for k, v in ev.items():
             if k not in names:
-                raise _err(source, f"evaluation.{k}", f"unknown key; allowed keys: "
-                           f"{', '.join(names)}")
+                raise _err(
+                    source, f"evaluation.{k}", f"unknown key; allowed keys: {', '.join(names)}"
+                )
             _check_type(source, f"evaluation.{k}", v, int, "int")
         if ev.get("episodes", 1) < 1:
             raise _err(source, "evaluation.episodes", "must be >= 1")
@@ -243,9 +255,16 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
         _check_type(source, "overrides", data["overrides"], dict, "a mapping")
         for k in ("seed", "env_id", "total_timesteps"):
             if k in data["overrides"]:
-                raise _err(source, f"overrides.{k}", "set it with "
-                           + ("the top-level total_timesteps key" if k == "total_timesteps"
-                              else f"grid.{k}"))
+                raise _err(
+                    source,
+                    f"overrides.{k}",
+                    "set it with "
+                    + (
+                        "the top-level total_timesteps key"
+                        if k == "total_timesteps"
+                        else f"grid.{k}"
+                    ),
+                )
         kw["overrides"] = data["overrides"]
 
     if "storage" in data:
@@ -261,10 +280,18 @@ def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> Swe
     kw["grid"] = {}
     for axis, values in grid.items():
         where = f"grid.{axis}"
-        if axis not in AXES and not (isinstance(axis, str) and axis.startswith(AXIS_PREFIXES)
-                                     and axis.count(".") == 1 and not axis.endswith(".")):
-            raise _err(source, where, "unknown axis; use seed, env_id, hyperparams.<name>, "
-                       "env_kwargs.<name> or policy_kwargs.<name>")
+        if axis not in AXES and not (
+            isinstance(axis, str)
+            and axis.startswith(AXIS_PREFIXES)
+            and axis.count(".") == 1
+            and not axis.endswith(".")
+        ):
+            raise _err(
+                source,
+                where,
+                "unknown axis; use seed, env_id, hyperparams.<name>, "
+                "env_kwargs.<name> or policy_kwargs.<name>",
+            )
         if not isinstance(values, list) or not values:
             raise _err(source, where, f"expected a non-empty list of values, got {values!r}")
         if axis == "seed":
@@ -319,8 +346,10 @@ def trial_data(base: dict[str, Any], point: dict[str, Any]) -> dict[str, Any]:
 def grid_points(sweep: SweepConfig) -> list[dict[str, Any]]:
     """Every trial's ``{axis: value}``, settings in file order and seeds innermost."""
     axes = [a for a in sweep.grid if a != "seed"] + (["seed"] if "seed" in sweep.grid else [])
-    return [dict(zip(axes, combo, strict=True))
-            for combo in itertools.product(*(sweep.grid[a] for a in axes))]
+    return [
+        dict(zip(axes, combo, strict=True))
+        for combo in itertools.product(*(sweep.grid[a] for a in axes))
+    ]
 
 
 def _validate_trials(sweep: SweepConfig) -> None:
@@ -337,11 +366,14 @@ def _validate_trials(sweep: SweepConfig) -> None:
     settings: dict[str, str] = {}
     for point in grid_points(sweep):
         label = setting_label(sweep.varying, point)
-        key = json.dumps({a: v for a, v in point.items() if a != "seed"}, sort_keys=True,
-                         default=str)
+        key = json.dumps(
+            {a: v for a, v in point.items() if a != "seed"}, sort_keys=True, default=str
+        )
         if settings.setdefault(setting_folder(label), key) != key:
-            raise ConfigError(f"{sweep.source}: grid: two settings share the folder name "
-                              f"{setting_folder(label)!r}; make their values differ more")
+            raise ConfigError(
+                f"{sweep.source}: grid: two settings share the folder name "
+                f"{setting_folder(label)!r}; make their values differ more"
+            )
         try:
             cfg = load_config(trial_data(base, point))
         except ConfigError as exc:
@@ -356,8 +388,9 @@ def _validate_trials(sweep: SweepConfig) -> None:
             gym.make(cfg.env_id, **cfg.env_kwargs).close()
         except Exception as exc:
             first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ConfigError(f"{sweep.source}: grid: {cfg.env_id} with env_kwargs "
-                              f"{cfg.env_kwargs}: {first}") from None
+            raise ConfigError(
+                f"{sweep.source}: grid: {cfg.env_id} with env_kwargs {cfg.env_kwargs}: {first}"
+            ) from None
 
 
 # --------------------------------------------------------------------------- settings
@@ -443,8 +476,13 @@ def live_policy(model: Any) -> Callable[[np.ndarray], np.ndarray]:
     return policy
 
 
-def make_report_callback(cfg: TrainConfig, report: Callable[[dict[str, Any]], None],
-                         episodes: int, seed: int, extra: dict[str, Any] | None = None) -> Any:
+def make_report_callback(
+    cfg: TrainConfig,
+    report: Callable[[dict[str, Any]], None],
+    episodes: int,
+    seed: int,
+    extra: dict[str, Any] | None = None,
+) -> Any:
     """An SB3 callback for :func:`agents.train.train`: right after each of its periodic
     evaluations (every ``eval.freq`` steps) it evaluates the current policy on ``episodes``
     episodes from ``seed`` with :func:`agents.evaluate.rollout` (all at once, in the native
@@ -458,17 +496,29 @@ def make_report_callback(cfg: TrainConfig, report: Callable[[dict[str, Any]], No
     class ReportEvaluation(BaseCallback):
         def _on_step(self) -> bool:
             if self.n_calls % every == 0:
-                metrics = rollout(cfg.env_id, live_policy(self.model), episodes, seed,
-                                  cfg.env_kwargs)
-                report(_clean({**metrics, "timesteps": int(self.num_timesteps),
-                               "final": False, **(extra or {})}))
+                metrics = rollout(
+                    cfg.env_id, live_policy(self.model), episodes, seed, cfg.env_kwargs
+                )
+                report(
+                    _clean(
+                        {
+                            **metrics,
+                            "timesteps": int(self.num_timesteps),
+                            "final": False,
+                            **(extra or {}),
+                        }
+                    )
+                )
             return True
 
     return ReportEvaluation()
 
 
-def run_trial(params: dict[str, Any], spec: dict[str, Any],
-              report: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:
+def run_trial(
+    params: dict[str, Any],
+    spec: dict[str, Any],
+    report: Callable[[dict[str, Any]], None] | None = None,
+) -> dict[str, Any]:
     """One trial: train (or resume, or skip when already trained), evaluate, report.
 
     Args:
@@ -498,21 +548,35 @@ def run_trial(params: dict[str, Any], spec: dict[str, Any],
     extra = {"setting": label, "seed": cfg.seed, "run_dir": str(run_dir)}
     ev = spec["evaluation"]
     meta = run_dir / "model.json"
-    trained = meta.exists() and json.loads(meta.read_text()).get("num_timesteps", 0) \
-        >= cfg.total_timesteps
+    trained = (
+        meta.exists()
+        and json.loads(meta.read_text()).get("num_timesteps", 0) >= cfg.total_timesteps
+    )
     if not trained:
         resume = any((run_dir / "checkpoints").glob("model_*_steps.zip"))
         if not resume and run_dir.exists():
             shutil.rmtree(run_dir)  # stopped before its first checkpoint: start again
-        train(cfg, runs_dir, resume=resume, progress=False, verbose=0,
-              callbacks=[make_report_callback(cfg, report, ev["episodes"], ev["seed"],
-                                              extra)])
-    metrics = evaluate(run_dir / "model.zip", cfg.env_id, ev["episodes"], ev["seed"],
-                       only=["model"], env_kwargs=cfg.env_kwargs)["model"]
+        train(
+            cfg,
+            runs_dir,
+            resume=resume,
+            progress=False,
+            verbose=0,
+            callbacks=[make_report_callback(cfg, report, ev["episodes"], ev["seed"], extra)],
+        )
+    metrics = evaluate(
+        run_dir / "model.zip",
+        cfg.env_id,
+        ev["episodes"],
+        ev["seed"],
+        only=["model"],
+        env_kwargs=cfg.env_kwargs,
+    )["model"]
     num_timesteps = json.loads(meta.read_text())["num_timesteps"]
     final = _clean({**metrics, "timesteps": num_timesteps, "final": True, **extra})
-    (run_dir / "final_eval.json").write_text(json.dumps(
-        {**metrics, "timesteps": num_timesteps, "episodes_seed": ev["seed"]}, indent=2))
+    (run_dir / "final_eval.json").write_text(
+        json.dumps({**metrics, "timesteps": num_timesteps, "episodes_seed": ev["seed"]}, indent=2)
+    )
     report(final)
     return final
 
@@ -528,21 +592,25 @@ def _probe(address: str, timeout: float) -> None:
     """Fail fast when nothing listens at ``address`` (Ray's own client retries for ~1 min)."""
     m = re.fullmatch(r"(?:ray://)?\[?([^\]]+?)\]?:(\d+)", address)
     if m is None:
-        raise SweepError(f"--address {address!r}: expected ray://HOST:PORT (Ray Client, "
-                         "port 10001 by default), HOST:PORT of a head node, or auto")
+        raise SweepError(
+            f"--address {address!r}: expected ray://HOST:PORT (Ray Client, "
+            "port 10001 by default), HOST:PORT of a head node, or auto"
+        )
     host, port = m.group(1), int(m.group(2))
     try:
         socket.create_connection((host, port), timeout=timeout).close()
     except OSError as exc:
         why = "timed out" if isinstance(exc, TimeoutError) else (exc.strerror or str(exc))
-        raise SweepError(f"--address {address}: cannot reach {host}:{port} within "
-                         f"{timeout:g} s ({why}); check the head node's address and port, or "
-                         "start one with `ray start --head --ray-client-server-port 10001`"
-                         ) from None
+        raise SweepError(
+            f"--address {address}: cannot reach {host}:{port} within "
+            f"{timeout:g} s ({why}); check the head node's address and port, or "
+            "start one with `ray start --head --ray-client-server-port 10001`"
+        ) from None
 
 
-def connect(address: str | None, num_cpus: int | None, verbose: bool,
-            timeout: float = 5.0) -> tuple[str, bool]:
+def connect(
+    address: str | None, num_cpus: int | None, verbose: bool, timeout: float = 5.0
+) -> tuple[str, bool]:
     """Start a local Ray instance (``address`` None or ``local``) or join a cluster; in a
     program that has already called ``ray.init`` (and gives no address), use that.
 
@@ -554,8 +622,7 @@ def connect(address: str | None, num_cpus: int | None, verbose: bool,
     """
     import ray
 
-    quiet = {"log_to_driver": verbose, "logging_level": logging.INFO if verbose
-             else logging.ERROR}
+    quiet = {"log_to_driver": verbose, "logging_level": logging.INFO if verbose else logging.ERROR}
     cpus = lambda: int(ray.cluster_resources().get("CPU", 0))  # noqa: E731
     if address in (None, "", "local"):
         if ray.is_initialized():
@@ -577,10 +644,11 @@ def connect(address: str | None, num_cpus: int | None, verbose: bool,
             ray.init(address=address, runtime_env=runtime_env, **quiet)
     except Exception as exc:
         first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-        raise SweepError(f"--address {address}: cannot connect ({first}); check the address, "
-                         "that the cluster runs the same Ray and Python versions, and, if it "
-                         "uses token authentication, RAY_AUTH_MODE=token and its token here"
-                         ) from None
+        raise SweepError(
+            f"--address {address}: cannot connect ({first}); check the address, "
+            "that the cluster runs the same Ray and Python versions, and, if it "
+            "uses token authentication, RAY_AUTH_MODE=token and its token here"
+        ) from None
     return f"the Ray cluster at {address} ({cpus()} CPUs)", True
 
 
@@ -601,15 +669,27 @@ class TrialRow:
 
 def _spec(sweep: SweepConfig, sweep_dir: Path) -> dict[str, Any]:
     axes = list(sweep.grid)
-    return {"base": base_data(sweep), "axes": axes, "varying": sweep.varying,
-            "sweep_dir": str(sweep_dir), "evaluation": dataclasses.asdict(sweep.evaluation),
-            "threads": sweep.cpus_per_trial}
+    return {
+        "base": base_data(sweep),
+        "axes": axes,
+        "varying": sweep.varying,
+        "sweep_dir": str(sweep_dir),
+        "evaluation": dataclasses.asdict(sweep.evaluation),
+        "threads": sweep.cpus_per_trial,
+    }
 
 
-def run_sweep(sweep: SweepConfig, *, address: str | None = None, resume: bool = False,
-              num_cpus: int | None = None, verbose: bool = False,
-              connect_timeout: float = 5.0, tune_callbacks: Sequence[Any] = (),
-              log: Callable[[str], None] = print) -> list[TrialRow]:
+def run_sweep(
+    sweep: SweepConfig,
+    *,
+    address: str | None = None,
+    resume: bool = False,
+    num_cpus: int | None = None,
+    verbose: bool = False,
+    connect_timeout: float = 5.0,
+    tune_callbacks: Sequence[Any] = (),
+    log: Callable[[str], None] = print,
+) -> list[TrialRow]:
     """Run (or resume) the sweep's trials with Ray Tune; returns the finished trials.
 
     Args:
@@ -626,17 +706,23 @@ def run_sweep(sweep: SweepConfig, *, address: str | None = None, resume: bool = 
         if not (exp_dir / "tuner.pkl").exists():
             raise SweepError(f"{sweep_dir}: no sweep to resume; start it without --resume")
         if saved.exists() and saved.read_text() != resolved:
-            raise SweepError(f"{sweep.source}: changed since the sweep in {sweep_dir} started; "
-                             f"resume with the same file (a copy is in {saved}) or use a new name")
+            raise SweepError(
+                f"{sweep.source}: changed since the sweep in {sweep_dir} started; "
+                f"resume with the same file (a copy is in {saved}) or use a new name"
+            )
     elif exp_dir.exists():
-        raise SweepError(f"{sweep_dir}: a sweep already exists; pass --resume to continue it, "
-                         "or choose another name or --storage")
+        raise SweepError(
+            f"{sweep_dir}: a sweep already exists; pass --resume to continue it, "
+            "or choose another name or --storage"
+        )
     if address is None and os.environ.get("RAY_ADDRESS"):
         address = os.environ["RAY_ADDRESS"]
     local_cpus = num_cpus or os.cpu_count() or 1
     if address in (None, "", "local") and sweep.cpus_per_trial > local_cpus:
-        raise ConfigError(f"{sweep.source}: cpus_per_trial: {sweep.cpus_per_trial} is more than "
-                          f"the {local_cpus} CPUs here; lower it or use --address")
+        raise ConfigError(
+            f"{sweep.source}: cpus_per_trial: {sweep.cpus_per_trial} is more than "
+            f"the {local_cpus} CPUs here; lower it or use --address"
+        )
 
     if not verbose:  # Tune's legacy reporter at verbose=0 prints nothing
         os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")
@@ -645,26 +731,37 @@ def run_sweep(sweep: SweepConfig, *, address: str | None = None, resume: bool = 
 
     where, owned = connect(address, num_cpus, verbose, connect_timeout)
     n_trials = len(grid_points(sweep))
-    log(f"{'resuming' if resume else 'running'} sweep {sweep.name}: {n_trials} trials on "
+    log(
+        f"{'resuming' if resume else 'running'} sweep {sweep.name}: {n_trials} trials on "
         f"{where}, {sweep.cpus_per_trial} CPU(s) each"
-        + (f", at most {sweep.max_concurrent} at once" if sweep.max_concurrent else ""))
+        + (f", at most {sweep.max_concurrent} at once" if sweep.max_concurrent else "")
+    )
     try:
         sweep_dir.mkdir(parents=True, exist_ok=True)
         saved.write_text(resolved)
         trainable = tune.with_resources(
             tune.with_parameters(_trainable, spec=_spec(sweep, sweep_dir)),
-            {"cpu": sweep.cpus_per_trial})
+            {"cpu": sweep.cpus_per_trial},
+        )
         if resume:
-            tuner = tune.Tuner.restore(str(exp_dir), trainable, resume_unfinished=True,
-                                       restart_errored=True)
+            tuner = tune.Tuner.restore(
+                str(exp_dir), trainable, resume_unfinished=True, restart_errored=True
+            )
         else:
             tuner = tune.Tuner(
-                trainable, param_space=_param_space(sweep),
-                tune_config=tune.TuneConfig(max_concurrent_trials=sweep.max_concurrent or None,
-                                            trial_dirname_creator=_trial_dirname),
-                run_config=tune.RunConfig(name=_TUNE_DIR, storage_path=str(sweep_dir),
-                                          verbose=1 if verbose else 0,
-                                          callbacks=list(tune_callbacks)))
+                trainable,
+                param_space=_param_space(sweep),
+                tune_config=tune.TuneConfig(
+                    max_concurrent_trials=sweep.max_concurrent or None,
+                    trial_dirname_creator=_trial_dirname,
+                ),
+                run_config=tune.RunConfig(
+                    name=_TUNE_DIR,
+                    storage_path=str(sweep_dir),
+                    verbose=1 if verbose else 0,
+                    callbacks=list(tune_callbacks),
+                ),
+            )
         results = tuner.fit()
     finally:
         if owned:
@@ -675,15 +772,30 @@ def run_sweep(sweep: SweepConfig, *, address: str | None = None, resume: bool = 
         if r.error is not None and r.config:
             point = _flatten_point(r.config, list(sweep.grid))
             first = (str(r.error).strip().splitlines() or ["error"])[-1]
-            log(f"trial {setting_label(sweep.varying, point)}, seed {point.get('seed', '-')} "
-                f"failed: {first} (log: {r.path})")
+            log(
+                f"trial {setting_label(sweep.varying, point)}, seed {point.get('seed', '-')} "
+                f"failed: {first} (log: {r.path})"
+            )
         if r.error is not None or not m.get("final"):
             continue
-        rows.append(TrialRow(setting=m["setting"], seed=int(m["seed"]), run_dir=m["run_dir"],
-                             metrics={k: m.get(k) for k in (*METRICS, "episodes",
-                                                            "mean_time_to_success",
-                                                            "numerical_errors", "timesteps")},
-                             curve=_curve(r)))
+        rows.append(
+            TrialRow(
+                setting=m["setting"],
+                seed=int(m["seed"]),
+                run_dir=m["run_dir"],
+                metrics={
+                    k: m.get(k)
+                    for k in (
+                        *METRICS,
+                        "episodes",
+                        "mean_time_to_success",
+                        "numerical_errors",
+                        "timesteps",
+                    )
+                },
+                curve=_curve(r),
+            )
+        )
     order = {setting_label(sweep.varying, p): i for i, p in enumerate(grid_points(sweep))}
     rows.sort(key=lambda r: (order.get(r.setting, len(order)), r.seed))
     return rows
@@ -697,8 +809,10 @@ def _curve(result: Any) -> list[tuple[int, float, float]]:
     df = result.metrics_dataframe
     if df is None or "timesteps" not in df:
         return []
-    return [(int(t), float(s), float(r)) for t, s, r in
-            zip(df["timesteps"], df["success_rate"], df["mean_return"], strict=True)]
+    return [
+        (int(t), float(s), float(r))
+        for t, s, r in zip(df["timesteps"], df["success_rate"], df["mean_return"], strict=True)
+    ]
 
 
 # --------------------------------------------------------------------------- summary
@@ -744,31 +858,45 @@ def markdown_summary(sweep: SweepConfig, rows: Sequence[TrialRow]) -> str:
     per-trial table."""
     summary = summarise(rows)
     ev = sweep.evaluation
-    lines = [f"Sweep `{sweep.name}`: final models on {ev.episodes} fixed episodes (seeds "
-             f"{ev.seed}..{ev.seed + ev.episodes - 1}); mean ± std (min..max) over training "
-             "seeds.", "",
-             "| setting | seeds | success rate | return | final \\|w\\| [rad/s] | fuel [N s] |",
-             "|---|---|---|---|---|---|"]
+    lines = [
+        f"Sweep `{sweep.name}`: final models on {ev.episodes} fixed episodes (seeds "
+        f"{ev.seed}..{ev.seed + ev.episodes - 1}); mean ± std (min..max) over training "
+        "seeds.",
+        "",
+        "| setting | seeds | success rate | return | final \\|w\\| [rad/s] | fuel [N s] |",
+        "|---|---|---|---|---|---|",
+    ]
     for s in summary:
+
         def cell(m: str, f: str, s: SettingSummary = s) -> str:
             v = s.values[m]
-            return (f"{s.mean(m):{f}} ± {s.std(m):{f}} "
-                    f"({min(v):{f}}..{max(v):{f}})")
-        lines.append(f"| {s.setting} | {len(s.seeds)} | {cell('success_rate', '.2f')} | "
-                     f"{cell('mean_return', '.1f')} | "
-                     f"{s.mean('mean_final_angular_speed'):.3f} | {s.mean('mean_fuel'):.2f} |")
+            return f"{s.mean(m):{f}} ± {s.std(m):{f}} ({min(v):{f}}..{max(v):{f}})"
+
+        lines.append(
+            f"| {s.setting} | {len(s.seeds)} | {cell('success_rate', '.2f')} | "
+            f"{cell('mean_return', '.1f')} | "
+            f"{s.mean('mean_final_angular_speed'):.3f} | {s.mean('mean_fuel'):.2f} |"
+        )
     if summary:
         b = best_setting(summary, sweep.metric)
-        lines += ["", f"Best setting by mean {sweep.metric} ({sweep.mode}): **{b.setting}** "
-                  f"({b.mean(sweep.metric):.3f} ± {b.std(sweep.metric):.3f} over "
-                  f"{len(b.seeds)} seeds)."]
-    lines += ["", "| setting | seed | timesteps | success rate | return | final \\|w\\| | fuel |",
-              "|---|---|---|---|---|---|---|"]
+        lines += [
+            "",
+            f"Best setting by mean {sweep.metric} ({sweep.mode}): **{b.setting}** "
+            f"({b.mean(sweep.metric):.3f} ± {b.std(sweep.metric):.3f} over "
+            f"{len(b.seeds)} seeds).",
+        ]
+    lines += [
+        "",
+        "| setting | seed | timesteps | success rate | return | final \\|w\\| | fuel |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         m = r.metrics
-        lines.append(f"| {r.setting} | {r.seed} | {m['timesteps']} | {m['success_rate']:.2f} | "
-                     f"{m['mean_return']:.1f} | {m['mean_final_angular_speed']:.3f} | "
-                     f"{m['mean_fuel']:.2f} |")
+        lines.append(
+            f"| {r.setting} | {r.seed} | {m['timesteps']} | {m['success_rate']:.2f} | "
+            f"{m['mean_return']:.1f} | {m['mean_final_angular_speed']:.3f} | "
+            f"{m['mean_fuel']:.2f} |"
+        )
     return "\n".join(lines) + "\n"
 
 
@@ -797,16 +925,29 @@ def plot_summary(sweep: SweepConfig, rows: Sequence[TrialRow], path: Path) -> bo
     summary = summarise(rows)
     fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True)
     x = np.arange(len(summary))
-    for ax, metric, title in ((axes[0], "success_rate", "final success rate"),
-                              (axes[1], "mean_return", "final mean return")):
+    for ax, metric, title in (
+        (axes[0], "success_rate", "final success rate"),
+        (axes[1], "mean_return", "final mean return"),
+    ):
         for i, s in enumerate(summary):
             v = s.values[metric]
             jitter = np.linspace(-0.12, 0.12, len(v)) if len(v) > 1 else np.zeros(1)
             ax.scatter(i + jitter, v, s=18, color="tab:blue", alpha=0.6, zorder=3)
-            ax.errorbar(i + 0.25, s.mean(metric), yerr=s.std(metric), fmt="o", color="black",
-                        capsize=4, zorder=4)
-        ax.set_xticks(x, [s.setting for s in summary], rotation=20 if len(summary) > 3 else 0,
-                      ha="right" if len(summary) > 3 else "center")
+            ax.errorbar(
+                i + 0.25,
+                s.mean(metric),
+                yerr=s.std(metric),
+                fmt="o",
+                color="black",
+                capsize=4,
+                zorder=4,
+            )
+        ax.set_xticks(
+            x,
+            [s.setting for s in summary],
+            rotation=20 if len(summary) > 3 else 0,
+            ha="right" if len(summary) > 3 else "center",
+        )
         ax.set_xlim(-0.6, len(summary) - 0.4)
         ax.set_title(f"{title}\n(dots: seeds; black: mean ± std)", fontsize=10)
         ax.grid(alpha=0.3)
@@ -824,8 +965,9 @@ def plot_summary(sweep: SweepConfig, rows: Sequence[TrialRow], path: Path) -> bo
         color = f"C{k % 10}"
         for row in table:
             ax.plot(steps, row, color=color, alpha=0.25, linewidth=0.8)
-        ax.plot(steps, np.nanmean(table, axis=0), color=color, label=s.setting, marker=".",
-                linewidth=2)
+        ax.plot(
+            steps, np.nanmean(table, axis=0), color=color, label=s.setting, marker=".", linewidth=2
+        )
     ax.set_xlabel("environment steps")
     ax.set_ylabel("success rate")
     ax.set_ylim(-0.05, 1.05)
@@ -834,9 +976,12 @@ def plot_summary(sweep: SweepConfig, rows: Sequence[TrialRow], path: Path) -> bo
     if len(summary) > 1:
         ax.legend(fontsize=8)
     ev = sweep.evaluation
-    fig.suptitle(f"sweep {sweep.name}: {len(rows)} trials of "
-                 f"{rows[0].metrics['timesteps'] if rows else 0} steps; each point evaluates "
-                 f"the policy on {ev.episodes} fixed episodes", fontsize=11)
+    fig.suptitle(
+        f"sweep {sweep.name}: {len(rows)} trials of "
+        f"{rows[0].metrics['timesteps'] if rows else 0} steps; each point evaluates "
+        f"the policy on {ev.episodes} fixed episodes",
+        fontsize=11,
+    )
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -856,15 +1001,17 @@ def write_summary(sweep: SweepConfig, rows: Sequence[TrialRow]) -> dict[str, Pat
     summary = summarise(rows)
     if summary:
         best = best_setting(summary, sweep.metric)
-        point = next(p for p in grid_points(sweep)
-                     if setting_label(sweep.varying, p) == best.setting)
+        point = next(
+            p for p in grid_points(sweep) if setting_label(sweep.varying, p) == best.setting
+        )
         point.pop("seed", None)
         cfg = load_config(trial_data(base_data(sweep), point))
         paths["best"] = out / "best_config.yaml"
         paths["best"].write_text(
             f"# Best setting of sweep {sweep.name} ({best.setting}) by mean {sweep.metric} "
             f"over seeds {best.seeds}.\n# Train it: python -m agents.train {paths['best']}\n"
-            + yaml.safe_dump(cfg.to_dict(), sort_keys=False))
+            + yaml.safe_dump(cfg.to_dict(), sort_keys=False)
+        )
     return paths
 
 
@@ -873,19 +1020,31 @@ def write_summary(sweep: SweepConfig, rows: Sequence[TrialRow]) -> dict[str, Pat
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(prog="python -m agents.sweep",
-                                     description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.sweep", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("sweep", help="sweep YAML (configs/sweeps/*.yaml)")
-    parser.add_argument("--address", help="Ray cluster to run on: ray://HOST:10001 (Ray "
-                        "Client), HOST:PORT or auto; default $RAY_ADDRESS, else a local "
-                        "Ray instance started here")
-    parser.add_argument("--resume", action="store_true",
-                        help="continue an interrupted sweep; finished trials are kept")
+    parser.add_argument(
+        "--address",
+        help="Ray cluster to run on: ray://HOST:10001 (Ray "
+        "Client), HOST:PORT or auto; default $RAY_ADDRESS, else a local "
+        "Ray instance started here",
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted sweep; finished trials are kept",
+    )
     parser.add_argument("--storage", type=Path, help="override the sweep file's storage folder")
-    parser.add_argument("--num-cpus", type=int, help="CPUs of the local Ray instance "
-                        "(default: all)")
-    parser.add_argument("--connect-timeout", type=float, default=5.0,
-                        help="seconds to wait for --address (default 5)")
+    parser.add_argument(
+        "--num-cpus", type=int, help="CPUs of the local Ray instance (default: all)"
+    )
+    parser.add_argument(
+        "--connect-timeout",
+        type=float,
+        default=5.0,
+        help="seconds to wait for --address (default 5)",
+    )
     parser.add_argument("--verbose", action="store_true", help="Ray's and Tune's own output")
     args = parser.parse_args(argv)
     prog = "agents.sweep"
@@ -896,9 +1055,14 @@ def main(argv: list[str] | None = None) -> int:
             from ray import tune  # noqa: F401
         except ImportError:
             raise SweepError("Ray Tune is not installed; pip install -e '.[sweep]'") from None
-        rows = run_sweep(sweep, address=args.address, resume=args.resume,
-                         num_cpus=args.num_cpus, verbose=args.verbose,
-                         connect_timeout=args.connect_timeout)
+        rows = run_sweep(
+            sweep,
+            address=args.address,
+            resume=args.resume,
+            num_cpus=args.num_cpus,
+            verbose=args.verbose,
+            connect_timeout=args.connect_timeout,
+        )
     except (ConfigError, SweepError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return 2
@@ -912,8 +1076,11 @@ def main(argv: list[str] | None = None) -> int:
         for name, p in paths.items():
             print(f"{name}: {p}")
     if len(rows) < expected:
-        print(f"{prog}: {expected - len(rows)} of {expected} trials unfinished; continue with "
-              "--resume (failed trials start again)", file=sys.stderr)
+        print(
+            f"{prog}: {expected - len(rows)} of {expected} trials unfinished; continue with "
+            "--resume (failed trials start again)",
+            file=sys.stderr,
+        )
         return 1
     return 0
 

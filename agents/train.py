@@ -25,8 +25,9 @@ import yaml
 from agents.config import ConfigError, TrainConfig, algorithm_class, load_config
 
 
-def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int, training: bool = True,
-                 norm_stats: Path | None = None) -> Any:
+def make_vec_env(
+    cfg: TrainConfig, n_envs: int, seed: int, training: bool = True, norm_stats: Path | None = None
+) -> Any:
     """The native SB3 adapter with ``VecMonitor`` and (optionally) ``VecNormalize``."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
@@ -40,8 +41,13 @@ def make_vec_env(cfg: TrainConfig, n_envs: int, seed: int, training: bool = True
             venv = VecNormalize.load(str(norm_stats), venv)
         else:
             gamma = float(cfg.hyperparams.get("gamma", 0.99))
-            venv = VecNormalize(venv, norm_obs=cfg.normalize.obs, norm_reward=cfg.normalize.reward,
-                                clip_obs=cfg.normalize.clip_obs, gamma=gamma)
+            venv = VecNormalize(
+                venv,
+                norm_obs=cfg.normalize.obs,
+                norm_reward=cfg.normalize.reward,
+                clip_obs=cfg.normalize.clip_obs,
+                gamma=gamma,
+            )
         venv.training = training
         if not training:
             venv.norm_reward = False
@@ -66,8 +72,14 @@ def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
     return best
 
 
-def train(cfg: TrainConfig, runs_dir: Path = Path("runs"), resume: bool = False,
-          progress: bool = True, verbose: int = 0, callbacks: Sequence[Any] = ()) -> Path:
+def train(
+    cfg: TrainConfig,
+    runs_dir: Path = Path("runs"),
+    resume: bool = False,
+    progress: bool = True,
+    verbose: int = 0,
+    callbacks: Sequence[Any] = (),
+) -> Path:
     """Train and save; returns the run directory.
 
     Args:
@@ -80,8 +92,10 @@ def train(cfg: TrainConfig, runs_dir: Path = Path("runs"), resume: bool = False,
     run_dir = runs_dir / cfg.run_name
     ckpt_dir = run_dir / "checkpoints"
     if run_dir.exists() and not resume and (run_dir / "config.yaml").exists():
-        raise ConfigError(f"{run_dir}: a run already exists; pass --resume to continue it, "
-                          "or choose another --seed or --runs-dir")
+        raise ConfigError(
+            f"{run_dir}: a run already exists; pass --resume to continue it, "
+            "or choose another --seed or --runs-dir"
+        )
     run_dir.mkdir(parents=True, exist_ok=True)
     (run_dir / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
 
@@ -100,33 +114,65 @@ def train(cfg: TrainConfig, runs_dir: Path = Path("runs"), resume: bool = False,
         if buffer.exists() and hasattr(model, "load_replay_buffer"):
             model.load_replay_buffer(str(buffer))
     else:
-        model = algo_cls(cfg.policy, env, seed=cfg.seed, device=cfg.device, verbose=verbose,
-                         tensorboard_log=str(run_dir / "tb"), policy_kwargs=_policy_kwargs(cfg),
-                         **cfg.hyperparams)
+        model = algo_cls(
+            cfg.policy,
+            env,
+            seed=cfg.seed,
+            device=cfg.device,
+            verbose=verbose,
+            tensorboard_log=str(run_dir / "tb"),
+            policy_kwargs=_policy_kwargs(cfg),
+            **cfg.hyperparams,
+        )
     # Share the training normalisation statistics with the evaluation env.
     if hasattr(env, "obs_rms"):
         eval_env.obs_rms = env.obs_rms
     per_env = max(1, cfg.eval.freq // cfg.n_envs)
-    callbacks = CallbackList([
-        CheckpointCallback(save_freq=max(1, cfg.checkpoint_freq // cfg.n_envs),
-                           save_path=str(ckpt_dir), name_prefix="model",
-                           save_replay_buffer=True, save_vecnormalize=True),
-        _SyncNormalization(eval_env),
-        EvalCallback(eval_env, n_eval_episodes=cfg.eval.episodes, eval_freq=per_env,
-                     log_path=str(run_dir / "eval"), best_model_save_path=str(run_dir / "eval"),
-                     deterministic=True, verbose=verbose),
-        *callbacks,
-    ])
+    callbacks = CallbackList(
+        [
+            CheckpointCallback(
+                save_freq=max(1, cfg.checkpoint_freq // cfg.n_envs),
+                save_path=str(ckpt_dir),
+                name_prefix="model",
+                save_replay_buffer=True,
+                save_vecnormalize=True,
+            ),
+            _SyncNormalization(eval_env),
+            EvalCallback(
+                eval_env,
+                n_eval_episodes=cfg.eval.episodes,
+                eval_freq=per_env,
+                log_path=str(run_dir / "eval"),
+                best_model_save_path=str(run_dir / "eval"),
+                deterministic=True,
+                verbose=verbose,
+            ),
+            *callbacks,
+        ]
+    )
     remaining = cfg.total_timesteps - (model.num_timesteps if start is not None else 0)
     if remaining > 0:
-        model.learn(total_timesteps=remaining, callback=callbacks, progress_bar=progress,
-                    reset_num_timesteps=start is None, tb_log_name="run")
+        model.learn(
+            total_timesteps=remaining,
+            callback=callbacks,
+            progress_bar=progress,
+            reset_num_timesteps=start is None,
+            tb_log_name="run",
+        )
     model.save(str(run_dir / "model.zip"))
     if hasattr(env, "save"):
         env.save(str(run_dir / "vecnormalize.pkl"))
-    (run_dir / "model.json").write_text(json.dumps(
-        {"env_id": cfg.env_id, "algo": cfg.algo, "env_kwargs": cfg.env_kwargs,
-         "num_timesteps": int(model.num_timesteps)}, indent=2))
+    (run_dir / "model.json").write_text(
+        json.dumps(
+            {
+                "env_id": cfg.env_id,
+                "algo": cfg.algo,
+                "env_kwargs": cfg.env_kwargs,
+                "num_timesteps": int(model.num_timesteps),
+            },
+            indent=2,
+        )
+    )
     env.close()
     eval_env.close()
     return run_dir
@@ -150,18 +196,29 @@ class _SyncNormalization:
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m agents.train", description=__doc__.split("\n")[0]
+    )
     parser.add_argument("config", help="training config YAML (configs/agents/*.yaml)")
     parser.add_argument("--seed", type=int, help="override the config's seed")
     parser.add_argument("--total-timesteps", type=int, help="override total_timesteps")
     parser.add_argument("--n-envs", type=int, help="override n_envs")
-    parser.add_argument("--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)")
+    parser.add_argument(
+        "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
+    )
     parser.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", type=int, default=0)
     args = parser.parse_args(argv)
-    overrides = {k: v for k, v in (("seed", args.seed), ("total_timesteps", args.total_timesteps),
-                                   ("n_envs", args.n_envs)) if v is not None}
+    overrides = {
+        k: v
+        for k, v in (
+            ("seed", args.seed),
+            ("total_timesteps", args.total_timesteps),
+            ("n_envs", args.n_envs),
+        )
+        if v is not None
+    }
     try:
         cfg = load_config(args.config, overrides)
         progress = not args.no_progress
@@ -171,7 +228,9 @@ def main(argv: list[str] | None = None) -> int:
                 import tqdm  # noqa: F401
             except ImportError:
                 progress = False
-        run_dir = train(cfg, args.runs_dir, resume=args.resume, progress=progress, verbose=args.verbose)
+        run_dir = train(
+            cfg, args.runs_dir, resume=args.resume, progress=progress, verbose=args.verbose
+        )
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2

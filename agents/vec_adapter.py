@@ -36,8 +36,9 @@ class RigidBodySB3VecEnv(VecEnv):
         **kwargs: passed to the task, as to ``gym.make(env_id, **kwargs)``.
     """
 
-    def __init__(self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None,
-                 **kwargs: Any) -> None:
+    def __init__(
+        self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
+    ) -> None:
         import rigid_env  # noqa: F401  (registers the ids)
 
         spec = gym.spec(env_id)
@@ -49,8 +50,12 @@ class RigidBodySB3VecEnv(VecEnv):
         self.task: TaskBatch = vec_cls.task_cls(num_envs, **kwargs)
         self.max_episode_steps = max_episode_steps or spec.max_episode_steps
         self.render_mode = None
-        super().__init__(num_envs, self.task.single_observation_space, self.task.single_action_space)
-        self._rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(num_envs)]
+        super().__init__(
+            num_envs, self.task.single_observation_space, self.task.single_action_space
+        )
+        self._rngs: list[np.random.Generator] = [
+            seeding.np_random(None)[0] for _ in range(num_envs)
+        ]
         self._actions: np.ndarray | None = None
 
     # ---- SB3 VecEnv API ------------------------------------------------------------------
@@ -102,13 +107,20 @@ class RigidBodySB3VecEnv(VecEnv):
         """Set an attribute on the task (shared by every sub-env)."""
         setattr(self.task, attr_name, value)
 
-    def env_method(self, method_name: str, *method_args: Any, indices: VecEnvIndices = None,
-                   **method_kwargs: Any) -> list[Any]:
+    def env_method(
+        self,
+        method_name: str,
+        *method_args: Any,
+        indices: VecEnvIndices = None,
+        **method_kwargs: Any,
+    ) -> list[Any]:
         """Call a task method once (the task is shared); result repeated per index."""
         result = getattr(self.task, method_name)(*method_args, **method_kwargs)
         return [result for _ in self._indices(indices)]
 
-    def env_is_wrapped(self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None) -> list[bool]:
+    def env_is_wrapped(
+        self, wrapper_class: type[gym.Wrapper], indices: VecEnvIndices = None
+    ) -> list[bool]:
         """Sub-envs are never wrapped by Gymnasium wrappers."""
         return [False for _ in self._indices(indices)]
 

@@ -39,7 +39,7 @@ SCENE_DIR = Path(__file__).resolve().parents[1] / "configs" / "scenes"
 BENCHMARKS = {
     "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
     "speed": "throughput: body-steps per second against batch size, peers in the same run",
-    "stability": "hard cases at full length (flips, fast spin, thin bodies, separatrix, long horizon)",
+    "stability": "hard cases at full length (flips, fast spin, thin bodies, separatrix)",
 }
 
 
@@ -75,7 +75,8 @@ def _int_at_least(low: int) -> Callable[[str], int]:
             k = int(text)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected an integer >= {low}, got {text!r}") from None
+                f"expected an integer >= {low}, got {text!r}"
+            ) from None
         if k < low:
             raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {k}")
         return k
@@ -87,7 +88,8 @@ def _int_at_least(low: int) -> Callable[[str], int]:
 def _integrator(text: str) -> str:
     if text not in INTEGRATORS:
         raise argparse.ArgumentTypeError(
-            f"unknown integrator {text!r}; choose one of: {', '.join(INTEGRATORS)}")
+            f"unknown integrator {text!r}; choose one of: {', '.join(INTEGRATORS)}"
+        )
     return text
 
 
@@ -99,15 +101,16 @@ def _action(text: str) -> list[float]:
             x = float(item)
         except ValueError:
             raise argparse.ArgumentTypeError(
-                f"expected comma-separated numbers in [-1, 1], got {item.strip()!r} "
-                f"in {text!r}") from None
+                f"expected comma-separated numbers in [-1, 1], got {item.strip()!r} in {text!r}"
+            ) from None
         if not math.isfinite(x):
             raise argparse.ArgumentTypeError(
-                f"{item.strip()!r} is not a finite number; give commands in [-1, 1]")
+                f"{item.strip()!r} is not a finite number; give commands in [-1, 1]"
+            )
         if not -1.0 <= x <= 1.0:
             raise argparse.ArgumentTypeError(
-                f"{x:g} is outside [-1, 1]; every command is a fraction of the actuator's "
-                "max_force")
+                f"{x:g} is outside [-1, 1]; every command is a fraction of the actuator's max_force"
+            )
         values.append(x)
     return values
 
@@ -124,29 +127,47 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
 
     sim = sub.add_parser(
-        "simulate", help="integrate a scene and write its trajectory (.npz)",
+        "simulate",
+        help="integrate a scene and write its trajectory (.npz)",
         description="Integrate one body of a scene with a constant command and write the "
         "trajectory: t (N+1,), position, velocity, orientation (w, x, y, z), "
         "angular_velocity_body, angular_velocity_world (N+1, 3|4), energy (N+1,), "
-        "angular_momentum_world (N+1, 3).")
+        "angular_momentum_world (N+1, 3).",
+    )
     sim.add_argument("scene", metavar="SCENE.yaml", help="scene file (see configs/scenes/)")
-    sim.add_argument("--steps", type=_int_at_least(1), required=True, metavar="N",
-                     help="number of steps of dt")
-    sim.add_argument("--dt", type=_positive_float, metavar="H",
-                     help="time per step [s] (default: the scene's)")
-    sim.add_argument("--integrator", type=_integrator, metavar="NAME",
-                     help=f"one of {', '.join(INTEGRATORS)} (default: the scene's)")
-    sim.add_argument("--substeps", type=_int_at_least(1), metavar="K",
-                     help="integrator steps per dt (default: the scene's)")
-    sim.add_argument("--action", type=_action, metavar="A1,A2,...",
-                     help="constant command, one number in [-1, 1] per actuator component "
-                     "(default: zeros)")
+    sim.add_argument(
+        "--steps", type=_int_at_least(1), required=True, metavar="N", help="number of steps of dt"
+    )
+    sim.add_argument(
+        "--dt", type=_positive_float, metavar="H", help="time per step [s] (default: the scene's)"
+    )
+    sim.add_argument(
+        "--integrator",
+        type=_integrator,
+        metavar="NAME",
+        help=f"one of {', '.join(INTEGRATORS)} (default: the scene's)",
+    )
+    sim.add_argument(
+        "--substeps",
+        type=_int_at_least(1),
+        metavar="K",
+        help="integrator steps per dt (default: the scene's)",
+    )
+    sim.add_argument(
+        "--action",
+        type=_action,
+        metavar="A1,A2,...",
+        help="constant command, one number in [-1, 1] per actuator component (default: zeros)",
+    )
     sim.add_argument("--out", required=True, metavar="FILE.npz", help="output file")
     sim.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     sim.set_defaults(handler=_cmd_simulate)
 
-    bench = sub.add_parser("bench", help="accuracy and speed benchmarks",
-                           description="Benchmarks; each writes a figure and tables.")
+    bench = sub.add_parser(
+        "bench",
+        help="accuracy and speed benchmarks",
+        description="Benchmarks; each writes a figure and tables.",
+    )
     bench_sub = bench.add_subparsers(dest="benchmark", metavar="BENCHMARK")
     for name, text in BENCHMARKS.items():
         # add_help=False: `--help` and every flag go to the benchmark's own parser.
@@ -154,14 +175,25 @@ def build_parser() -> argparse.ArgumentParser:
         b.set_defaults(handler=_cmd_bench, takes_extra=True)
     bench.set_defaults(handler=_cmd_bench_missing)
 
-    scenes = sub.add_parser("scenes", help="list the example scenes",
-                            description="List scene files with a one-line summary each.")
-    scenes.add_argument("--dir", type=Path, default=None, metavar="DIR",
-                        help=f"directory of .yaml scenes (default: {SCENE_DIR})")
+    scenes = sub.add_parser(
+        "scenes",
+        help="list the example scenes",
+        description="List scene files with a one-line summary each.",
+    )
+    scenes.add_argument(
+        "--dir",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=f"directory of .yaml scenes (default: {SCENE_DIR})",
+    )
     scenes.set_defaults(handler=_cmd_scenes)
 
-    integ = sub.add_parser("integrators", help="list the integrators",
-                           description="Name, order and a note for every integrator.")
+    integ = sub.add_parser(
+        "integrators",
+        help="list the integrators",
+        description="Name, order and a note for every integrator.",
+    )
     integ.set_defaults(handler=_cmd_integrators)
     return parser
 
@@ -233,11 +265,13 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     action = _check_action(args.action, world.action_dim)
     out = Path(args.out)
     if out.is_dir():
-        raise UsageError(f"--out: {out} is a directory; give a file name such as "
-                         f"{out / 'trajectory.npz'}")
+        raise UsageError(
+            f"--out: {out} is a directory; give a file name such as {out / 'trajectory.npz'}"
+        )
     if out.exists() and not args.force:
-        raise UsageError(f"--out: {out} exists; pass --force to overwrite it, or choose "
-                         "another file")
+        raise UsageError(
+            f"--out: {out} exists; pass --force to overwrite it, or choose another file"
+        )
     out.parent.mkdir(parents=True, exist_ok=True)
 
     start = time.perf_counter()
@@ -248,8 +282,7 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     wall = time.perf_counter() - start
     arrays = {key: (val if key == "t" else val[:, 0]) for key, val in traj.items()}
     _write_npz(out, arrays)
-    print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall,
-                   out))
+    print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall, out))
     return 0
 
 
@@ -257,11 +290,16 @@ def _check_action(values: list[float] | None, action_dim: int) -> NDArray[np.flo
     if values is None:
         return None
     if len(values) != action_dim:
-        have = (f"{action_dim} actuator component{'s' if action_dim != 1 else ''}"
-                if action_dim else "no actuators")
-        raise UsageError(f"argument --action: the scene has {have}, got {len(values)} "
-                         "number(s); give one number in [-1, 1] per component"
-                         + ("" if action_dim else " or leave --action out"))
+        have = (
+            f"{action_dim} actuator component{'s' if action_dim != 1 else ''}"
+            if action_dim
+            else "no actuators"
+        )
+        raise UsageError(
+            f"argument --action: the scene has {have}, got {len(values)} "
+            "number(s); give one number in [-1, 1] per component"
+            + ("" if action_dim else " or leave --action out")
+        )
     return np.array(values, dtype=np.float64)
 
 
@@ -284,26 +322,36 @@ def _drift(series: NDArray[np.float64]) -> str:
     return f"{a:.6g} -> {b:.6g} (change {b - a:+.3e}{rel})"
 
 
-def _summary(name: str, integrator: str, dt: float, substeps: int,
-             arrays: dict[str, NDArray[np.float64]], wall: float, out: Path) -> str:
+def _summary(
+    name: str,
+    integrator: str,
+    dt: float,
+    substeps: int,
+    arrays: dict[str, NDArray[np.float64]],
+    wall: float,
+    out: Path,
+) -> str:
     steps = arrays["t"].shape[0] - 1
     l_norm = np.linalg.norm(arrays["angular_momentum_world"], axis=1)
     w_final = float(np.linalg.norm(arrays["angular_velocity_body"][-1]))
     rate = f" ({steps / wall:,.0f} steps/s)" if wall > 0.0 else ""
-    return "\n".join([
-        f"{name}: {steps} steps of {dt:g} s = {steps * dt:g} s simulated with {integrator}"
-        f" ({substeps} substep{'s' if substeps != 1 else ''} per step)",
-        f"  energy [J]:          {_drift(arrays['energy'])}",
-        f"  |L| [kg m^2/s]:      {_drift(l_norm)}",
-        f"  final |w| [rad/s]:   {w_final:.6g}",
-        f"  wall time:           {wall:.3f} s{rate}",
-        f"  wrote {out}",
-    ])
+    return "\n".join(
+        [
+            f"{name}: {steps} steps of {dt:g} s = {steps * dt:g} s simulated with {integrator}"
+            f" ({substeps} substep{'s' if substeps != 1 else ''} per step)",
+            f"  energy [J]:          {_drift(arrays['energy'])}",
+            f"  |L| [kg m^2/s]:      {_drift(l_norm)}",
+            f"  final |w| [rad/s]:   {w_final:.6g}",
+            f"  wall time:           {wall:.3f} s{rate}",
+            f"  wrote {out}",
+        ]
+    )
 
 
 def _cmd_bench_missing(args: argparse.Namespace, extra: list[str]) -> int:
-    raise UsageError(f"bench: choose a benchmark: {', '.join(BENCHMARKS)} "
-                     f"(e.g. '{PROG} bench accuracy --quick')")
+    raise UsageError(
+        f"bench: choose a benchmark: {', '.join(BENCHMARKS)} (e.g. '{PROG} bench accuracy --quick')"
+    )
 
 
 def _cmd_bench(args: argparse.Namespace, extra: list[str]) -> int:
@@ -313,10 +361,13 @@ def _cmd_bench(args: argparse.Namespace, extra: list[str]) -> int:
         module = importlib.import_module(module_name)
     except ModuleNotFoundError as exc:
         if exc.name == module_name:
-            raise UsageError(f"bench {name}: not available in this installation "
-                             f"({module_name} is missing)") from None
-        raise UsageError(f"bench {name}: needs the package {exc.name!r}; install the "
-                         "benchmark extras with: pip install -e '.[bench]'") from None
+            raise UsageError(
+                f"bench {name}: not available in this installation ({module_name} is missing)"
+            ) from None
+        raise UsageError(
+            f"bench {name}: needs the package {exc.name!r}; install the "
+            "benchmark extras with: pip install -e '.[bench]'"
+        ) from None
     parser = _Parser(prog=f"{PROG} bench {name}", description=BENCHMARKS[name])
     module.add_arguments(parser)
     return int(module.run(parser.parse_args(extra)))
@@ -341,8 +392,7 @@ def _header_sentence(path: Path) -> str:
 def _cmd_scenes(args: argparse.Namespace, extra: list[str]) -> int:
     folder: Path = args.dir if args.dir is not None else SCENE_DIR
     if not folder.is_dir():
-        raise UsageError(f"--dir: {folder} is not a directory; give the folder of the "
-                         ".yaml scenes")
+        raise UsageError(f"--dir: {folder} is not a directory; give the folder of the .yaml scenes")
     files = sorted(folder.glob("*.yaml"))
     if not files:
         print(f"no .yaml scenes in {folder}")

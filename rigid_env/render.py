@@ -99,14 +99,22 @@ RGB_MASKS = (0x0000FF, 0x00FF00, 0xFF0000, 0)
 
 # Box of half extents h: vertex k has signs from the bits of k; faces list vertex indices
 # counter-clockwise seen from outside, one per body axis and sign.
-_SIGNS = np.array([[(k >> 0) & 1, (k >> 1) & 1, (k >> 2) & 1] for k in range(8)],
-                  dtype=np.float64) * 2.0 - 1.0
-_FACES = np.array([[1, 3, 7, 5], [0, 4, 6, 2],   # +x, -x
-                   [2, 6, 7, 3], [0, 1, 5, 4],   # +y, -y
-                   [4, 5, 7, 6], [0, 2, 3, 1]])  # +z, -z
+_SIGNS = (
+    np.array([[(k >> 0) & 1, (k >> 1) & 1, (k >> 2) & 1] for k in range(8)], dtype=np.float64) * 2.0
+    - 1.0
+)
+_FACES = np.array(
+    [
+        [1, 3, 7, 5],
+        [0, 4, 6, 2],  # +x, -x
+        [2, 6, 7, 3],
+        [0, 1, 5, 4],  # +y, -y
+        [4, 5, 7, 6],
+        [0, 2, 3, 1],
+    ]
+)  # +z, -z
 _FACE_NORMALS = np.repeat(np.eye(3), 2, axis=0) * np.tile([1.0, -1.0], 3)[:, None]
-_EDGES = np.array([[a, b] for a in range(8) for b in range(a + 1, 8)
-                   if bin(a ^ b).count("1") == 1])
+_EDGES = np.array([[a, b] for a in range(8) for b in range(a + 1, 8) if bin(a ^ b).count("1") == 1])
 
 
 def _import_pygame(mode: str) -> Any:
@@ -185,19 +193,27 @@ class _Polylines:
         self.starts: list[NDArray[np.bool_]] = []  # whether a piece starts at the sample
         self.xray: list[NDArray[np.bool_]] = []
 
-    def add(self, samples_body: FloatArray, colors: list[Color], widths: float | FloatArray, *,
-            dashed: bool = False, xray: bool = False) -> None:
+    def add(
+        self,
+        samples_body: FloatArray,
+        colors: list[Color],
+        widths: float | FloatArray,
+        *,
+        dashed: bool = False,
+        xray: bool = False,
+    ) -> None:
         """Queue L polylines of M samples each, (L, M, 3) or (M, 3) body frame [m], with
         L (M - 1) piece colours and the width [px] at each sample, (M,) or scalar (a hairline
         at <= 1 px)."""
         lines = samples_body.reshape(-1, *samples_body.shape[-2:])
         n_lines, m = lines.shape[:2]
         self.samples.append(lines.reshape(-1, 3))
-        self.widths.append(np.broadcast_to(np.asarray(widths, dtype=np.float64),
-                                           (n_lines, m)).ravel())
+        self.widths.append(
+            np.broadcast_to(np.asarray(widths, dtype=np.float64), (n_lines, m)).ravel()
+        )
         per_line = len(colors) // n_lines
         for j in range(n_lines):
-            self.colors.extend(colors[j * per_line:(j + 1) * per_line])
+            self.colors.extend(colors[j * per_line : (j + 1) * per_line])
             self.colors.append((0, 0, 0))  # no piece starts at a line's last sample
         starts = np.ones(m, dtype=bool)
         starts[-1] = False
@@ -206,8 +222,9 @@ class _Polylines:
         self.starts.append(np.tile(starts, n_lines))
         self.xray.append(np.full(n_lines * m, xray))
 
-    def split(self, r: TaskRenderer, rot: FloatArray,
-              cam_body: FloatArray) -> tuple[list[Piece], list[Piece]]:
+    def split(
+        self, r: TaskRenderer, rot: FloatArray, cam_body: FloatArray
+    ) -> tuple[list[Piece], list[Piece]]:
         """Project and test every sample at once; sort the pieces into (behind, front)."""
         if not self.samples:
             return [], []
@@ -253,8 +270,9 @@ class TaskRenderer:
         ValueError: unknown mode or a size below 64 px.
     """
 
-    def __init__(self, task: TaskBatch, mode: str, fps: int, width: int = 480,
-                 height: int = 480) -> None:
+    def __init__(
+        self, task: TaskBatch, mode: str, fps: int, width: int = 480, height: int = 480
+    ) -> None:
         if mode not in RENDER_MODES:
             raise ValueError(f"mode: must be one of {RENDER_MODES}, got {mode!r}")
         if int(width) < 64 or int(height) < 64:
@@ -342,9 +360,10 @@ class TaskRenderer:
             label = self._font_small.render(name, True, AXIS_COLORS[k])
             w, h = label.get_size()
             bg.blit(label, (tips[k, 0] - w / 2, tips[k, 1] - h / 2))
-        legend: list[tuple[str, Color]] = [("angular velocity (world)", ARROW_COLOR),
-                                           ("thrust (length ~ |command|)", _mix(FLAME_NOZZLE,
-                                                                                FLAME_TIP, 0.5))]
+        legend: list[tuple[str, Color]] = [
+            ("angular velocity (world)", ARROW_COLOR),
+            ("thrust (length ~ |command|)", _mix(FLAME_NOZZLE, FLAME_TIP, 0.5)),
+        ]
         if self.task.target_dim == 4:
             legend.append(("target orientation", TARGET_COLOR))
         if getattr(self.task, "target_spin", None) is not None:
@@ -370,8 +389,9 @@ class TaskRenderer:
             for text, yy in ((f"{self.gauge_top:.0f} m", top - 4), ("0 m", bottom + 4)):
                 label = self._font_small.render(text, True, DIM_TEXT)
                 ytop = yy - label.get_height() if yy < bottom else yy
-                bg.blit(label, (min(x - label.get_width() // 2, self.width - label.get_width()),
-                                ytop))
+                bg.blit(
+                    label, (min(x - label.get_width() // 2, self.width - label.get_width()), ytop)
+                )
         return bg
 
     # ---- projection and occlusion ----------------------------------------------------------
@@ -417,7 +437,7 @@ class TaskRenderer:
         self._rgb.blit(self._surface, (0, 0))
         rows = np.frombuffer(self._rgb.get_buffer().raw, dtype=np.uint8)
         rows = rows.reshape(self.height, -1)
-        return np.array(rows[:, :3 * self.width]).reshape(self.height, self.width, 3)
+        return np.array(rows[:, : 3 * self.width]).reshape(self.height, self.width, 3)
 
     def _draw(self, i: int) -> None:
         task = self.task
@@ -533,8 +553,9 @@ class TaskRenderer:
         lines.add(samples, [ARROW_COLOR] * ARROW_PIECES, width, xray=True)
         return axis * (length - head), axis * length
 
-    def _draw_arrow_head(self, base: FloatArray, tip: FloatArray, *, rot: FloatArray,
-                         cam_body: FloatArray) -> None:
+    def _draw_arrow_head(
+        self, base: FloatArray, tip: FloatArray, *, rot: FloatArray, cam_body: FloatArray
+    ) -> None:
         """Screen-space triangle; dimmed like the shaft when the box hides it."""
         ends = np.stack([base, tip])
         color = ARROW_COLOR
@@ -548,8 +569,7 @@ class TaskRenderer:
             self.pg.draw.circle(self._surface, color, t.tolist(), half_width)
             return
         n = np.array([-seg[1], seg[0]]) / length * half_width
-        self.pg.draw.polygon(self._surface, color, [t.tolist(), (b + n).tolist(),
-                                                    (b - n).tolist()])
+        self.pg.draw.polygon(self._surface, color, [t.tolist(), (b + n).tolist(), (b - n).tolist()])
 
     def _draw_ground(self, height: float) -> None:
         """Grid on z = 0 under the body, once the ground is within reach of the view."""
@@ -576,8 +596,9 @@ class TaskRenderer:
         frac = float(np.clip(height / self.gauge_top, 0.0, 1.0)) if np.isfinite(height) else 0.0
         top, bottom = self.gauge_span
         x, y, s = self.gauge_x, bottom - frac * (bottom - top), 6.0 * self.ui
-        self.pg.draw.polygon(self._surface, GAUGE_COLOR,
-                             [(x - 3, y), (x - 3 - 2 * s, y - s), (x - 3 - 2 * s, y + s)])
+        self.pg.draw.polygon(
+            self._surface, GAUGE_COLOR, [(x - 3, y), (x - 3 - 2 * s, y - s), (x - 3 - 2 * s, y + s)]
+        )
 
     def _draw_text(self, i: int) -> None:
         surf, task, ui = self._surface, self.task, self.ui
@@ -588,10 +609,16 @@ class TaskRenderer:
         step = self._font.render(f"step {int(task.steps[i])}", True, DIM_TEXT)
         surf.blit(step, (x0 + tw + round(12 * ui), y0 + th - step.get_height() - round(2 * ui)))
         rows: list[list[tuple[str, Color]]] = [
-            [(f"|w| {speed:.3f} rad/s", TEXT_COLOR), (f"fuel {float(task.fuel[i]):.3f} N s",
-                                                      TEXT_COLOR)],
-            [("success" if success else "not (yet) successful",
-              SUCCESS_COLOR if success else DIM_TEXT)],
+            [
+                (f"|w| {speed:.3f} rad/s", TEXT_COLOR),
+                (f"fuel {float(task.fuel[i]):.3f} N s", TEXT_COLOR),
+            ],
+            [
+                (
+                    "success" if success else "not (yet) successful",
+                    SUCCESS_COLOR if success else DIM_TEXT,
+                )
+            ],
         ]
         if self.ground:
             rows[1].append((f"height {float(task.world.state.x[i, 2]):.1f} m", GAUGE_COLOR))

@@ -87,8 +87,10 @@ DEGENERATE_MOMENT_RTOL = 1.0e-12
 POINT_MASS_RTOL = 1.0e-9
 
 SHAPE_KINDS = ("box", "sphere", "cylinder", "ellipsoid", "capsule", "points")
-_SHAPE_FORMS = ("box: [a, b, c], sphere: r, cylinder: [r, h], ellipsoid: [a, b, c], "
-                "capsule: [r, length] or points: [[x, y, z, m], ...]")
+_SHAPE_FORMS = (
+    "box: [a, b, c], sphere: r, cylinder: [r, h], ellipsoid: [a, b, c], "
+    "capsule: [r, length] or points: [[x, y, z, m], ...]"
+)
 
 
 class SceneError(ValueError):
@@ -293,7 +295,8 @@ class Scene:
     actuators: ActuatorsSpec = field(default_factory=ActuatorsSpec)
     """Thrusters and point forces."""
     max_angular_speed: float | None = None
-    """Clamp on ``|w|`` before every substep and after the last [rad/s] (PhysX's maxAngularVelocity); None = off."""
+    """Clamp on ``|w|`` before every substep and after the last [rad/s] (PhysX's
+    ``maxAngularVelocity``); None = off."""
     source: str | None = field(default=None, compare=False, repr=False)
     """File the scene was read from (used in error messages); not part of the scene."""
 
@@ -352,8 +355,11 @@ class Scene:
             out.append(Gravity(np.array(spec.gravity.g)))
         if spec.quadratic_drag is not None:
             d = spec.quadratic_drag
-            cop = (np.zeros(3) if d.center_of_pressure is None
-                   else self.point_to_body(d.center_of_pressure))
+            cop = (
+                np.zeros(3)
+                if d.center_of_pressure is None
+                else self.point_to_body(d.center_of_pressure)
+            )
             out.append(QuadraticDrag(d.rho, d.cd, d.area, cop))
         out.extend(self._actuator_effects())
         if spec.linear_damping is not None:
@@ -366,10 +372,13 @@ class Scene:
         act = self.actuators
         out: list[ForceEffect] = []
         if act.thrusters:
-            out.append(Thrusters(
-                self.point_to_body([t.point for t in act.thrusters]),
-                self.direction_to_body([t.direction for t in act.thrusters]),
-                np.array([t.max_force for t in act.thrusters])))
+            out.append(
+                Thrusters(
+                    self.point_to_body([t.point for t in act.thrusters]),
+                    self.direction_to_body([t.direction for t in act.thrusters]),
+                    np.array([t.max_force for t in act.thrusters]),
+                )
+            )
         pf = act.point_forces
         if pf is not None:
             points = self.point_to_body(pf.points)
@@ -379,9 +388,13 @@ class Scene:
                 # Components along the shape axes e_j, which are A^T e_j (row j of A) in body
                 # coordinates: three thrusters per point, the same linear map as PointForces.
                 k = points.shape[0]
-                out.append(Thrusters(np.repeat(points, 3, axis=0),
-                                     np.tile(self.frame_axes, (k, 1)),
-                                     np.full(3 * k, pf.max_force)))
+                out.append(
+                    Thrusters(
+                        np.repeat(points, 3, axis=0),
+                        np.tile(self.frame_axes, (k, 1)),
+                        np.full(3 * k, pf.max_force),
+                    )
+                )
         return out
 
     def initial_state(self, n: int = 1) -> State:
@@ -399,8 +412,9 @@ class Scene:
             w_body = self.direction_to_body(w_in)
         x = np.array(ini.position, dtype=np.float64) + com_offset
         v = np.array(ini.velocity, dtype=np.float64) + cross(quat_rotate(q, w_body), com_offset)
-        return State(np.tile(x, (n, 1)), np.tile(v, (n, 1)), np.tile(q, (n, 1)),
-                     np.tile(w_body, (n, 1)))
+        return State(
+            np.tile(x, (n, 1)), np.tile(v, (n, 1)), np.tile(q, (n, 1)), np.tile(w_body, (n, 1))
+        )
 
     def build_world(
         self,
@@ -421,12 +435,22 @@ class Scene:
         Raises:
             SceneError: if an override is invalid.
         """
-        changes = {k: v for k, v in (("integrator", integrator), ("dt", dt),
-                                     ("substeps", substeps)) if v is not None}
+        changes = {
+            k: v
+            for k, v in (("integrator", integrator), ("dt", dt), ("substeps", substeps))
+            if v is not None
+        }
         scene = self.replace(**changes) if changes else self
-        return World(scene.body_model(), scene.effects(), integrator=scene.integrator,
-                     dt=scene.dt, substeps=scene.substeps, state=scene.initial_state(n),
-                     max_angular_speed=scene.max_angular_speed, on_error=on_error)
+        return World(
+            scene.body_model(),
+            scene.effects(),
+            integrator=scene.integrator,
+            dt=scene.dt,
+            substeps=scene.substeps,
+            state=scene.initial_state(n),
+            max_angular_speed=scene.max_angular_speed,
+            on_error=on_error,
+        )
 
     # ---- variants and serialisation --------------------------------------------------------
     def replace(self, **changes: Any) -> Scene:
@@ -444,8 +468,9 @@ class Scene:
         for key, value in changes.items():
             file_key = "effects" if key == "effects_spec" else key
             if file_key not in _TOP_KEYS:
-                raise TypeError(f"Scene.replace: unknown field {key!r}; fields: "
-                                f"{', '.join(_TOP_KEYS)}")
+                raise TypeError(
+                    f"Scene.replace: unknown field {key!r}; fields: {', '.join(_TOP_KEYS)}"
+                )
             data[file_key] = _plain(value)
         label = f"{self.source or self.name} (with overrides)"
         return _parse(data, label, self.name, self.source)
@@ -453,8 +478,12 @@ class Scene:
     def to_dict(self) -> dict[str, Any]:
         """The scene in file form (plain lists, floats, strings); ``load_scene`` of it gives an
         equal scene."""
-        out: dict[str, Any] = {"name": self.name, "dt": self.dt, "substeps": self.substeps,
-                               "integrator": self.integrator}
+        out: dict[str, Any] = {
+            "name": self.name,
+            "dt": self.dt,
+            "substeps": self.substeps,
+            "integrator": self.integrator,
+        }
         if self.max_angular_speed is not None:
             out["max_angular_speed"] = self.max_angular_speed
         out["body"] = _plain(self.body)
@@ -470,11 +499,17 @@ class Scene:
             shape = f"{len(s.points)} point masses"
         else:
             shape = f"{s.kind} {' x '.join(f'{x:g}' for x in s.size)} m"
-        effects = [f.name for f in fields(self.effects_spec)
-                   if getattr(self.effects_spec, f.name) is not None]
-        parts = [f"{shape}, {self.body.mass:g} kg", f"{self.integrator} dt={self.dt:g} s"
-                 + (f" x{self.substeps}" if self.substeps > 1 else ""),
-                 "effects: " + (", ".join(effects) if effects else "none")]
+        effects = [
+            f.name
+            for f in fields(self.effects_spec)
+            if getattr(self.effects_spec, f.name) is not None
+        ]
+        parts = [
+            f"{shape}, {self.body.mass:g} kg",
+            f"{self.integrator} dt={self.dt:g} s"
+            + (f" x{self.substeps}" if self.substeps > 1 else ""),
+            "effects: " + (", ".join(effects) if effects else "none"),
+        ]
         if self.actuators.thrusters:
             k = len(self.actuators.thrusters)
             parts.append(f"{k} thruster{'s' if k > 1 else ''}")
@@ -490,8 +525,9 @@ def _check_n(n: int) -> int:
     return int(n)
 
 
-def _aligned_principal_frame(moments: FloatArray,
-                             axes: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _aligned_principal_frame(
+    moments: FloatArray, axes: FloatArray
+) -> tuple[FloatArray, FloatArray]:
     """Reorder and flip the principal axes (columns) to the proper rotation nearest the
     identity (largest trace) among the 24 equivalent ones; moments follow their axes."""
     best: tuple[float, FloatArray, FloatArray] | None = None
@@ -534,8 +570,17 @@ def _plain(obj: Any) -> Any:
 # Loading
 # --------------------------------------------------------------------------------------------
 
-_TOP_KEYS = ("name", "dt", "substeps", "integrator", "max_angular_speed", "body", "initial",
-             "effects", "actuators")
+_TOP_KEYS = (
+    "name",
+    "dt",
+    "substeps",
+    "integrator",
+    "max_angular_speed",
+    "body",
+    "initial",
+    "effects",
+    "actuators",
+)
 
 
 class _SceneLoader(yaml.SafeLoader):
@@ -553,8 +598,11 @@ class _SceneLoader(yaml.SafeLoader):
                 continue
             if duplicate:
                 raise yaml.constructor.ConstructorError(
-                    "while reading a mapping", node.start_mark,
-                    f"found key {key!r} twice", key_node.start_mark)
+                    "while reading a mapping",
+                    node.start_mark,
+                    f"found key {key!r} twice",
+                    key_node.start_mark,
+                )
         return super().construct_mapping(node, deep=deep)
 
 
@@ -592,16 +640,19 @@ def _read_yaml(path: Path, label: str) -> Any:
     try:
         text = path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise SceneError(label, "", "file not found",
-                         "check the path (example scenes are in configs/scenes/)") from None
+        raise SceneError(
+            label, "", "file not found", "check the path (example scenes are in configs/scenes/)"
+        ) from None
     except IsADirectoryError:
-        raise SceneError(label, "", "is a directory",
-                         "give the path of a .yaml scene file") from None
+        raise SceneError(
+            label, "", "is a directory", "give the path of a .yaml scene file"
+        ) from None
     except UnicodeDecodeError:
         raise SceneError(label, "", "is not UTF-8 text", "give a YAML scene file") from None
     except OSError as exc:
-        raise SceneError(label, "", f"cannot be read ({exc.strerror})",
-                         "check the path and its permissions") from None
+        raise SceneError(
+            label, "", f"cannot be read ({exc.strerror})", "check the path and its permissions"
+        ) from None
     try:
         return yaml.load(text, Loader=_SceneLoader)  # a SafeLoader subclass: safe
     except yaml.MarkedYAMLError as exc:
@@ -609,8 +660,9 @@ def _read_yaml(path: Path, label: str) -> Any:
         where = f"line {mark.line + 1}" if mark is not None else ""
         col = f" (column {mark.column + 1})" if mark is not None else ""
         problem = exc.problem or exc.context or "invalid YAML"
-        raise SceneError(label, where, f"YAML error: {problem}{col}",
-                         "fix the YAML at that line") from None
+        raise SceneError(
+            label, where, f"YAML error: {problem}{col}", "fix the YAML at that line"
+        ) from None
     except yaml.YAMLError as exc:
         raise SceneError(label, "", f"YAML error: {exc}", "fix the YAML syntax") from None
 
@@ -649,28 +701,53 @@ class _Reader:
     def fail(self, path: str, problem: str, fix: str) -> NoReturn:
         raise SceneError(self.label, path, problem, fix)
 
-    def mapping(self, node: Any, path: str, allowed: Sequence[str],
-                required: Sequence[str] = (), *, none_is_empty: bool = False,
-                example: str = "") -> dict[str, Any]:
+    def mapping(
+        self,
+        node: Any,
+        path: str,
+        allowed: Sequence[str],
+        required: Sequence[str] = (),
+        *,
+        none_is_empty: bool = False,
+        example: str = "",
+    ) -> dict[str, Any]:
         if node is None and none_is_empty:
             node = {}
         if not isinstance(node, Mapping):
-            self.fail(path, f"expected a mapping, got {_describe(node)}",
-                      f"write it as {example or '{key: value, ...}'}"
-                      + (f" with keys {', '.join(allowed)}" if not example else ""))
+            self.fail(
+                path,
+                f"expected a mapping, got {_describe(node)}",
+                f"write it as {example or '{key: value, ...}'}"
+                + (f" with keys {', '.join(allowed)}" if not example else ""),
+            )
         for key in node:
             if key not in allowed:
                 where = f"{path}.{key}" if path else str(key)
-                self.fail(where, "unknown key",
-                          f"allowed keys here: {', '.join(allowed)} (check the spelling)")
+                self.fail(
+                    where,
+                    "unknown key",
+                    f"allowed keys here: {', '.join(allowed)} (check the spelling)",
+                )
         for key in required:
             if key not in node:
-                self.fail(f"{path}.{key}" if path else key, "missing required key",
-                          f"add {key}" + (f" to {path}" if path else " at the top level"))
+                self.fail(
+                    f"{path}.{key}" if path else key,
+                    "missing required key",
+                    f"add {key}" + (f" to {path}" if path else " at the top level"),
+                )
         return dict(node)
 
-    def number(self, node: Any, path: str, unit: str, *, low: float | None = None,
-               low_open: bool = True, high: float | None = None, fix: str = "") -> float:
+    def number(
+        self,
+        node: Any,
+        path: str,
+        unit: str,
+        *,
+        low: float | None = None,
+        low_open: bool = True,
+        high: float | None = None,
+        fix: str = "",
+    ) -> float:
         """A finite real number, optionally with ``low < x`` (``low <= x`` if not ``low_open``)
         and ``x <= high``."""
         unit_s = f" [{unit}]" if unit else ""
@@ -681,19 +758,34 @@ class _Reader:
                 parsed = None
             if parsed is not None and math.isfinite(parsed):
                 if "e" in node.lower():
-                    self.fail(path, f"expected a number{unit_s}, got the string {node!r}",
-                              "YAML 1.1 reads exponent notation without a dot and a signed "
-                              f"exponent as a string: write {_yaml_float(parsed)}")
-                self.fail(path, f"expected a number{unit_s}, got the string {node!r}",
-                          f"write the number without quotes: {parsed!r}")
+                    self.fail(
+                        path,
+                        f"expected a number{unit_s}, got the string {node!r}",
+                        "YAML 1.1 reads exponent notation without a dot and a signed "
+                        f"exponent as a string: write {_yaml_float(parsed)}",
+                    )
+                self.fail(
+                    path,
+                    f"expected a number{unit_s}, got the string {node!r}",
+                    f"write the number without quotes: {parsed!r}",
+                )
             if parsed is not None:
-                self.fail(path, f"must be finite, got the string {node!r}",
-                          f"give a finite number{unit_s}")
-            self.fail(path, f"expected a number{unit_s}, got {_describe(node)}",
-                      f"write a number{unit_s}" + (f"; {fix}" if fix else ""))
+                self.fail(
+                    path,
+                    f"must be finite, got the string {node!r}",
+                    f"give a finite number{unit_s}",
+                )
+            self.fail(
+                path,
+                f"expected a number{unit_s}, got {_describe(node)}",
+                f"write a number{unit_s}" + (f"; {fix}" if fix else ""),
+            )
         if isinstance(node, bool) or not isinstance(node, numbers.Real):
-            self.fail(path, f"expected a number{unit_s}, got {_describe(node)}",
-                      f"write a number{unit_s}" + (f"; {fix}" if fix else ""))
+            self.fail(
+                path,
+                f"expected a number{unit_s}, got {_describe(node)}",
+                f"write a number{unit_s}" + (f"; {fix}" if fix else ""),
+            )
         x = float(node)
         if not math.isfinite(x):
             self.fail(path, f"must be finite, got {x}", f"give a finite number{unit_s}")
@@ -705,21 +797,38 @@ class _Reader:
         return x
 
     def integer(self, node: Any, path: str, *, low: int, fix: str) -> int:
-        if isinstance(node, bool) or not isinstance(node, numbers.Real) or (
-                isinstance(node, float) and not node.is_integer()):
+        if (
+            isinstance(node, bool)
+            or not isinstance(node, numbers.Real)
+            or (isinstance(node, float) and not node.is_integer())
+        ):
             self.fail(path, f"must be an integer >= {low}, got {_describe(node)}", fix)
         if node < low:
             self.fail(path, f"must be an integer >= {low}, got {int(node)}", fix)
         return int(node)
 
-    def vector(self, node: Any, path: str, n: int, unit: str, *, low: float | None = None,
-               low_open: bool = True, fix: str = "") -> tuple[float, ...]:
+    def vector(
+        self,
+        node: Any,
+        path: str,
+        n: int,
+        unit: str,
+        *,
+        low: float | None = None,
+        low_open: bool = True,
+        fix: str = "",
+    ) -> tuple[float, ...]:
         if not isinstance(node, list | tuple) or len(node) != n:
             got = _describe(node)
-            self.fail(path, f"expected a list of {n} numbers{f' [{unit}]' if unit else ''}, "
-                      f"got {got}", fix or f"write {n} numbers like [{', '.join(['0.0'] * n)}]")
-        return tuple(self.number(v, f"{path}[{i}]", unit, low=low, low_open=low_open, fix=fix)
-                     for i, v in enumerate(node))
+            self.fail(
+                path,
+                f"expected a list of {n} numbers{f' [{unit}]' if unit else ''}, got {got}",
+                fix or f"write {n} numbers like [{', '.join(['0.0'] * n)}]",
+            )
+        return tuple(
+            self.number(v, f"{path}[{i}]", unit, low=low, low_open=low_open, fix=fix)
+            for i, v in enumerate(node)
+        )
 
     def string(self, node: Any, path: str, fix: str) -> str:
         if not isinstance(node, str) or not node.strip():
@@ -730,29 +839,44 @@ class _Reader:
 def _parse(data: Any, label: str, default_name: str, source: str | None) -> Scene:
     r = _Reader(label)
     if not isinstance(data, Mapping):
-        r.fail("top level", f"expected a mapping of scene keys, got {_describe(data)}",
-               f"write a YAML mapping with keys {', '.join(_TOP_KEYS)} (see "
-               "configs/scenes/asymmetric_spin.yaml)")
+        r.fail(
+            "top level",
+            f"expected a mapping of scene keys, got {_describe(data)}",
+            f"write a YAML mapping with keys {', '.join(_TOP_KEYS)} (see "
+            "configs/scenes/asymmetric_spin.yaml)",
+        )
     top = r.mapping(data, "", _TOP_KEYS, required=("body",))
     kw: dict[str, Any] = {"name": default_name}
     if "name" in top:
         kw["name"] = r.string(top["name"], "name", "give the scene a name such as my_scene")
     if "dt" in top:
-        kw["dt"] = r.number(top["dt"], "dt", "s", low=0.0,
-                            fix="give the time per step in seconds, e.g. 0.01")
+        kw["dt"] = r.number(
+            top["dt"], "dt", "s", low=0.0, fix="give the time per step in seconds, e.g. 0.01"
+        )
     if "substeps" in top:
-        kw["substeps"] = r.integer(top["substeps"], "substeps", low=1,
-                                   fix="give the number of integrator steps per dt, e.g. 1")
+        kw["substeps"] = r.integer(
+            top["substeps"],
+            "substeps",
+            low=1,
+            fix="give the number of integrator steps per dt, e.g. 1",
+        )
     if "integrator" in top:
         name = top["integrator"]
         if not isinstance(name, str) or name not in INTEGRATORS:
-            r.fail("integrator", f"unknown integrator {name!r}",
-                   f"choose one of: {', '.join(INTEGRATORS)}")
+            r.fail(
+                "integrator",
+                f"unknown integrator {name!r}",
+                f"choose one of: {', '.join(INTEGRATORS)}",
+            )
         kw["integrator"] = name
     if top.get("max_angular_speed") is not None:
         kw["max_angular_speed"] = r.number(
-            top["max_angular_speed"], "max_angular_speed", "rad/s", low=0.0,
-            fix="give the largest angular speed in rad/s, or remove the key to turn the clamp off")
+            top["max_angular_speed"],
+            "max_angular_speed",
+            "rad/s",
+            low=0.0,
+            fix="give the largest angular speed in rad/s, or remove the key to turn the clamp off",
+        )
     kw["body"] = _parse_body(r, top["body"])
     if "initial" in top:
         kw["initial"] = _parse_initial(r, top["initial"])
@@ -770,37 +894,57 @@ def _parse_shape(r: _Reader, node: Any) -> ShapeSpec:
     path = "body.shape"
     m = r.mapping(node, path, SHAPE_KINDS, example="{box: [0.3, 0.2, 0.1]}")
     if len(m) != 1:
-        r.fail(path, f"gives {len(m)} kinds ({', '.join(m)})" if m else "is empty",
-               f"give exactly one of {_SHAPE_FORMS}")
+        r.fail(
+            path,
+            f"gives {len(m)} kinds ({', '.join(m)})" if m else "is empty",
+            f"give exactly one of {_SHAPE_FORMS}",
+        )
     kind, val = next(iter(m.items()))
     p = f"{path}.{kind}"
     if kind == "sphere":
         return ShapeSpec("sphere", (r.number(val, p, "m", low=0.0, fix="give the radius in m"),))
     if kind in ("box", "ellipsoid"):
         what = "full side lengths" if kind == "box" else "semi-axes"
-        return ShapeSpec(kind, r.vector(val, p, 3, "m", low=0.0,
-                                        fix=f"give the three {what} along x, y, z in m"))
+        return ShapeSpec(
+            kind, r.vector(val, p, 3, "m", low=0.0, fix=f"give the three {what} along x, y, z in m")
+        )
     if kind in ("cylinder", "capsule"):
         second = "height" if kind == "cylinder" else "length"
         if not isinstance(val, list) or len(val) != 2:
-            r.fail(p, f"expected [radius, {second}] [m], got {_describe(val)}",
-                   f"write [radius, {second}] in m")
+            r.fail(
+                p,
+                f"expected [radius, {second}] [m], got {_describe(val)}",
+                f"write [radius, {second}] in m",
+            )
         radius = r.number(val[0], f"{p}[0]", "m", low=0.0, fix="give a radius > 0 in m")
-        extent = r.number(val[1], f"{p}[1]", "m", low=0.0, low_open=(kind == "cylinder"),
-                          fix=f"give the {second} along z in m")
+        extent = r.number(
+            val[1],
+            f"{p}[1]",
+            "m",
+            low=0.0,
+            low_open=(kind == "cylinder"),
+            fix=f"give the {second} along z in m",
+        )
         return ShapeSpec(kind, (radius, extent))
     if not isinstance(val, list) or not val:
-        r.fail(p, f"expected a non-empty list of [x, y, z, m] rows, got {_describe(val)}",
-               "write points: [[x, y, z, m], ...] with positions in m and masses in kg")
+        r.fail(
+            p,
+            f"expected a non-empty list of [x, y, z, m] rows, got {_describe(val)}",
+            "write points: [[x, y, z, m], ...] with positions in m and masses in kg",
+        )
     rows = []
     for i, row in enumerate(val):
         rp = f"{p}[{i}]"
         if not isinstance(row, list) or len(row) != 4:
-            r.fail(rp, f"expected a row [x, y, z, m], got {_describe(row)}",
-                   "write each row as [x, y, z, m] (position in m, mass in kg)")
+            r.fail(
+                rp,
+                f"expected a row [x, y, z, m], got {_describe(row)}",
+                "write each row as [x, y, z, m] (position in m, mass in kg)",
+            )
         xyz = tuple(r.number(row[k], f"{rp}[{k}]", "m") for k in range(3))
-        m_i = r.number(row[3], f"{rp}[3]", "kg", low=0.0, low_open=False,
-                       fix="give a point mass >= 0 in kg")
+        m_i = r.number(
+            row[3], f"{rp}[3]", "kg", low=0.0, low_open=False, fix="give a point mass >= 0 in kg"
+        )
         rows.append((*xyz, m_i))
     if sum(row[3] for row in rows) <= 0.0:
         r.fail(p, "total mass is 0", "give at least one point a mass > 0 in kg")
@@ -808,8 +952,13 @@ def _parse_shape(r: _Reader, node: Any) -> ShapeSpec:
 
 
 def _parse_body(r: _Reader, node: Any) -> BodySpec:
-    m = r.mapping(node, "body", ("mass", "shape", "inertia"), required=("shape",),
-                  example="{mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}}")
+    m = r.mapping(
+        node,
+        "body",
+        ("mass", "shape", "inertia"),
+        required=("shape",),
+        example="{mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}}",
+    )
     shape = _parse_shape(r, m["shape"])
     if shape.kind == "points":
         total = math.fsum(p[3] for p in shape.points)
@@ -817,23 +966,34 @@ def _parse_body(r: _Reader, node: Any) -> BodySpec:
         if "mass" in m:
             mass = r.number(m["mass"], "body.mass", "kg", low=0.0, fix="give the mass in kg")
             if abs(mass - total) > POINT_MASS_RTOL * total:
-                r.fail("body.mass", f"is {mass!r} but the point masses sum to {total!r}",
-                       "leave body.mass out for a points shape, or make the two agree")
+                r.fail(
+                    "body.mass",
+                    f"is {mass!r} but the point masses sum to {total!r}",
+                    "leave body.mass out for a points shape, or make the two agree",
+                )
     else:
         if "mass" not in m:
             r.fail("body.mass", "missing required key", "add the body's mass in kg")
         mass = r.number(m["mass"], "body.mass", "kg", low=0.0, fix="give the mass in kg")
     inertia = None
     if "inertia" in m:
-        inertia = r.vector(m["inertia"], "body.inertia", 3, "kg m^2", low=0.0,
-                           fix="give the three principal moments in kg m^2, each > 0")
+        inertia = r.vector(
+            m["inertia"],
+            "body.inertia",
+            3,
+            "kg m^2",
+            low=0.0,
+            fix="give the three principal moments in kg m^2, each > 0",
+        )
         _check_triangle(r, "body.inertia", inertia)
     elif shape.kind == "points":
         moments = shape.mass_properties(mass).principal_moments
         if moments[0] <= DEGENERATE_MOMENT_RTOL * moments[2]:
-            r.fail("body.shape.points", "the point masses lie on one line, so the body has no "
-                   "moment of inertia about it",
-                   "add a point off that line, or give body.inertia")
+            r.fail(
+                "body.shape.points",
+                "the point masses lie on one line, so the body has no moment of inertia about it",
+                "add a point off that line, or give body.inertia",
+            )
     return BodySpec(mass, shape, inertia)  # type: ignore[arg-type]
 
 
@@ -843,10 +1003,13 @@ def _check_triangle(r: _Reader, path: str, moments: tuple[float, ...]) -> None:
     except ValueError:
         k = int(np.argmax(moments))
         i, j = (k + 1) % 3, (k + 2) % 3
-        r.fail(path, f"I{k + 1} = {moments[k]:g} > I{i + 1} + I{j + 1} = "
-               f"{moments[i] + moments[j]:g} breaks the triangle inequality",
-               "no real body has one principal moment larger than the sum of the other two "
-               "(equality is a flat plate); check the values")
+        r.fail(
+            path,
+            f"I{k + 1} = {moments[k]:g} > I{i + 1} + I{j + 1} = "
+            f"{moments[i] + moments[j]:g} breaks the triangle inequality",
+            "no real body has one principal moment larger than the sum of the other two "
+            "(equality is a flat plate); check the values",
+        )
 
 
 def _parse_initial(r: _Reader, node: Any) -> InitialSpec:
@@ -857,52 +1020,86 @@ def _parse_initial(r: _Reader, node: Any) -> InitialSpec:
         if key in m:
             kw[key] = r.vector(m[key], f"initial.{key}", 3, unit)
     if "orientation" in m:
-        q = r.vector(m["orientation"], "initial.orientation", 4, "",
-                     fix="give a unit quaternion [w, x, y, z]")
+        q = r.vector(
+            m["orientation"],
+            "initial.orientation",
+            4,
+            "",
+            fix="give a unit quaternion [w, x, y, z]",
+        )
         norm = math.sqrt(math.fsum(c * c for c in q))
         if abs(norm - 1.0) > ORIENTATION_NORM_TOL:
-            r.fail("initial.orientation", f"has norm {norm:.9g}, not 1",
-                   "give a unit quaternion [w, x, y, z] ([1.0, 0.0, 0.0, 0.0] is no rotation)")
+            r.fail(
+                "initial.orientation",
+                f"has norm {norm:.9g}, not 1",
+                "give a unit quaternion [w, x, y, z] ([1.0, 0.0, 0.0, 0.0] is no rotation)",
+            )
         kw["orientation"] = q
     if "angular_velocity_frame" in m:
         frame = m["angular_velocity_frame"]
         if frame not in ("body", "world"):
-            r.fail("initial.angular_velocity_frame", f"got {_describe(frame)}",
-                   "write body or world")
+            r.fail(
+                "initial.angular_velocity_frame", f"got {_describe(frame)}", "write body or world"
+            )
         kw["angular_velocity_frame"] = frame
     return InitialSpec(**kw)
 
 
 def _parse_effects(r: _Reader, node: Any) -> EffectsSpec:
-    m = r.mapping(node, "effects", ("gravity", "quadratic_drag", "linear_damping",
-                                    "angular_damping"), none_is_empty=True)
+    m = r.mapping(
+        node,
+        "effects",
+        ("gravity", "quadratic_drag", "linear_damping", "angular_damping"),
+        none_is_empty=True,
+    )
     kw: dict[str, Any] = {}
     if "gravity" in m:
-        g = r.mapping(m["gravity"], "effects.gravity", ("g",),
-                      example="{g: [0.0, 0.0, -9.81]} (or {} for that default; remove the key "
-                      "to leave gravity out)")
-        kw["gravity"] = GravitySpec(**({"g": r.vector(g["g"], "effects.gravity.g", 3, "m/s^2")}
-                                       if "g" in g else {}))
+        g = r.mapping(
+            m["gravity"],
+            "effects.gravity",
+            ("g",),
+            example="{g: [0.0, 0.0, -9.81]} (or {} for that default; remove the key "
+            "to leave gravity out)",
+        )
+        kw["gravity"] = GravitySpec(
+            **({"g": r.vector(g["g"], "effects.gravity.g", 3, "m/s^2")} if "g" in g else {})
+        )
     if "quadratic_drag" in m:
         p = "effects.quadratic_drag"
-        d = r.mapping(m["quadratic_drag"], p, ("rho", "cd", "area", "center_of_pressure"),
-                      required=("area",), example="{rho: 1.225, cd: 1.05, area: 0.06}")
+        d = r.mapping(
+            m["quadratic_drag"],
+            p,
+            ("rho", "cd", "area", "center_of_pressure"),
+            required=("area",),
+            example="{rho: 1.225, cd: 1.05, area: 0.06}",
+        )
         dkw: dict[str, Any] = {}
         for key, unit in (("rho", "kg/m^3"), ("cd", ""), ("area", "m^2")):
             if key in d:
-                dkw[key] = r.number(d[key], f"{p}.{key}", unit, low=0.0,
-                                    fix="give a value > 0, or remove quadratic_drag to leave "
-                                    "drag out")
+                dkw[key] = r.number(
+                    d[key],
+                    f"{p}.{key}",
+                    unit,
+                    low=0.0,
+                    fix="give a value > 0, or remove quadratic_drag to leave drag out",
+                )
         if "center_of_pressure" in d:
-            dkw["center_of_pressure"] = r.vector(d["center_of_pressure"],
-                                                 f"{p}.center_of_pressure", 3, "m")
+            dkw["center_of_pressure"] = r.vector(
+                d["center_of_pressure"], f"{p}.center_of_pressure", 3, "m"
+            )
         kw["quadratic_drag"] = QuadraticDragSpec(**dkw)
     for key in ("linear_damping", "angular_damping"):
         if key in m:
             p = f"effects.{key}"
             d = r.mapping(m[key], p, ("alpha",), required=("alpha",), example="{alpha: 0.999}")
-            alpha = r.number(d["alpha"], f"{p}.alpha", "", low=0.0, high=1.0,
-                             fix="give a factor in (0, 1] (1.0 = no damping)")
+            alpha = r.number(
+                d["alpha"],
+                f"{p}.alpha",
+                "",
+                low=0.0,
+                high=1.0,
+                fix="give a factor in (0, 1] (1.0 = no damping)",
+            )
             kw[key] = DampingSpec(alpha)
     return EffectsSpec(**kw)
 
@@ -913,34 +1110,63 @@ def _parse_actuators(r: _Reader, node: Any) -> ActuatorsSpec:
     if "thrusters" in m:
         lst = m["thrusters"]
         if not isinstance(lst, list):
-            r.fail("actuators.thrusters", f"expected a list, got {_describe(lst)}",
-                   "write a list of {point: [x, y, z], direction: [x, y, z], max_force: F}")
+            r.fail(
+                "actuators.thrusters",
+                f"expected a list, got {_describe(lst)}",
+                "write a list of {point: [x, y, z], direction: [x, y, z], max_force: F}",
+            )
         thrusters = []
         for i, t in enumerate(lst):
             p = f"actuators.thrusters[{i}]"
-            d = r.mapping(t, p, ("point", "direction", "max_force"),
-                          required=("point", "direction", "max_force"),
-                          example="{point: [x, y, z], direction: [x, y, z], max_force: F}")
+            d = r.mapping(
+                t,
+                p,
+                ("point", "direction", "max_force"),
+                required=("point", "direction", "max_force"),
+                example="{point: [x, y, z], direction: [x, y, z], max_force: F}",
+            )
             point = r.vector(d["point"], f"{p}.point", 3, "m")
             direction = r.vector(d["direction"], f"{p}.direction", 3, "")
             if not any(direction):
-                r.fail(f"{p}.direction", "is zero",
-                       "give a non-zero direction vector (it is normalised)")
-            fmax = r.number(d["max_force"], f"{p}.max_force", "N", low=0.0, low_open=False,
-                            fix="give the force at full command in N, >= 0")
+                r.fail(
+                    f"{p}.direction",
+                    "is zero",
+                    "give a non-zero direction vector (it is normalised)",
+                )
+            fmax = r.number(
+                d["max_force"],
+                f"{p}.max_force",
+                "N",
+                low=0.0,
+                low_open=False,
+                fix="give the force at full command in N, >= 0",
+            )
             thrusters.append(ThrusterSpec(point, direction, fmax))  # type: ignore[arg-type]
         kw["thrusters"] = tuple(thrusters)
     if "point_forces" in m:
         p = "actuators.point_forces"
-        d = r.mapping(m["point_forces"], p, ("points", "max_force"),
-                      required=("points", "max_force"),
-                      example="{points: [[x, y, z], ...], max_force: F}")
+        d = r.mapping(
+            m["point_forces"],
+            p,
+            ("points", "max_force"),
+            required=("points", "max_force"),
+            example="{points: [[x, y, z], ...], max_force: F}",
+        )
         pts = d["points"]
         if not isinstance(pts, list) or not pts:
-            r.fail(f"{p}.points", f"expected a non-empty list of [x, y, z], got "
-                   f"{_describe(pts)}", "write points: [[x, y, z], ...] in m")
+            r.fail(
+                f"{p}.points",
+                f"expected a non-empty list of [x, y, z], got {_describe(pts)}",
+                "write points: [[x, y, z], ...] in m",
+            )
         points = tuple(r.vector(q, f"{p}.points[{i}]", 3, "m") for i, q in enumerate(pts))
-        fmax = r.number(d["max_force"], f"{p}.max_force", "N", low=0.0, low_open=False,
-                        fix="give the force per component at full command in N, >= 0")
+        fmax = r.number(
+            d["max_force"],
+            f"{p}.max_force",
+            "N",
+            low=0.0,
+            low_open=False,
+            fix="give the force per component at full command in N, >= 0",
+        )
         kw["point_forces"] = PointForcesSpec(points, fmax)  # type: ignore[arg-type]
     return ActuatorsSpec(**kw)

@@ -63,8 +63,9 @@ def base_scene() -> dict[str, Any]:
             "angular_damping": {"alpha": 0.999},
         },
         "actuators": {
-            "thrusters": [{"point": [0.15, 0.0, 0.0], "direction": [0.0, 1.0, 0.0],
-                           "max_force": 1.0}],
+            "thrusters": [
+                {"point": [0.15, 0.0, 0.0], "direction": [0.0, 1.0, 0.0], "max_force": 1.0}
+            ],
         },
     }
 
@@ -109,85 +110,186 @@ def _delete(path: str) -> Callable[[dict[str, Any]], None]:
 # (id, mutation, field path the message must name, words it must contain)
 BAD_SCENES = [
     ("unknown-top-key", _set("dtt", 0.01), "dtt", ["unknown key", "dt, substeps"]),
-    ("unknown-nested-key", _set("initial.positon", [0, 0, 0]), "initial.positon",
-     ["unknown key", "position"]),
-    ("unknown-thruster-key", _set("actuators.thrusters[0].pos", [0, 0, 0]),
-     "actuators.thrusters[0].pos", ["unknown key", "max_force"]),
-    ("unknown-effect", _set("effects.magnetism", {}), "effects.magnetism",
-     ["unknown key", "gravity"]),
-    ("string-for-number", _set("body.mass", "heavy"), "body.mass",
-     ["expected a number", "'heavy'"]),
+    (
+        "unknown-nested-key",
+        _set("initial.positon", [0, 0, 0]),
+        "initial.positon",
+        ["unknown key", "position"],
+    ),
+    (
+        "unknown-thruster-key",
+        _set("actuators.thrusters[0].pos", [0, 0, 0]),
+        "actuators.thrusters[0].pos",
+        ["unknown key", "max_force"],
+    ),
+    (
+        "unknown-effect",
+        _set("effects.magnetism", {}),
+        "effects.magnetism",
+        ["unknown key", "gravity"],
+    ),
+    (
+        "string-for-number",
+        _set("body.mass", "heavy"),
+        "body.mass",
+        ["expected a number", "'heavy'"],
+    ),
     ("bool-for-number", _set("dt", True), "dt", ["expected a number", "boolean"]),
     ("list-for-number", _set("body.mass", [1.0]), "body.mass", ["expected a number"]),
     ("mass-negative", _set("body.mass", -1.0), "body.mass", ["must be > 0", "-1.0", "kg"]),
     ("mass-zero", _set("body.mass", 0.0), "body.mass", ["must be > 0"]),
     ("mass-nan", _set("body.mass", float("nan")), "body.mass", ["finite"]),
-    ("position-inf", _set("initial.position[1]", float("inf")), "initial.position[1]",
-     ["finite"]),
+    ("position-inf", _set("initial.position[1]", float("inf")), "initial.position[1]", ["finite"]),
     ("dt-inf", _set("dt", float("-inf")), "dt", ["finite"]),
     ("box-side-zero", _set("body.shape.box[2]", 0.0), "body.shape.box[2]", ["must be > 0"]),
-    ("box-wrong-length", _set("body.shape.box", [0.3, 0.2]), "body.shape.box",
-     ["list of 3 numbers"]),
+    (
+        "box-wrong-length",
+        _set("body.shape.box", [0.3, 0.2]),
+        "body.shape.box",
+        ["list of 3 numbers"],
+    ),
     ("shape-two-kinds", _set("body.shape.sphere", 0.1), "body.shape", ["exactly one"]),
-    ("shape-unknown-kind", _set("body.shape", {"cube": 0.1}), "body.shape.cube",
-     ["unknown key", "box", "points"]),
-    ("inertia-zero", _set("body.inertia", [1.0, 0.0, 1.0]), "body.inertia[1]",
-     ["must be > 0"]),
-    ("inertia-negative", _set("body.inertia", [1.0, 2.0, -3.0]), "body.inertia[2]",
-     ["must be > 0"]),
-    ("inertia-triangle", _set("body.inertia", [1.0, 1.0, 3.0]), "body.inertia",
-     ["triangle inequality", "I3 = 3"]),
-    ("thruster-zero-direction", _set("actuators.thrusters[0].direction", [0.0, 0.0, 0.0]),
-     "actuators.thrusters[0].direction", ["is zero", "non-zero"]),
-    ("thruster-negative-force", _set("actuators.thrusters[0].max_force", -1.0),
-     "actuators.thrusters[0].max_force", ["must be >= 0"]),
-    ("thrusters-not-list", _set("actuators.thrusters", {"point": [0, 0, 0]}),
-     "actuators.thrusters", ["expected a list"]),
-    ("linear-damping-zero", _set("effects.linear_damping.alpha", 0.0),
-     "effects.linear_damping.alpha", ["must be > 0", "(0, 1]"]),
-    ("angular-damping-above-one", _set("effects.angular_damping.alpha", 1.5),
-     "effects.angular_damping.alpha", ["must be <= 1", "(0, 1]"]),
-    ("drag-area-negative", _set("effects.quadratic_drag.area", -0.06),
-     "effects.quadratic_drag.area", ["must be > 0"]),
-    ("gravity-null", _set("effects.gravity", None), "effects.gravity",
-     ["expected a mapping", "remove the key"]),
+    (
+        "shape-unknown-kind",
+        _set("body.shape", {"cube": 0.1}),
+        "body.shape.cube",
+        ["unknown key", "box", "points"],
+    ),
+    ("inertia-zero", _set("body.inertia", [1.0, 0.0, 1.0]), "body.inertia[1]", ["must be > 0"]),
+    (
+        "inertia-negative",
+        _set("body.inertia", [1.0, 2.0, -3.0]),
+        "body.inertia[2]",
+        ["must be > 0"],
+    ),
+    (
+        "inertia-triangle",
+        _set("body.inertia", [1.0, 1.0, 3.0]),
+        "body.inertia",
+        ["triangle inequality", "I3 = 3"],
+    ),
+    (
+        "thruster-zero-direction",
+        _set("actuators.thrusters[0].direction", [0.0, 0.0, 0.0]),
+        "actuators.thrusters[0].direction",
+        ["is zero", "non-zero"],
+    ),
+    (
+        "thruster-negative-force",
+        _set("actuators.thrusters[0].max_force", -1.0),
+        "actuators.thrusters[0].max_force",
+        ["must be >= 0"],
+    ),
+    (
+        "thrusters-not-list",
+        _set("actuators.thrusters", {"point": [0, 0, 0]}),
+        "actuators.thrusters",
+        ["expected a list"],
+    ),
+    (
+        "linear-damping-zero",
+        _set("effects.linear_damping.alpha", 0.0),
+        "effects.linear_damping.alpha",
+        ["must be > 0", "(0, 1]"],
+    ),
+    (
+        "angular-damping-above-one",
+        _set("effects.angular_damping.alpha", 1.5),
+        "effects.angular_damping.alpha",
+        ["must be <= 1", "(0, 1]"],
+    ),
+    (
+        "drag-area-negative",
+        _set("effects.quadratic_drag.area", -0.06),
+        "effects.quadratic_drag.area",
+        ["must be > 0"],
+    ),
+    (
+        "gravity-null",
+        _set("effects.gravity", None),
+        "effects.gravity",
+        ["expected a mapping", "remove the key"],
+    ),
     ("dt-zero", _set("dt", 0.0), "dt", ["must be > 0", "seconds"]),
     ("dt-negative", _set("dt", -0.01), "dt", ["must be > 0"]),
     ("substeps-zero", _set("substeps", 0), "substeps", ["integer >= 1"]),
     ("substeps-fraction", _set("substeps", 1.5), "substeps", ["integer >= 1"]),
-    ("integrator-unknown", _set("integrator", "rk5"), "integrator",
-     ["unknown integrator 'rk5'", *INTEGRATORS]),
+    (
+        "integrator-unknown",
+        _set("integrator", "rk5"),
+        "integrator",
+        ["unknown integrator 'rk5'", *INTEGRATORS],
+    ),
     ("missing-body", _delete("body"), "body", ["missing required key"]),
     ("missing-mass", _delete("body.mass"), "body.mass", ["missing required key", "kg"]),
     ("missing-shape", _delete("body.shape"), "body.shape", ["missing required key"]),
-    ("missing-max-force", _delete("actuators.thrusters[0].max_force"),
-     "actuators.thrusters[0].max_force", ["missing required key"]),
-    ("missing-drag-area", _delete("effects.quadratic_drag.area"),
-     "effects.quadratic_drag.area", ["missing required key"]),
-    ("orientation-not-unit", _set("initial.orientation", [0.5, 0.0, 0.0, 0.0]),
-     "initial.orientation", ["norm 0.5", "unit quaternion"]),
-    ("orientation-slightly-off", _set("initial.orientation", [0.7071, 0.7071, 0.0, 0.0]),
-     "initial.orientation", ["not 1"]),
-    ("frame-unknown", _set("initial.angular_velocity_frame", "inertial"),
-     "initial.angular_velocity_frame", ["body or world"]),
-    ("max-angular-speed-zero", _set("max_angular_speed", 0.0), "max_angular_speed",
-     ["must be > 0"]),
-    ("points-mass-mismatch",
-     _set("body", {"mass": 1.0, "shape": {"points": [[0.1, 0, 0, 1.0], [0, 0.1, 0, 1.0],
-                                                     [0, 0, 0.1, 1.0]]}}),
-     "body.mass", ["sum to 3.0"]),
-    ("points-collinear",
-     _set("body", {"shape": {"points": [[0, 0, 0, 1.0], [0, 0, 1.0, 1.0]]}}),
-     "body.shape.points", ["line"]),
-    ("points-negative-mass",
-     _set("body", {"shape": {"points": [[0, 0, 0, 1.0], [0, 1.0, 0, -1.0]]}}),
-     "body.shape.points[1][3]", ["must be >= 0"]),
+    (
+        "missing-max-force",
+        _delete("actuators.thrusters[0].max_force"),
+        "actuators.thrusters[0].max_force",
+        ["missing required key"],
+    ),
+    (
+        "missing-drag-area",
+        _delete("effects.quadratic_drag.area"),
+        "effects.quadratic_drag.area",
+        ["missing required key"],
+    ),
+    (
+        "orientation-not-unit",
+        _set("initial.orientation", [0.5, 0.0, 0.0, 0.0]),
+        "initial.orientation",
+        ["norm 0.5", "unit quaternion"],
+    ),
+    (
+        "orientation-slightly-off",
+        _set("initial.orientation", [0.7071, 0.7071, 0.0, 0.0]),
+        "initial.orientation",
+        ["not 1"],
+    ),
+    (
+        "frame-unknown",
+        _set("initial.angular_velocity_frame", "inertial"),
+        "initial.angular_velocity_frame",
+        ["body or world"],
+    ),
+    (
+        "max-angular-speed-zero",
+        _set("max_angular_speed", 0.0),
+        "max_angular_speed",
+        ["must be > 0"],
+    ),
+    (
+        "points-mass-mismatch",
+        _set(
+            "body",
+            {
+                "mass": 1.0,
+                "shape": {"points": [[0.1, 0, 0, 1.0], [0, 0.1, 0, 1.0], [0, 0, 0.1, 1.0]]},
+            },
+        ),
+        "body.mass",
+        ["sum to 3.0"],
+    ),
+    (
+        "points-collinear",
+        _set("body", {"shape": {"points": [[0, 0, 0, 1.0], [0, 0, 1.0, 1.0]]}}),
+        "body.shape.points",
+        ["line"],
+    ),
+    (
+        "points-negative-mass",
+        _set("body", {"shape": {"points": [[0, 0, 0, 1.0], [0, 1.0, 0, -1.0]]}}),
+        "body.shape.points[1][3]",
+        ["must be >= 0"],
+    ),
     ("name-not-string", _set("name", 3), "name", ["non-empty string"]),
 ]
 
 
-@pytest.mark.parametrize(("case", "fn", "field", "words"), BAD_SCENES,
-                         ids=[c[0] for c in BAD_SCENES])
+@pytest.mark.parametrize(
+    ("case", "fn", "field", "words"), BAD_SCENES, ids=[c[0] for c in BAD_SCENES]
+)
 def test_bad_scene_names_file_field_and_problem(tmp_path, case, fn, field, words):
     path = write(tmp_path, mutate(fn), name=f"{case}.yaml")
     with pytest.raises(SceneError) as info:
@@ -220,8 +322,11 @@ def test_yaml_11_exponent_string_suggests_a_float(tmp_path):
 
 def test_quoted_number_is_a_string(tmp_path):
     path = write(tmp_path, mutate(_set("dt", "0.02")), name="quoted.yaml")
-    with pytest.raises(SceneError, match=r"quoted\.yaml: dt: expected a number \[s\], got the "
-                       r"string '0\.02'; write the number without quotes: 0\.02$"):
+    with pytest.raises(
+        SceneError,
+        match=r"quoted\.yaml: dt: expected a number \[s\], got the "
+        r"string '0\.02'; write the number without quotes: 0\.02$",
+    ):
         load_scene(path)
 
 
@@ -241,8 +346,9 @@ def test_missing_file(tmp_path):
 
 def test_yaml_syntax_error_gives_line(tmp_path):
     path = tmp_path / "broken.yaml"
-    path.write_text("name: x\ndt: 0.01\nbody: {mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}\n"
-                    "initial: {}\n")
+    path.write_text(
+        "name: x\ndt: 0.01\nbody: {mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}\ninitial: {}\n"
+    )
     with pytest.raises(SceneError) as info:
         load_scene(path)
     msg = str(info.value)
@@ -272,16 +378,29 @@ def test_flat_plate_is_accepted():
     with pytest.raises(SceneError, match="triangle"):
         load_scene(mutate(_set("body.inertia", [1.0, 2.0, 3.01])))
     # Coplanar point masses make a flat body from the shape itself.
-    plate = load_scene({"body": {"shape": {"points": [[0.1, 0, 0, 1.0], [-0.1, 0, 0, 1.0],
-                                                      [0, 0.2, 0, 1.0], [0, -0.2, 0, 1.0]]}}})
+    plate = load_scene(
+        {
+            "body": {
+                "shape": {
+                    "points": [
+                        [0.1, 0, 0, 1.0],
+                        [-0.1, 0, 0, 1.0],
+                        [0, 0.2, 0, 1.0],
+                        [0, -0.2, 0, 1.0],
+                    ]
+                }
+            }
+        }
+    )
     i1, i2, i3 = plate.inertia
     assert i3 == pytest.approx(i1 + i2, rel=1e-12)
 
 
 def test_example_scenes_load_and_round_trip():
     files = sorted(SCENE_DIR.glob("*.yaml"))
-    assert {"asymmetric_spin", "free_fall", "spinning_top_thrusters",
-            "tennis_racket_points"} <= {f.stem for f in files}
+    assert {"asymmetric_spin", "free_fall", "spinning_top_thrusters", "tennis_racket_points"} <= {
+        f.stem for f in files
+    }
     for path in files:
         scene = load_scene(path)
         assert scene.name == path.stem
@@ -304,9 +423,17 @@ def test_design_example_values():
 
 def test_round_trip_of_every_field():
     data = mutate(_set("max_angular_speed", 50.0))
-    data["body"] = {"shape": {"points": [[0.1, 0.0, 0.02, 1.0], [-0.1, 0.05, 0.0, 2.0],
-                                         [0.0, 0.2, 0.0, 0.5], [0.03, 0.0, 0.3, 0.25]]},
-                    "inertia": [0.02, 0.03, 0.04]}
+    data["body"] = {
+        "shape": {
+            "points": [
+                [0.1, 0.0, 0.02, 1.0],
+                [-0.1, 0.05, 0.0, 2.0],
+                [0.0, 0.2, 0.0, 0.5],
+                [0.03, 0.0, 0.3, 0.25],
+            ]
+        },
+        "inertia": [0.02, 0.03, 0.04],
+    }
     data["effects"]["quadratic_drag"]["center_of_pressure"] = [0.0, 0.0, 0.01]
     data["actuators"]["point_forces"] = {"points": [[0.1, 0.0, 0.0]], "max_force": 0.5}
     data["initial"]["angular_velocity_frame"] = "world"
@@ -390,10 +517,14 @@ def test_thruster_from_yaml_gives_r_cross_f_torque(tmp_path):
     # body z only. From rest, one step of h: w = r F / I3 h, v = F / m h along y.
     r, force, mass, h = 0.15, 2.0, 1.5, 1.0e-4
     data = {
-        "dt": h, "integrator": "rk4",
+        "dt": h,
+        "integrator": "rk4",
         "body": {"mass": mass, "shape": {"box": [0.3, 0.2, 0.1]}},
-        "actuators": {"thrusters": [{"point": [r, 0.0, 0.0], "direction": [0.0, 3.0, 0.0],
-                                     "max_force": force}]},
+        "actuators": {
+            "thrusters": [
+                {"point": [r, 0.0, 0.0], "direction": [0.0, 3.0, 0.0], "max_force": force}
+            ]
+        },
     }
     scene = load_scene(write(tmp_path, data))
     i3 = mass / 12.0 * (0.3**2 + 0.2**2)
@@ -413,16 +544,21 @@ def test_thruster_from_yaml_gives_r_cross_f_torque(tmp_path):
 def test_point_forces_command_components():
     # Component (fx, fy, fz) of point 0 at (0.1, 0, 0): fz gives torque (0, -0.1 F, 0).
     force, h = 0.5, 1.0e-4
-    scene = load_scene({"dt": h, "body": {"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]}},
-                        "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]],
-                                                       "max_force": force}}})
+    scene = load_scene(
+        {
+            "dt": h,
+            "body": {"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]}},
+            "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": force}},
+        }
+    )
     (pf,) = scene.effects()
     assert isinstance(pf, PointForces) and scene.action_dim == 3
     world = scene.build_world()
     world.step([0.0, 0.0, 1.0])
     i2 = 1.0 / 12.0 * (0.3**2 + 0.1**2)
-    np.testing.assert_allclose(world.state.w[0], [0.0, -0.1 * force / i2 * h, 0.0],
-                               rtol=ONE_STEP_RTOL, atol=1e-18)
+    np.testing.assert_allclose(
+        world.state.w[0], [0.0, -0.1 * force / i2 * h, 0.0], rtol=ONE_STEP_RTOL, atol=1e-18
+    )
 
 
 def _rotation_matrix(axis: list[float], angle: float) -> np.ndarray:
@@ -436,25 +572,45 @@ def test_points_shape_off_centre_and_rotated_matches_principal_scene():
     shape-frame vector moved with it and the pose adjusted so that the world motion is the
     same. Both must give the same world trajectory."""
     # A: six point masses on the axes, centred, principal, with distinct moments.
-    pts_a = np.array([[0.2, 0, 0, 1.0], [-0.2, 0, 0, 1.0], [0, 0.1, 0, 2.0], [0, -0.1, 0, 2.0],
-                      [0, 0, 0.05, 0.5], [0, 0, -0.05, 0.5]])
+    pts_a = np.array(
+        [
+            [0.2, 0, 0, 1.0],
+            [-0.2, 0, 0, 1.0],
+            [0, 0.1, 0, 2.0],
+            [0, -0.1, 0, 2.0],
+            [0, 0, 0.05, 0.5],
+            [0, 0, -0.05, 0.5],
+        ]
+    )
     q0 = quat_from_axis_angle(np.array([0.0, 0.6, 0.8]), 0.7)
     x0, v0, w0 = np.array([1.0, 2.0, 3.0]), np.array([0.5, -0.2, 0.1]), np.array([0.4, 3.0, -1.0])
     thr_point, thr_dir = np.array([0.2, 0.05, 0.0]), np.array([0.0, 0.0, 1.0])
     cop, pf_point = np.array([0.0, 0.0, 0.03]), np.array([0.0, 0.1, 0.0])
 
     def scene(points, q, x, v, w, tp, td, c, pfp) -> Scene:
-        return load_scene({
-            "dt": 0.005, "integrator": "rk4",
-            "body": {"shape": {"points": points.tolist()}},
-            "initial": {"position": x.tolist(), "velocity": v.tolist(),
-                        "orientation": q.tolist(), "angular_velocity": w.tolist()},
-            "effects": {"gravity": {}, "quadratic_drag": {"area": 0.05,
-                                                          "center_of_pressure": c.tolist()}},
-            "actuators": {"thrusters": [{"point": tp.tolist(), "direction": td.tolist(),
-                                         "max_force": 0.3}],
-                          "point_forces": {"points": [pfp.tolist()], "max_force": 0.2}},
-        })
+        return load_scene(
+            {
+                "dt": 0.005,
+                "integrator": "rk4",
+                "body": {"shape": {"points": points.tolist()}},
+                "initial": {
+                    "position": x.tolist(),
+                    "velocity": v.tolist(),
+                    "orientation": q.tolist(),
+                    "angular_velocity": w.tolist(),
+                },
+                "effects": {
+                    "gravity": {},
+                    "quadratic_drag": {"area": 0.05, "center_of_pressure": c.tolist()},
+                },
+                "actuators": {
+                    "thrusters": [
+                        {"point": tp.tolist(), "direction": td.tolist(), "max_force": 0.3}
+                    ],
+                    "point_forces": {"points": [pfp.tolist()], "max_force": 0.2},
+                },
+            }
+        )
 
     a = scene(pts_a, q0, x0, v0, w0, thr_point, thr_dir, cop, pf_point)
     np.testing.assert_array_equal(a.frame_axes, np.eye(3))
@@ -470,8 +626,17 @@ def test_points_shape_off_centre_and_rotated_matches_principal_scene():
     w_world = quat_rotate(q0, w0)
     v_b = v0 + np.cross(w_world, x_b - x0)  # velocity of B's origin, a point of the body
     pts_b = np.column_stack([pts_a[:, :3] @ rot_q.T + t, pts_a[:, 3]])
-    b = scene(pts_b, q_b, x_b, v_b, rot_q @ w0, rot_q @ thr_point + t, rot_q @ thr_dir,
-              rot_q @ cop + t, rot_q @ pf_point + t)
+    b = scene(
+        pts_b,
+        q_b,
+        x_b,
+        v_b,
+        rot_q @ w0,
+        rot_q @ thr_point + t,
+        rot_q @ thr_dir,
+        rot_q @ cop + t,
+        rot_q @ pf_point + t,
+    )
     np.testing.assert_allclose(b.frame_origin, t, rtol=1e-14)
     assert not np.allclose(b.frame_axes, np.eye(3), atol=0.1)  # truly rotated
     assert isinstance(b.effects()[-1], Thrusters)  # point forces along rotated shape axes
@@ -480,11 +645,17 @@ def test_points_shape_off_centre_and_rotated_matches_principal_scene():
     u_pf = np.array([0.3, -0.5, 0.4])
     traj_a = simulate(a.build_world(), 300, [0.7, *u_pf])
     traj_b = simulate(b.build_world(), 300, [0.7, *(rot_q @ u_pf)])
-    for key in ("position", "velocity", "angular_velocity_world", "angular_momentum_world",
-                "energy"):
+    for key in (
+        "position",
+        "velocity",
+        "angular_velocity_world",
+        "angular_momentum_world",
+        "energy",
+    ):
         scale = np.max(np.abs(traj_a[key]))
-        np.testing.assert_allclose(traj_b[key], traj_a[key], rtol=0,
-                                   atol=SAME_PHYSICS_RTOL * scale, err_msg=key)
+        np.testing.assert_allclose(
+            traj_b[key], traj_a[key], rtol=0, atol=SAME_PHYSICS_RTOL * scale, err_msg=key
+        )
     # The motion is not trivial: it turned and the thrusters changed the spin.
     assert np.ptp(traj_a["angular_velocity_world"], axis=0).max() > 0.1
 
@@ -508,12 +679,19 @@ def test_points_shape_off_centre_and_rotated_matches_principal_scene():
 def test_points_frame_keeps_axes_of_a_principal_description():
     # Points whose tensor is already diagonal keep x, y, z in order even when the moments are
     # not ascending (the loader does not reorder axes by size).
-    pts = [[0.0, 0.3, 0, 1.0], [0.0, -0.3, 0, 1.0], [0.1, 0, 0, 1.0], [-0.1, 0, 0, 1.0],
-           [0, 0, 0.2, 1.0], [0, 0, -0.2, 1.0]]
+    pts = [
+        [0.0, 0.3, 0, 1.0],
+        [0.0, -0.3, 0, 1.0],
+        [0.1, 0, 0, 1.0],
+        [-0.1, 0, 0, 1.0],
+        [0, 0, 0.2, 1.0],
+        [0, 0, -0.2, 1.0],
+    ]
     scene = load_scene({"body": {"shape": {"points": pts}}})
     np.testing.assert_array_equal(scene.frame_axes, np.eye(3))
-    np.testing.assert_allclose(scene.inertia, [2 * 0.09 + 2 * 0.04, 2 * 0.01 + 2 * 0.04,
-                                               2 * 0.09 + 2 * 0.01], rtol=1e-14)
+    np.testing.assert_allclose(
+        scene.inertia, [2 * 0.09 + 2 * 0.04, 2 * 0.01 + 2 * 0.04, 2 * 0.09 + 2 * 0.01], rtol=1e-14
+    )
 
 
 def test_scene_is_frozen_and_not_mutated_by_loading():

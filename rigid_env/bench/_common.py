@@ -30,13 +30,16 @@ def cpu_model() -> str:
 def machine_description() -> str:
     """One line: CPU model, core count, OS, Python and NumPy versions."""
     cores = os.cpu_count() or 0
-    return (f"{cpu_model()}, {cores} core{'s' if cores != 1 else ''}, "
-            f"{platform.system()} {platform.machine()}, Python {platform.python_version()}, "
-            f"NumPy {np.__version__}")
+    return (
+        f"{cpu_model()}, {cores} core{'s' if cores != 1 else ''}, "
+        f"{platform.system()} {platform.machine()}, Python {platform.python_version()}, "
+        f"NumPy {np.__version__}"
+    )
 
 
-def interleaved_medians(jobs: Sequence[Callable[[], int]],
-                        repeats: int) -> list[tuple[float, float]]:
+def interleaved_medians(
+    jobs: Sequence[Callable[[], int]], repeats: int
+) -> list[tuple[float, float]]:
     """Median wall and CPU seconds per unit of work for each job, the jobs run in turn
     ``repeats`` times.
 

@@ -101,8 +101,9 @@ class BenchCase:
 CASES = (
     BenchCase("bench_torque_free.yaml", "torque-free, I = (1, 2, 3), w0 = (1, 0.1, 2)", 10.0),
     BenchCase("bench_dzhanibekov.yaml", "Dzhanibekov: 10 rad/s about the middle axis", 10.0),
-    BenchCase("bench_thrust_gravity_drag.yaml", "thrust + gravity + drag (offset CoP)", 10.0,
-              (1.0, 1.0)),
+    BenchCase(
+        "bench_thrust_gravity_drag.yaml", "thrust + gravity + drag (offset CoP)", 10.0, (1.0, 1.0)
+    ),
 )
 
 
@@ -158,8 +159,11 @@ class Point:
     @property
     def ok(self) -> bool:
         """Finite result with a measured cost."""
-        return (self.status == "ok" and math.isfinite(self.err_state)
-                and math.isfinite(self.cost_s_per_sim_s))
+        return (
+            self.status == "ok"
+            and math.isfinite(self.err_state)
+            and math.isfinite(self.cost_s_per_sim_s)
+        )
 
 
 # --------------------------------------------------------------------------------------------
@@ -177,8 +181,9 @@ def mechanical_energy(model: BodyModel, effects: Sequence[ForceEffect], s: State
     return e
 
 
-def measure_errors(world: World, ref: Trajectory, steps_per_sample: int,
-                   action: FloatArray | None = None) -> dict[str, float]:
+def measure_errors(
+    world: World, ref: Trajectory, steps_per_sample: int, action: FloatArray | None = None
+) -> dict[str, float]:
     """Step body 0 of ``world`` to every time of ``ref`` and return the maximum errors.
 
     Args:
@@ -219,8 +224,7 @@ def measure_errors(world: World, ref: Trajectory, steps_per_sample: int,
     return err
 
 
-def observed_order(points: Sequence[Point], low: float = 1.0e-11,
-                   high: float = 1.0e-1) -> float:
+def observed_order(points: Sequence[Point], low: float = 1.0e-11, high: float = 1.0e-1) -> float:
     """Least-squares slope of ``log err_state`` against ``log dt`` over the points with
     ``low < err < high`` (the asymptotic range, above round-off); NaN with fewer than two."""
     sel = [(p.dt, p.err_state) for p in points if p.status == "ok" and low < p.err_state < high]
@@ -239,13 +243,16 @@ def _action_array(case: BenchCase, n: int, action_dim: int) -> FloatArray | None
     if action_dim == 0:
         return None
     if case.action is None or len(case.action) != action_dim:
-        raise ValueError(f"{case.file}: the benchmark needs a command of {action_dim} numbers "
-                         f"for its thrusters, got {case.action}")
+        raise ValueError(
+            f"{case.file}: the benchmark needs a command of {action_dim} numbers "
+            f"for its thrusters, got {case.action}"
+        )
     return np.tile(np.asarray(case.action, dtype=np.float64), (n, 1))
 
 
-def run_case(case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR,
-             log: Callable[[str], None] = print) -> tuple[list[Point], dict[str, float | str]]:
+def run_case(
+    case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR, log: Callable[[str], None] = print
+) -> tuple[list[Point], dict[str, float | str]]:
     """Errors and costs of every integrator at every ``dt`` on one scene.
 
     Returns:
@@ -263,15 +270,26 @@ def run_case(case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR,
     t0 = time.perf_counter()
     ref = reference_trajectory(model, effects, s0, t, None if act1 is None else act1[0])
     ref_info: dict[str, float | str] = {
-        "kind": "exact (elliptic functions)" if not forces
+        "kind": "exact (elliptic functions)"
+        if not forces
         else f"solve_ivp DOP853, rtol = {REF_RTOL:g}, atol = {REF_ATOL:g}",
-        "seconds": time.perf_counter() - t0, "error_estimate": math.nan}
+        "seconds": time.perf_counter() - t0,
+        "error_estimate": math.nan,
+    }
     if forces and sweep.check_reference:
-        tight = ivp_reference(Dynamics(model, forces), s0, t, act1[0] if act1 is not None
-                              else None, rtol=0.1 * REF_RTOL, atol=0.1 * REF_ATOL)
-        ref_info["error_estimate"] = max(float(np.max(np.abs(tight.w - ref.w))),
-                                         float(np.max(quat_angle_between(tight.q, ref.q))),
-                                         float(np.max(np.abs(tight.x - ref.x))))
+        tight = ivp_reference(
+            Dynamics(model, forces),
+            s0,
+            t,
+            act1[0] if act1 is not None else None,
+            rtol=0.1 * REF_RTOL,
+            atol=0.1 * REF_ATOL,
+        )
+        ref_info["error_estimate"] = max(
+            float(np.max(np.abs(tight.w - ref.w))),
+            float(np.max(quat_angle_between(tight.q, ref.q))),
+            float(np.max(np.abs(tight.x - ref.x))),
+        )
     name = scene.name
     log(f"[{name}] reference: {ref_info['kind']} ({ref_info['seconds']:.1f} s)")
 
@@ -294,8 +312,12 @@ def run_case(case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR,
             points.append(p)
             line.append(f"{dt:g}:{p.err_state:.1e}" if p.status == "ok" else f"{dt:g}:div")
             n_done = sum(1 for q in points if q.integrator == integ and q.status == "ok")
-            if p.status == "ok" and p.err_state < FLOOR_STALL and p.err_state > 0.5 * prev \
-                    and n_done >= 3:
+            if (
+                p.status == "ok"
+                and p.err_state < FLOOR_STALL
+                and p.err_state > 0.5 * prev
+                and n_done >= 3
+            ):
                 break  # the error has stalled at round-off / the reference's error
             prev = p.err_state if p.status == "ok" else math.inf
         log(f"[{name}] {integ:<16} " + "  ".join(line))
@@ -303,8 +325,10 @@ def run_case(case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR,
     # Cost: all (integrator, dt) pairs of this scene at N_TIMING, in turn, repeated.
     timed = [p for p in points if p.status == "ok"]
     act_n = _action_array(case, N_TIMING, scene.action_dim)
-    worlds = [scene.build_world(N_TIMING, integrator=p.integrator, dt=p.dt, on_error="freeze")
-              for p in timed]
+    worlds = [
+        scene.build_world(N_TIMING, integrator=p.integrator, dt=p.dt, on_error="freeze")
+        for p in timed
+    ]
     for w in worlds:
         w.step(act_n)  # warm up (first-call allocations, imports)
 
@@ -313,6 +337,7 @@ def run_case(case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR,
             for _ in range(sweep.timing_steps):
                 world.step(act_n)
             return sweep.timing_steps
+
         return run
 
     with np.errstate(all="ignore"):
@@ -343,66 +368,106 @@ def write_csv(points: Sequence[Point], path: Path) -> None:
         wr = csv.writer(fh)
         wr.writerow(names)
         for p in points:
-            wr.writerow([f"{v:.6g}" if isinstance(v, float) else v
-                         for v in (getattr(p, n) for n in names)])
+            wr.writerow(
+                [f"{v:.6g}" if isinstance(v, float) else v for v in (getattr(p, n) for n in names)]
+            )
 
 
 def _fmt_cost(c: float) -> str:
     return f"{c:.3g}"
 
 
-def markdown(points: Sequence[Point], ref_info: dict[str, dict[str, float | str]],
-             titles: dict[str, str], sweep: Sweep, machine: str, elapsed: float) -> str:
+def markdown(
+    points: Sequence[Point],
+    ref_info: dict[str, dict[str, float | str]],
+    titles: dict[str, str],
+    sweep: Sweep,
+    machine: str,
+    elapsed: float,
+) -> str:
     """The Markdown report (see the module docstring)."""
     scenes = list(dict.fromkeys(p.scene for p in points))
     integs = list(dict.fromkeys(p.integrator for p in points))
     out = ["# Accuracy benchmark: what accuracy costs in time", ""]
-    out += [f"Generated by `rigid-env bench accuracy{' --quick' if sweep.name == 'quick' else ''}`"
-            f" ({sweep.name} sweep) on {datetime.date.today().isoformat()} in {elapsed:.0f} s.",
-            f"Machine: {machine}.", "",
-            f"**Cost** = wall time per simulated second for a batch of N = {N_TIMING} bodies "
-            f"(median of {sweep.repeats} timed runs of {sweep.timing_steps} steps, all settings "
-            "of a scene timed in turn in the same run). **Error** = `err_state`, the maximum "
-            "over the run (checkpoints every "
-            f"{SAMPLE_INTERVAL:g} s) of the largest of: body angular velocity error (max abs "
-            "component, rad/s), orientation error (rotation angle, rad) and position error (max "
-            "abs component, m). Energy and angular-momentum errors are in `accuracy.csv`.", ""]
+    out += [
+        f"Generated by `rigid-env bench accuracy{' --quick' if sweep.name == 'quick' else ''}`"
+        f" ({sweep.name} sweep) on {datetime.date.today().isoformat()} in {elapsed:.0f} s.",
+        f"Machine: {machine}.",
+        "",
+        f"**Cost** = wall time per simulated second for a batch of N = {N_TIMING} bodies "
+        f"(median of {sweep.repeats} timed runs of {sweep.timing_steps} steps, all settings "
+        "of a scene timed in turn in the same run). **Error** = `err_state`, the maximum "
+        "over the run (checkpoints every "
+        f"{SAMPLE_INTERVAL:g} s) of the largest of: body angular velocity error (max abs "
+        "component, rad/s), orientation error (rotation angle, rad) and position error (max "
+        "abs component, m). Energy and angular-momentum errors are in `accuracy.csv`.",
+        "",
+    ]
     ratios = [p.step_time_s / p.step_cpu_s for p in points if p.ok and p.step_cpu_s > 0.0]
     if ratios:
         load = float(np.median(ratios))
-        out += [f"Load while timing: median wall / CPU time per step = {load:.2f} (1.0 on an "
-                "idle machine"
-                + ("; other processes competed for the CPU, so single costs may be off by tens "
-                   "of per cent" if load > 1.2 else "") + ").", ""]
-    check = [p for p in points if p.scene == "bench_torque_free" and p.integrator == "rk4"
-             and p.status == "ok" and math.isclose(p.dt, 0.01)]
+        out += [
+            f"Load while timing: median wall / CPU time per step = {load:.2f} (1.0 on an "
+            "idle machine"
+            + (
+                "; other processes competed for the CPU, so single costs may be off by tens "
+                "of per cent"
+                if load > 1.2
+                else ""
+            )
+            + ").",
+            "",
+        ]
+    check = [
+        p
+        for p in points
+        if p.scene == "bench_torque_free"
+        and p.integrator == "rk4"
+        and p.status == "ok"
+        and math.isclose(p.dt, 0.01)
+    ]
     if check:
         c = check[0]
-        out += [f"Check: `rk4` at dt = 0.01 s on bench_torque_free over {c.horizon_s:g} s: body "
-                f"angular velocity error {c.err_w_end:.3g} rad/s at the end, {c.err_w:.3g} "
-                "rad/s at most over the run.", ""]
+        out += [
+            f"Check: `rk4` at dt = 0.01 s on bench_torque_free over {c.horizon_s:g} s: body "
+            f"angular velocity error {c.err_w_end:.3g} rad/s at the end, {c.err_w:.3g} "
+            "rad/s at most over the run.",
+            "",
+        ]
     out += ["## Cheapest setting for a target error", ""]
     for sc in scenes:
         pts = [p for p in points if p.scene == sc]
-        out += [f"**{sc}** ({titles.get(sc, '')}, {pts[0].horizon_s:g} s)", "",
-                "| target | integrator | dt [s] | cost [s per simulated s] | error reached |",
-                "|---:|---|---:|---:|---:|"]
+        out += [
+            f"**{sc}** ({titles.get(sc, '')}, {pts[0].horizon_s:g} s)",
+            "",
+            "| target | integrator | dt [s] | cost [s per simulated s] | error reached |",
+            "|---:|---|---:|---:|---:|",
+        ]
         for tgt in TARGETS:
             c = cheapest(pts, tgt)
             if c is None:
                 out.append(f"| {tgt:.0e} | not reached in the sweep | | | |")
             else:
-                out.append(f"| {tgt:.0e} | `{c.integrator}` | {c.dt:g} | "
-                           f"{_fmt_cost(c.cost_s_per_sim_s)} | {c.err_state:.1e} |")
+                out.append(
+                    f"| {tgt:.0e} | `{c.integrator}` | {c.dt:g} | "
+                    f"{_fmt_cost(c.cost_s_per_sim_s)} | {c.err_state:.1e} |"
+                )
         out.append("")
-    out += ["## Cost of each integrator to reach each target", "",
-            "Least cost [s per simulated s, N = 1024] over the swept dt; `-` where no dt "
-            "reached the target.", ""]
+    out += [
+        "## Cost of each integrator to reach each target",
+        "",
+        "Least cost [s per simulated s, N = 1024] over the swept dt; `-` where no dt "
+        "reached the target.",
+        "",
+    ]
     for sc in scenes:
         pts = [p for p in points if p.scene == sc]
-        out += [f"**{sc}**", "",
-                "| integrator (order) | " + " | ".join(f"{t:.0e}" for t in TARGETS) + " |",
-                "|---|" + "---:|" * len(TARGETS)]
+        out += [
+            f"**{sc}**",
+            "",
+            "| integrator (order) | " + " | ".join(f"{t:.0e}" for t in TARGETS) + " |",
+            "|---|" + "---:|" * len(TARGETS),
+        ]
         for ig in integs:
             mine = [p for p in pts if p.integrator == ig]
             cells = []
@@ -411,25 +476,38 @@ def markdown(points: Sequence[Point], ref_info: dict[str, dict[str, float | str]
                 cells.append("-" if c is None else _fmt_cost(c.cost_s_per_sim_s))
             out.append(f"| `{ig}` ({INTEGRATORS[ig].order}) | " + " | ".join(cells) + " |")
         out.append("")
-    out += ["## Observed order", "",
-            "Slope of log `err_state` against log dt over the points with 1e-11 < error < "
-            "0.1 (nan: fewer than two such points, e.g. an exact method, or a method that "
-            "never gets below 0.1 on the scene).", "",
-            "| integrator | documented | " + " | ".join(scenes) + " |",
-            "|---|---:|" + "---:|" * len(scenes)]
+    out += [
+        "## Observed order",
+        "",
+        "Slope of log `err_state` against log dt over the points with 1e-11 < error < "
+        "0.1 (nan: fewer than two such points, e.g. an exact method, or a method that "
+        "never gets below 0.1 on the scene).",
+        "",
+        "| integrator | documented | " + " | ".join(scenes) + " |",
+        "|---|---:|" + "---:|" * len(scenes),
+    ]
     for i in integs:
-        cells = [f"{observed_order([p for p in points if p.scene == sc and p.integrator == i]):.2f}"
-                 for sc in scenes]
+        cells = [
+            f"{observed_order([p for p in points if p.scene == sc and p.integrator == i]):.2f}"
+            for sc in scenes
+        ]
         out.append(f"| `{i}` | {INTEGRATORS[i].order} | " + " | ".join(cells) + " |")
     out += ["", "## References", ""]
     for sc in scenes:
         info = ref_info[sc]
         est = info.get("error_estimate", math.nan)
-        est_s = (f"; its error, estimated against a solve at 10x tighter tolerances: "
-                 f"{est:.1e}" if isinstance(est, float) and math.isfinite(est) else "")
+        est_s = (
+            f"; its error, estimated against a solve at 10x tighter tolerances: {est:.1e}"
+            if isinstance(est, float) and math.isfinite(est)
+            else ""
+        )
         out.append(f"- {sc}: {info['kind']}{est_s}.")
-    out += ["", "Diverged settings (state non-finite or error > 1e3) are left out of the "
-            "tables and the figure; `accuracy.csv` lists them with `status = diverged`.", ""]
+    out += [
+        "",
+        "Diverged settings (state non-finite or error > 1e3) are left out of the "
+        "tables and the figure; `accuracy.csv` lists them with `status = diverged`.",
+        "",
+    ]
     return "\n".join(out)
 
 
@@ -438,8 +516,9 @@ def markdown(points: Sequence[Point], ref_info: dict[str, dict[str, float | str]
 # --------------------------------------------------------------------------------------------
 
 
-def plot(points: Sequence[Point], titles: dict[str, str], path: Path, machine: str,
-         sweep: Sweep) -> None:
+def plot(
+    points: Sequence[Point], titles: dict[str, str], path: Path, machine: str, sweep: Sweep
+) -> None:
     """Log-log error against cost, one panel per scene, one line per integrator."""
     import matplotlib
 
@@ -450,23 +529,31 @@ def plot(points: Sequence[Point], titles: dict[str, str], path: Path, machine: s
     integs = list(INTEGRATORS)
     cmap = plt.get_cmap("tab10")
     markers = "os^vD<>pXh*"
-    fig, axes = plt.subplots(1, len(scenes), figsize=(6.0 * len(scenes), 5.6), sharey=True,
-                             squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(scenes), figsize=(6.0 * len(scenes), 5.6), sharey=True, squeeze=False
+    )
     good = [p for p in points if p.ok]
     ymin = max(min((p.err_state for p in good), default=1e-16) / 3.0, 1e-16)
     for ax, sc in zip(axes[0], scenes, strict=True):
         for tgt in TARGETS:
             ax.axhline(tgt, color="0.85", lw=0.8, zorder=0)
         for i, ig in enumerate(integs):
-            pts = sorted((p for p in good if p.scene == sc and p.integrator == ig),
-                         key=lambda p: p.cost_s_per_sim_s)
+            pts = sorted(
+                (p for p in good if p.scene == sc and p.integrator == ig),
+                key=lambda p: p.cost_s_per_sim_s,
+            )
             if not pts:
                 continue
             new = ig in NEW_INTEGRATORS
-            ax.loglog([p.cost_s_per_sim_s for p in pts], [p.err_state for p in pts],
-                      marker=markers[i % len(markers)], color=cmap(i % 10),
-                      lw=2.4 if new else 1.3, ms=6 if new else 4.5,
-                      label=f"{ig} (order {INTEGRATORS[ig].order})")
+            ax.loglog(
+                [p.cost_s_per_sim_s for p in pts],
+                [p.err_state for p in pts],
+                marker=markers[i % len(markers)],
+                color=cmap(i % 10),
+                lw=2.4 if new else 1.3,
+                ms=6 if new else 4.5,
+                label=f"{ig} (order {INTEGRATORS[ig].order})",
+            )
         pts_sc = [p for p in points if p.scene == sc]
         ax.set_title(f"{sc}\n{titles.get(sc, '')}, {pts_sc[0].horizon_s:g} s", fontsize=10)
         ax.set_xlabel(f"wall time per simulated second, N = {N_TIMING} bodies [s]")
@@ -474,11 +561,15 @@ def plot(points: Sequence[Point], titles: dict[str, str], path: Path, machine: s
         ax.set_ylim(ymin, 1e1)
     axes[0][0].set_ylabel("max error over the run: |dw| [rad/s], angle [rad], |dx| [m]")
     handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=9,
-               frameon=False)
+    fig.legend(
+        handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=9, frameon=False
+    )
     dts = ", ".join(f"{SAMPLE_INTERVAL / k:g}" for k in sweep.steps_per_sample)
-    fig.suptitle(f"Work-precision ({sweep.name} sweep): error against cost, one point per "
-                 f"dt in {{{dts}}} s (smaller dt = further right)\n{machine}", fontsize=10)
+    fig.suptitle(
+        f"Work-precision ({sweep.name} sweep): error against cost, one point per "
+        f"dt in {{{dts}}} s (smaller dt = further right)\n{machine}",
+        fontsize=10,
+    )
     fig.tight_layout(rect=(0, 0.1, 1, 1))
     fig.savefig(path, dpi=130)
     plt.close(fig)
@@ -491,12 +582,19 @@ def plot(points: Sequence[Point], titles: dict[str, str], path: Path, machine: s
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add ``--out DIR`` and ``--quick`` to ``parser``."""
-    parser.add_argument("--out", type=Path, default=Path("results/accuracy"), metavar="DIR",
-                        help="directory for work_precision.png, accuracy.csv and accuracy.md "
-                             "(default: results/accuracy)")
-    parser.add_argument("--quick", action="store_true",
-                        help="reduced sweep (3 step sizes, 1 s horizon) that finishes within "
-                             "a minute")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/accuracy"),
+        metavar="DIR",
+        help="directory for work_precision.png, accuracy.csv and accuracy.md "
+        "(default: results/accuracy)",
+    )
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="reduced sweep (3 step sizes, 1 s horizon) that finishes within a minute",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -526,15 +624,18 @@ def run(args: argparse.Namespace) -> int:
     report = markdown(points, ref_info, titles, sweep, machine, elapsed)
     (out / "accuracy.md").write_text(report, encoding="utf-8")
     plot(points, titles, out / "work_precision.png", machine, sweep)
-    print(f"wrote {out / 'work_precision.png'}, {out / 'accuracy.csv'}, {out / 'accuracy.md'} "
-          f"({elapsed:.0f} s)")
+    print(
+        f"wrote {out / 'work_precision.png'}, {out / 'accuracy.csv'}, {out / 'accuracy.md'} "
+        f"({elapsed:.0f} s)"
+    )
     return 0
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m rigid_env.bench.accuracy``: one-line errors, no traceback."""
-    parser = argparse.ArgumentParser(prog="python -m rigid_env.bench.accuracy",
-                                     description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m rigid_env.bench.accuracy", description=__doc__.splitlines()[0]
+    )
     add_arguments(parser)
     args = parser.parse_args(argv)
     try:

@@ -154,8 +154,9 @@ def torque_free_angular_velocity(inertia: ArrayLike, w0: ArrayLike, t: ArrayLike
     return out
 
 
-def torque_free_orientation(inertia: ArrayLike, w0: ArrayLike, q0: ArrayLike,
-                            t: ArrayLike) -> FloatArray:
+def torque_free_orientation(
+    inertia: ArrayLike, w0: ArrayLike, q0: ArrayLike, t: ArrayLike
+) -> FloatArray:
     """Exact orientation of a torque-free body: the exact flow of
     :func:`rigid_env.core.integrators.free_rotation_exact` from ``t = 0`` to each ``t`` in one
     jump (no accumulation over steps).
@@ -172,8 +173,9 @@ def torque_free_orientation(inertia: ArrayLike, w0: ArrayLike, q0: ArrayLike,
     q0 = quat_normalize(np.asarray(q0, dtype=np.float64))[None, :]
     isotropic = bool(np.ptp(inertia) == 0.0)
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-    return np.concatenate([free_rotation_exact(q0, w0, inertia, float(tk), isotropic)[0]
-                           for tk in t])
+    return np.concatenate(
+        [free_rotation_exact(q0, w0, inertia, float(tk), isotropic)[0] for tk in t]
+    )
 
 
 def torque_free_reference(inertia: ArrayLike, s0: State, t: ArrayLike) -> Trajectory:
@@ -242,8 +244,9 @@ def ivp_reference(
         if tk > t_prev:
             sol = solve_ivp(rhs, (t_prev, tk), y, method="DOP853", rtol=rtol, atol=atol)
             if not sol.success:
-                raise RuntimeError(f"reference: solve_ivp failed at t = {t_prev:g} s: "
-                                   f"{sol.message}")
+                raise RuntimeError(
+                    f"reference: solve_ivp failed at t = {t_prev:g} s: {sol.message}"
+                )
             y = sol.y[:, -1]
             t_prev = tk
         rows.append(y.copy())
@@ -251,8 +254,9 @@ def ivp_reference(
     return Trajectory(t, ys[:, 0:3], ys[:, 3:6], quat_normalize(ys[:, 6:10]), ys[:, 10:13])
 
 
-def euler_ivp(inertia: ArrayLike, w0: ArrayLike, t: ArrayLike, rtol: float = 1.0e-13,
-              atol: float = 1.0e-13) -> FloatArray:
+def euler_ivp(
+    inertia: ArrayLike, w0: ArrayLike, t: ArrayLike, rtol: float = 1.0e-13, atol: float = 1.0e-13
+) -> FloatArray:
     """Euler's equations ``I w' = (I w) x w`` alone by ``solve_ivp`` (DOP853), restarted at
     every output time; the independent check of :func:`torque_free_angular_velocity`.
 
@@ -262,8 +266,9 @@ def euler_ivp(inertia: ArrayLike, w0: ArrayLike, t: ArrayLike, rtol: float = 1.0
     inertia = np.asarray(inertia, dtype=np.float64)
     model = BodyModel.single(1.0, inertia)
     zeros = np.zeros((1, 3))
-    s0 = State(zeros, zeros, np.array([[1.0, 0.0, 0.0, 0.0]]),
-               np.asarray(w0, dtype=np.float64)[None, :])
+    s0 = State(
+        zeros, zeros, np.array([[1.0, 0.0, 0.0, 0.0]]), np.asarray(w0, dtype=np.float64)[None, :]
+    )
     return ivp_reference(Dynamics(model, []), s0, t, rtol=rtol, atol=atol).w
 
 
@@ -292,8 +297,10 @@ def reference_trajectory(
     """
     maps = [e.name for e in effects if isinstance(e, StepMap)]
     if maps:
-        raise ValueError(f"reference: per-step maps ({', '.join(maps)}) are not part of the "
-                         "equations of motion; remove them from the benchmark scene")
+        raise ValueError(
+            f"reference: per-step maps ({', '.join(maps)}) are not part of the "
+            "equations of motion; remove them from the benchmark scene"
+        )
     forces = [e for e in effects if isinstance(e, ForceEffect)]
     if s0.n != 1:
         raise ValueError(f"reference: give the initial state of one body, got N = {s0.n}")

@@ -151,32 +151,61 @@ class Config:
             raise ValueError(f"clock: must be 'wall' or 'cpu', got {self.clock!r}")
         unknown = [n for n in self.core_integrators if n not in INTEGRATORS]
         if unknown:
-            raise ValueError(f"core_integrators: unknown {unknown}; known: "
-                             f"{', '.join(INTEGRATORS)}")
+            raise ValueError(
+                f"core_integrators: unknown {unknown}; known: {', '.join(INTEGRATORS)}"
+            )
         rollout = self.ppo_n_steps * self.ppo_n_envs
         if self.ppo_timesteps % rollout:
-            raise ValueError(f"ppo_timesteps: {self.ppo_timesteps} is not a multiple of "
-                             f"n_steps * n_envs = {rollout}")
+            raise ValueError(
+                f"ppo_timesteps: {self.ppo_timesteps} is not a multiple of "
+                f"n_steps * n_envs = {rollout}"
+            )
 
 
 FULL = Config(
-    name="full", min_time=0.1, repeats=7,
-    core_sizes=(1, 16, 256, 4096, 65536), core_integrators=tuple(INTEGRATORS),
-    env_ids=tuple(ENV_IDS), vec_sizes=(64, 1024, 4096), sync_sizes=(64, 1024),
-    effect_sizes=(1, 4096), effect_integrator="rk4",
-    ppo_timesteps=16384, ppo_repeats=3, ppo_warmup=True,
+    name="full",
+    min_time=0.1,
+    repeats=7,
+    core_sizes=(1, 16, 256, 4096, 65536),
+    core_integrators=tuple(INTEGRATORS),
+    env_ids=tuple(ENV_IDS),
+    vec_sizes=(64, 1024, 4096),
+    sync_sizes=(64, 1024),
+    effect_sizes=(1, 4096),
+    effect_integrator="rk4",
+    ppo_timesteps=16384,
+    ppo_repeats=3,
+    ppo_warmup=True,
 )
 QUICK = replace(
-    FULL, name="quick", min_time=0.02, repeats=5,
-    core_sizes=(1, 256, 4096), core_integrators=("symplectic_euler", "rk4", "splitting"),
-    sync_sizes=(64,), ppo_timesteps=4096, ppo_repeats=1, ppo_warmup=False,
+    FULL,
+    name="quick",
+    min_time=0.02,
+    repeats=5,
+    core_sizes=(1, 256, 4096),
+    core_integrators=("symplectic_euler", "rk4", "splitting"),
+    sync_sizes=(64,),
+    ppo_timesteps=4096,
+    ppo_repeats=1,
+    ppo_warmup=False,
 )
 SMOKE = replace(
-    FULL, name="smoke", min_time=0.0, repeats=1,
-    core_sizes=(1, 8), core_integrators=("symplectic_euler", "rk4"),
-    env_ids=(DETUMBLE,), vec_sizes=(4, 8), sync_sizes=(4,), effect_sizes=(1, 8),
-    ppo_timesteps=64, ppo_repeats=1, ppo_warmup=False,
-    ppo_n_envs=2, ppo_n_steps=32, ppo_batch_size=64,
+    FULL,
+    name="smoke",
+    min_time=0.0,
+    repeats=1,
+    core_sizes=(1, 8),
+    core_integrators=("symplectic_euler", "rk4"),
+    env_ids=(DETUMBLE,),
+    vec_sizes=(4, 8),
+    sync_sizes=(4,),
+    effect_sizes=(1, 8),
+    ppo_timesteps=64,
+    ppo_repeats=1,
+    ppo_warmup=False,
+    ppo_n_envs=2,
+    ppo_n_steps=32,
+    ppo_batch_size=64,
 )
 """A tiny run of all the machinery, for the test-suite (numbers meaningless)."""
 
@@ -270,8 +299,14 @@ def _timed(fn: Callable[[], object], calls: int) -> tuple[float, float]:
             gc.enable()
 
 
-def measure(cases: Sequence[Case], *, min_time: float, repeats: int, warmup: bool = True,
-            clock: str = "wall") -> dict[str, Timing]:
+def measure(
+    cases: Sequence[Case],
+    *,
+    min_time: float,
+    repeats: int,
+    warmup: bool = True,
+    clock: str = "wall",
+) -> dict[str, Timing]:
     """Time a group of peers, interleaved: each round runs one repeat of every case in turn.
 
     Warm-up: each case is called until ``min_time / 2`` has passed (at least once), which also
@@ -310,9 +345,10 @@ def measure(cases: Sequence[Case], *, min_time: float, repeats: int, warmup: boo
     for c in cases:
         if c.close is not None:
             c.close()
-    return {c.name: Timing(c.work, calls[c.name], tuple(per_call[c.name]), tuple(cpu[c.name]),
-                           clock)
-            for c in cases}
+    return {
+        c.name: Timing(c.work, calls[c.name], tuple(per_call[c.name]), tuple(cpu[c.name]), clock)
+        for c in cases
+    }
 
 
 # --------------------------------------------------------------------------------------------
@@ -368,12 +404,28 @@ class Row:
 CSV_COLUMNS = tuple(f.name for f in fields(Row))
 
 
-def _row(section: str, case: str, n: int, metric: str, unit: str, t: Timing,
-         value: float, **kw: Any) -> Row:
+def _row(
+    section: str, case: str, n: int, metric: str, unit: str, t: Timing, value: float, **kw: Any
+) -> Row:
     per = [p / t.work for p in t.seconds]
-    return Row(section, case, n, metric, value, unit, t.per_unit, min(per), max(per), t.clock,
-               float(np.median(t.per_call)) / t.work, len(t.per_call), t.calls, t.cpu_share,
-               float(np.median(t.cpu_per_call)) / t.work if t.cpu_per_call else math.nan, **kw)
+    return Row(
+        section,
+        case,
+        n,
+        metric,
+        value,
+        unit,
+        t.per_unit,
+        min(per),
+        max(per),
+        t.clock,
+        float(np.median(t.per_call)) / t.work,
+        len(t.per_call),
+        t.calls,
+        t.cpu_share,
+        float(np.median(t.cpu_per_call)) / t.work if t.cpu_per_call else math.nan,
+        **kw,
+    )
 
 
 @dataclass
@@ -441,8 +493,9 @@ def spinning_state(n: int, seed: int = 0) -> State:
 def mujoco_model(integrator: str) -> mujoco.MjModel:
     """The benchmark body in MuJoCo with ``integrator`` (``"Euler"`` or ``"RK4"``)."""
     i1, i2, i3 = INERTIA
-    return mujoco.MjModel.from_xml_string(MJCF.format(dt=DT, integrator=integrator,
-                                                      i1=i1, i2=i2, i3=i3))
+    return mujoco.MjModel.from_xml_string(
+        MJCF.format(dt=DT, integrator=integrator, i1=i1, i2=i2, i3=i3)
+    )
 
 
 def mujoco_states(model: mujoco.MjModel, w_body: FloatArray) -> FloatArray:
@@ -454,14 +507,18 @@ def mujoco_states(model: mujoco.MjModel, w_body: FloatArray) -> FloatArray:
     data = mujoco.MjData(model)
     base = np.empty(mujoco.mj_stateSize(model, spec))
     mujoco.mj_getState(model, data, base, spec)
-    start = sum(mujoco.mj_stateSize(model, s.value)
-                for s in (mujoco.mjtState.mjSTATE_TIME, mujoco.mjtState.mjSTATE_QPOS))
+    start = sum(
+        mujoco.mj_stateSize(model, s.value)
+        for s in (mujoco.mjtState.mjSTATE_TIME, mujoco.mjtState.mjSTATE_QPOS)
+    )
     states = np.tile(base, (w_body.shape[0], 1))
-    states[:, start + 3:start + 6] = w_body
+    states[:, start + 3 : start + 6] = w_body
     mujoco.mj_setState(model, data, states[0], spec)  # check the layout assumed above
     if not np.array_equal(data.qvel[3:], w_body[0]):
-        raise RuntimeError("mujoco: unexpected mjSTATE_FULLPHYSICS layout (qvel not after "
-                           "time and qpos); the benchmark needs updating for this version")
+        raise RuntimeError(
+            "mujoco: unexpected mjSTATE_FULLPHYSICS layout (qvel not after "
+            "time and qpos); the benchmark needs updating for this version"
+        )
     return states
 
 
@@ -502,8 +559,9 @@ def bench_core(cfg: Config, res: Results) -> None:
     """Body-steps per second of every integrator and of MuJoCo at each batch size."""
     for n in cfg.core_sizes:
         t0 = time.perf_counter()
-        timings = measure(_core_cases(n, cfg), min_time=cfg.min_time, repeats=cfg.repeats,
-                          clock=cfg.clock)
+        timings = measure(
+            _core_cases(n, cfg), min_time=cfg.min_time, repeats=cfg.repeats, clock=cfg.clock
+        )
         for name, t in timings.items():
             if name.startswith("MuJoCo"):
                 peer = name if "rollout" in name else name.replace("mj_step loop", "rollout")
@@ -512,8 +570,19 @@ def bench_core(cfg: Config, res: Results) -> None:
                 mj = "Euler" if INTEGRATORS[name].order == 1 else "RK4"
                 peer = f"MuJoCo {mj} rollout"
                 peer_t = timings[peer]
-            res.rows.append(_row("core", name, n, "body_steps_per_s", "1/s", t, t.rate,
-                                 peer=peer, ratio=t.rate / peer_t.rate))
+            res.rows.append(
+                _row(
+                    "core",
+                    name,
+                    n,
+                    "body_steps_per_s",
+                    "1/s",
+                    t,
+                    t.rate,
+                    peer=peer,
+                    ratio=t.rate / peer_t.rate,
+                )
+            )
         _log(f"  core N={n}: {len(timings)} cases, {time.perf_counter() - t0:.1f} s")
     res.notes["core"] = [
         f"Torque-free body, principal moments {INERTIA} kg m^2, mass 1 kg, dt {DT} s, spins "
@@ -566,12 +635,23 @@ def bench_env(cfg: Config, res: Results) -> None:
     timings = measure(cases, min_time=cfg.min_time, repeats=cfg.repeats, clock=cfg.clock)
     ref = timings.get(ENV_REFERENCE)
     for name, t in timings.items():
-        res.rows.append(_row("env", name, 1, "us_per_step", "us", t, t.per_unit * 1e6,
-                             peer=ENV_REFERENCE if ref else "",
-                             ratio=t.per_unit / ref.per_unit if ref else math.nan))
+        res.rows.append(
+            _row(
+                "env",
+                name,
+                1,
+                "us_per_step",
+                "us",
+                t,
+                t.per_unit * 1e6,
+                peer=ENV_REFERENCE if ref else "",
+                ratio=t.per_unit / ref.per_unit if ref else math.nan,
+            )
+        )
     for name, why in missing.items():
-        res.rows.append(Row("env", name, 1, "us_per_step", math.nan, "us",
-                            note=f"not available: {why}"))
+        res.rows.append(
+            Row("env", name, 1, "us_per_step", math.nan, "us", note=f"not available: {why}")
+        )
     res.notes["env"] = [
         "`env.step` through `gym.make` (default wrappers: TimeLimit, OrderEnforcing, "
         "PassiveEnvChecker), random actions drawn beforehand, reset when an episode ends "
@@ -626,8 +706,19 @@ def bench_vec(cfg: Config, res: Results) -> None:
             sync_rate[n] = timings[SYNC_CASE].rate
         cart = timings[CARTPOLE_CASE].rate
         for name, t in timings.items():
-            res.rows.append(_row("vec", name, n, "env_steps_per_s", "1/s", t, t.rate,
-                                 peer=CARTPOLE_CASE, ratio=t.rate / cart))
+            res.rows.append(
+                _row(
+                    "vec",
+                    name,
+                    n,
+                    "env_steps_per_s",
+                    "1/s",
+                    t,
+                    t.rate,
+                    peer=CARTPOLE_CASE,
+                    ratio=t.rate / cart,
+                )
+            )
         del cases
         gc.collect()
         _log(f"  vec N={n}: done")
@@ -638,9 +729,17 @@ def bench_vec(cfg: Config, res: Results) -> None:
         for n in cfg.vec_sizes:
             if n in sync_rate:
                 continue
-            row = Row("vec", SYNC_CASE, n, "env_steps_per_s", sync_rate[n_ref], "1/s",
-                      median_s=1.0 / sync_rate[n_ref], peer=CARTPOLE_CASE,
-                      note=f"extrapolated: per-env cost at N={n_ref}")
+            row = Row(
+                "vec",
+                SYNC_CASE,
+                n,
+                "env_steps_per_s",
+                sync_rate[n_ref],
+                "1/s",
+                median_s=1.0 / sync_rate[n_ref],
+                peer=CARTPOLE_CASE,
+                note=f"extrapolated: per-env cost at N={n_ref}",
+            )
             cart_row = res.get("vec", CARTPOLE_CASE, n)
             if cart_row is not None:
                 row.ratio = row.value / cart_row.value
@@ -648,8 +747,8 @@ def bench_vec(cfg: Config, res: Results) -> None:
         vec = sorted(res.section("vec"), key=lambda r: r.n)  # stable: the N order of the tables
         res.rows = [r for r in res.rows if r.section != "vec"] + vec
     notes = [
-        "`gym.make_vec(id, num_envs=N, vectorization_mode=\"vector_entry_point\")` for ours "
-        "and CartPole; Detumble under `SyncVectorEnv` is `vectorization_mode=\"sync\"`. "
+        '`gym.make_vec(id, num_envs=N, vectorization_mode="vector_entry_point")` for ours '
+        'and CartPole; Detumble under `SyncVectorEnv` is `vectorization_mode="sync"`. '
         "Random actions drawn beforehand; autoreset as each env defines it.",
         f"Ratios: env-steps/s over `{CARTPOLE_CASE}`'s and over Detumble under "
         "`SyncVectorEnv` at the same N (higher is faster).",
@@ -662,7 +761,8 @@ def bench_vec(cfg: Config, res: Results) -> None:
             f"`SyncVectorEnv` was measured at N = {', '.join(map(str, sorted(sync_rate)))} only: "
             f"it steps its envs one after another, so one step at N = {max(unmeasured)} would "
             f"take ~{step_s:.2f} s. At N = {', '.join(map(str, unmeasured))} its per-env cost "
-            f"measured at N = {n_ref} is used (marked *extrapolated*).")
+            f"measured at N = {n_ref} is used (marked *extrapolated*)."
+        )
     res.notes["vec"] = notes
 
 
@@ -671,10 +771,26 @@ def bench_vec(cfg: Config, res: Results) -> None:
 # --------------------------------------------------------------------------------------------
 
 THRUSTERS = Thrusters(
-    points=np.array([[0.0, 0.15, 0.0], [0.0, -0.15, 0.0], [0.0, 0.0, 0.1],
-                     [0.0, 0.0, -0.1], [0.2, 0.0, 0.0], [-0.2, 0.0, 0.0]]),
-    directions=np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0],
-                         [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, -1.0, 0.0]]),
+    points=np.array(
+        [
+            [0.0, 0.15, 0.0],
+            [0.0, -0.15, 0.0],
+            [0.0, 0.0, 0.1],
+            [0.0, 0.0, -0.1],
+            [0.2, 0.0, 0.0],
+            [-0.2, 0.0, 0.0],
+        ]
+    ),
+    directions=np.array(
+        [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, -1.0, 0.0],
+        ]
+    ),
     max_force=np.full(6, 0.1),
 )
 """Detumble's six thrusters (``configs/scenes/detumble.yaml``)."""
@@ -711,28 +827,44 @@ def _effect_cases(n: int, integrator: str) -> list[Case]:
     for name, effects in effect_variants().items():
         world = World(model, effects, integrator=integrator, dt=DT, state=s0)
         act = command if world.action_dim else None
-        cases.append(Case(name, lambda w=world, a=act: w.step(a), n,
-                          reset=lambda w=world: w.reset(s0)))
+        cases.append(
+            Case(name, lambda w=world, a=act: w.step(a), n, reset=lambda w=world: w.reset(s0))
+        )
     return cases
 
 
 def bench_effects(cfg: Config, res: Results) -> None:
     """Cost of one World.step for each set of effects, relative to no effects."""
     for n in cfg.effect_sizes:
-        timings = measure(_effect_cases(n, cfg.effect_integrator), min_time=cfg.min_time,
-                          repeats=cfg.repeats, clock=cfg.clock)
+        timings = measure(
+            _effect_cases(n, cfg.effect_integrator),
+            min_time=cfg.min_time,
+            repeats=cfg.repeats,
+            clock=cfg.clock,
+        )
         base = timings[NO_EFFECTS]
         for name, t in timings.items():
-            res.rows.append(_row("effects", name, n, "us_per_step", "us", t, t.median * 1e6,
-                                 peer=NO_EFFECTS, ratio=t.median / base.median))
+            res.rows.append(
+                _row(
+                    "effects",
+                    name,
+                    n,
+                    "us_per_step",
+                    "us",
+                    t,
+                    t.median * 1e6,
+                    peer=NO_EFFECTS,
+                    ratio=t.median / base.median,
+                )
+            )
         _log(f"  effects N={n}: done")
     res.notes["effects"] = [
         f"One `World.step` ({cfg.effect_integrator}, dt {DT} s) of the same body with a random "
         "velocity and spin; each world lists only the effects named (thrusters get a random "
-        "command); \"all of them\" = gravity, drag with offset centre of pressure, both "
+        'command); "all of them" = gravity, drag with offset centre of pressure, both '
         "dampings and the thrusters.",
         f"Ratio: time per step over the no-effects world's (lower is faster). "
-        f"\"{NOISE_FLOOR}\" is a second, identical no-effects world measured in the same "
+        f'"{NOISE_FLOOR}" is a second, identical no-effects world measured in the same '
         "rounds: its distance from 1 is the noise floor.",
     ]
 
@@ -776,18 +908,31 @@ def bench_ppo(cfg: Config, res: Results) -> None:
             venvs[PPO_DUMMY] = DummyVecEnv([make_detumble] * n_envs)
             venvs[PPO_SUBPROC] = SubprocVecEnv([make_detumble] * n_envs, start_method=start)
             models = {
-                name: PPO("MlpPolicy", venv, n_steps=cfg.ppo_n_steps,
-                          batch_size=cfg.ppo_batch_size, n_epochs=cfg.ppo_epochs,
-                          policy_kwargs={"net_arch": [64, 64]}, device="cpu", seed=0, verbose=0)
+                name: PPO(
+                    "MlpPolicy",
+                    venv,
+                    n_steps=cfg.ppo_n_steps,
+                    batch_size=cfg.ppo_batch_size,
+                    n_epochs=cfg.ppo_epochs,
+                    policy_kwargs={"net_arch": [64, 64]},
+                    device="cpu",
+                    seed=0,
+                    verbose=0,
+                )
                 for name, venv in venvs.items()
             }
             if cfg.ppo_warmup:
                 for model in models.values():
                     model.learn(cfg.ppo_n_steps * n_envs)
-            cases = [Case(name, lambda m=model: m.learn(cfg.ppo_timesteps,
-                                                        reset_num_timesteps=True),
-                          cfg.ppo_timesteps, calls=1)
-                     for name, model in models.items()]
+            cases = [
+                Case(
+                    name,
+                    lambda m=model: m.learn(cfg.ppo_timesteps, reset_num_timesteps=True),
+                    cfg.ppo_timesteps,
+                    calls=1,
+                )
+                for name, model in models.items()
+            ]
             timings = measure(cases, min_time=0.0, repeats=cfg.ppo_repeats, warmup=False)
     finally:
         for venv in venvs.values():
@@ -795,8 +940,19 @@ def bench_ppo(cfg: Config, res: Results) -> None:
         torch.set_num_threads(threads)
     dummy = timings[PPO_DUMMY].rate
     for name, t in timings.items():
-        res.rows.append(_row("ppo", name, n_envs, "env_steps_per_s", "1/s", t, t.rate,
-                             peer=PPO_DUMMY, ratio=t.rate / dummy))
+        res.rows.append(
+            _row(
+                "ppo",
+                name,
+                n_envs,
+                "env_steps_per_s",
+                "1/s",
+                t,
+                t.rate,
+                peer=PPO_DUMMY,
+                ratio=t.rate / dummy,
+            )
+        )
     res.notes["ppo"] = [
         f"PPO (`MlpPolicy` [64, 64], n_steps {cfg.ppo_n_steps}, batch {cfg.ppo_batch_size}, "
         f"{cfg.ppo_epochs} epoch(s), CPU, torch 1 thread) on `{DETUMBLE}` with {n_envs} envs: "
@@ -854,36 +1010,77 @@ def _ratio(res: Results, section: str, case: str, n: int, peer: str) -> float:
 def targets(res: Results) -> list[Target]:
     """The targets of the issue, each with its measured ratio."""
     out = [
-        Target("core N=4096: symplectic_euler / MuJoCo Euler rollout (body-steps/s)",
-               "core 4096: sympl. Euler / MJ Euler",
-               _ratio(res, "core", "symplectic_euler", 4096, "MuJoCo Euler rollout"), ">=", 15.0),
-        Target("core N=4096: rk4 / MuJoCo RK4 rollout (body-steps/s)",
-               "core 4096: rk4 / MJ RK4",
-               _ratio(res, "core", "rk4", 4096, "MuJoCo RK4 rollout"), ">=", 5.0),
-        Target(f"Detumble env.step time / {ENV_REFERENCE}'s", "Detumble step time / InvPend",
-               _ratio(res, "env", DETUMBLE, 1, ENV_REFERENCE), "<=", 0.7),
-        Target(f"vector Detumble N=4096 / {CARTPOLE_CASE} (env-steps/s)",
-               "vec 4096: Detumble / CartPole",
-               _ratio(res, "vec", "Detumble", 4096, CARTPOLE_CASE), ">=", 0.35),
-        Target("vector Detumble N=4096 / Detumble under SyncVectorEnv (env-steps/s)",
-               "vec 4096: Detumble / SyncVectorEnv",
-               _ratio(res, "vec", "Detumble", 4096, SYNC_CASE), ">=", 20.0,
-               note=_sync_note(res, 4096)),
+        Target(
+            "core N=4096: symplectic_euler / MuJoCo Euler rollout (body-steps/s)",
+            "core 4096: sympl. Euler / MJ Euler",
+            _ratio(res, "core", "symplectic_euler", 4096, "MuJoCo Euler rollout"),
+            ">=",
+            15.0,
+        ),
+        Target(
+            "core N=4096: rk4 / MuJoCo RK4 rollout (body-steps/s)",
+            "core 4096: rk4 / MJ RK4",
+            _ratio(res, "core", "rk4", 4096, "MuJoCo RK4 rollout"),
+            ">=",
+            5.0,
+        ),
+        Target(
+            f"Detumble env.step time / {ENV_REFERENCE}'s",
+            "Detumble step time / InvPend",
+            _ratio(res, "env", DETUMBLE, 1, ENV_REFERENCE),
+            "<=",
+            0.7,
+        ),
+        Target(
+            f"vector Detumble N=4096 / {CARTPOLE_CASE} (env-steps/s)",
+            "vec 4096: Detumble / CartPole",
+            _ratio(res, "vec", "Detumble", 4096, CARTPOLE_CASE),
+            ">=",
+            0.35,
+        ),
+        Target(
+            "vector Detumble N=4096 / Detumble under SyncVectorEnv (env-steps/s)",
+            "vec 4096: Detumble / SyncVectorEnv",
+            _ratio(res, "vec", "Detumble", 4096, SYNC_CASE),
+            ">=",
+            20.0,
+            note=_sync_note(res, 4096),
+        ),
     ]
     effect_sizes = sorted({r.n for r in res.section("effects")})
     for n in effect_sizes:
         all_cost = _ratio(res, "effects", "all of them", n, NO_EFFECTS)
         floor = abs(_ratio(res, "effects", NOISE_FLOOR, n, NO_EFFECTS) - 1.0)
         margin = max(0.05, 3.0 * floor)
-        out.append(Target(f"effects N={n}: all-effects step time / no-effects'",
-                          f"effects {n}: all / none (time)", all_cost, ">=", 1.0 + margin,
-                          note=f"measurably: above 1 by max(5 %, 3 x noise floor {floor:.1%})"))
+        out.append(
+            Target(
+                f"effects N={n}: all-effects step time / no-effects'",
+                f"effects {n}: all / none (time)",
+                all_cost,
+                ">=",
+                1.0 + margin,
+                note=f"measurably: above 1 by max(5 %, 3 x noise floor {floor:.1%})",
+            )
+        )
     if not effect_sizes:
-        out.append(Target("effects: all-effects step time / no-effects'",
-                          "effects: all / none (time)", math.nan, ">=", 1.05))
-    out.append(Target(f"PPO: adapter / {PPO_DUMMY} (env-steps/s)", "PPO: adapter / Dummy",
-                      _ratio(res, "ppo", PPO_ADAPTER, res.config.ppo_n_envs, PPO_DUMMY),
-                      ">=", 1.5))
+        out.append(
+            Target(
+                "effects: all-effects step time / no-effects'",
+                "effects: all / none (time)",
+                math.nan,
+                ">=",
+                1.05,
+            )
+        )
+    out.append(
+        Target(
+            f"PPO: adapter / {PPO_DUMMY} (env-steps/s)",
+            "PPO: adapter / Dummy",
+            _ratio(res, "ppo", PPO_ADAPTER, res.config.ppo_n_envs, PPO_DUMMY),
+            ">=",
+            1.5,
+        )
+    )
     return out
 
 
@@ -915,8 +1112,10 @@ def _table(header: Sequence[str], rows: Sequence[Sequence[str]], align: str = ""
     """A Markdown table; ``align`` has one ``l``/``r`` per column (default: the first left,
     the others right)."""
     align = align or "l" + "r" * (len(header) - 1)
-    lines = ["| " + " | ".join(header) + " |",
-             "|" + "|".join("---" if a == "l" else "---:" for a in align) + "|"]
+    lines = [
+        "| " + " | ".join(header) + " |",
+        "|" + "|".join("---" if a == "l" else "---:" for a in align) + "|",
+    ]
     lines += ["| " + " | ".join(r) + " |" for r in rows]
     return lines
 
@@ -946,11 +1145,24 @@ def _md_core(res: Results) -> list[str]:
         cells = [str(n)]
         for mj, ours in MJ_INTEGRATORS.items():
             a, b = res.get("core", ours, n), res.get("core", f"MuJoCo {mj} rollout", n)
-            cells += [_si(a.value) if a else "-", _si(b.value) if b else "-",
-                      _x(a.value / b.value) if a and b else "-"]
+            cells += [
+                _si(a.value) if a else "-",
+                _si(b.value) if b else "-",
+                _x(a.value / b.value) if a and b else "-",
+            ]
         pair_rows.append(cells)
-    lines += _table(["N", "symplectic_euler", "MuJoCo Euler rollout", "ratio", "rk4",
-                     "MuJoCo RK4 rollout", "ratio"], pair_rows)
+    lines += _table(
+        [
+            "N",
+            "symplectic_euler",
+            "MuJoCo Euler rollout",
+            "ratio",
+            "rk4",
+            "MuJoCo RK4 rollout",
+            "ratio",
+        ],
+        pair_rows,
+    )
     loops = [r for r in rows if "mj_step loop" in r.case]
     if loops:
         lines += ["", "N = 1 beside `mj_step` in a Python loop:", ""]
@@ -958,19 +1170,33 @@ def _md_core(res: Results) -> list[str]:
         for mj, ours in MJ_INTEGRATORS.items():
             a, b = res.get("core", ours, 1), res.get("core", f"MuJoCo {mj} mj_step loop", 1)
             if a and b:
-                loop_rows.append([ours, f"{a.median_s * 1e6:.3g}", f"MuJoCo {mj}",
-                                  f"{b.median_s * 1e6:.3g}", _x(a.value / b.value)])
-        lines += _table(["ours", "us/step", "peer", "us/step", "ours/peer (steps/s)"], loop_rows,
-                        "lrlrr")
+                loop_rows.append(
+                    [
+                        ours,
+                        f"{a.median_s * 1e6:.3g}",
+                        f"MuJoCo {mj}",
+                        f"{b.median_s * 1e6:.3g}",
+                        _x(a.value / b.value),
+                    ]
+                )
+        lines += _table(
+            ["ours", "us/step", "peer", "us/step", "ours/peer (steps/s)"], loop_rows, "lrlrr"
+        )
     return [*lines, ""]
 
 
 def _md_env(res: Results) -> list[str]:
     lines = ["## 2. Single environment: `env.step` through `gym.make`", ""]
     lines += _paragraphs(res.notes.get("env", []))
-    table = [[f"`{r.case}`", f"{r.value:.1f}" if math.isfinite(r.value) else "n/a",
-              _si(1e6 / r.value) if math.isfinite(r.value) else "-", _x(r.ratio)]
-             for r in res.section("env")]
+    table = [
+        [
+            f"`{r.case}`",
+            f"{r.value:.1f}" if math.isfinite(r.value) else "n/a",
+            _si(1e6 / r.value) if math.isfinite(r.value) else "-",
+            _x(r.ratio),
+        ]
+        for r in res.section("env")
+    ]
     lines += _table(["env", "us/step", "steps/s", f"time / {ENV_REFERENCE}"], table)
     return [*lines, ""]
 
@@ -983,10 +1209,14 @@ def _md_vec(res: Results) -> list[str]:
         sync = res.get("vec", SYNC_CASE, r.n)
         vs_sync = r.value / sync.value if sync is not None and r.case != SYNC_CASE else math.nan
         label = r.case + (" *extrapolated*" if r.note.startswith("extrapolated") else "")
-        table.append([str(r.n), label, _si(r.value), f"{1e6 / r.value:.3g}", _x(r.ratio),
-                      _x(vs_sync)])
-    lines += _table(["N", "env", "env-steps/s", "us/env-step", f"x {CARTPOLE_CASE}",
-                     "x Detumble Sync"], table, "rlrrrr")
+        table.append(
+            [str(r.n), label, _si(r.value), f"{1e6 / r.value:.3g}", _x(r.ratio), _x(vs_sync)]
+        )
+    lines += _table(
+        ["N", "env", "env-steps/s", "us/env-step", f"x {CARTPOLE_CASE}", "x Detumble Sync"],
+        table,
+        "rlrrrr",
+    )
     return [*lines, ""]
 
 
@@ -1017,25 +1247,38 @@ def _md_ppo(res: Results) -> list[str]:
     lines = ["## 5. Training: PPO environment steps per second", ""]
     lines += _paragraphs(res.notes.get("ppo", []))
     steps = res.config.ppo_timesteps
-    table = [[f"`{r.case}`", str(r.n), _si(r.value), f"{steps / r.value:.2f}", _x(r.ratio)]
-             for r in res.section("ppo")]
-    lines += _table(["VecEnv", "n_envs", "env-steps/s", f"s per learn({steps})",
-                     f"x {PPO_DUMMY}"], table)
+    table = [
+        [f"`{r.case}`", str(r.n), _si(r.value), f"{steps / r.value:.2f}", _x(r.ratio)]
+        for r in res.section("ppo")
+    ]
+    lines += _table(
+        ["VecEnv", "n_envs", "env-steps/s", f"s per learn({steps})", f"x {PPO_DUMMY}"], table
+    )
     return [*lines, ""]
 
 
 def _md_targets(res: Results) -> list[str]:
     lines = ["## Targets (informational, never asserted)", ""]
-    table = [[t.name, _x(t.measured) if math.isfinite(t.measured) else "not measured",
-              f"{t.op} {t.threshold:.3g}x", t.status, t.note] for t in targets(res)]
+    table = [
+        [
+            t.name,
+            _x(t.measured) if math.isfinite(t.measured) else "not measured",
+            f"{t.op} {t.threshold:.3g}x",
+            t.status,
+            t.note,
+        ]
+        for t in targets(res)
+    ]
     lines += _table(["target", "measured", "goal", "status", "note"], table, "lrrll")
     return [*lines, ""]
 
 
 def _clock_text(clock: str) -> str:
     if clock == "cpu":
-        return ("CPU time of the timing thread (`time.thread_time`, `--clock cpu`; PPO: "
-                "`time.perf_counter`)")
+        return (
+            "CPU time of the timing thread (`time.thread_time`, `--clock cpu`; PPO: "
+            "`time.perf_counter`)"
+        )
     return "`time.perf_counter`"
 
 
@@ -1065,14 +1308,18 @@ def _contention(res: Results) -> list[str]:
     if not shares:
         return []
     med, low = float(np.median(shares)), min(shares)
-    line = (f"- CPU share (thread CPU time / wall time while timing, PPO left out): median "
-            f"{med:.0%}, lowest {low:.0%}; below 100 % other processes took the core from the "
-            "benchmark while it was timing (a shared core's slowdown, e.g. a busy hyperthread "
-            "sibling, does not show here: compare the load average with the core count)")
+    line = (
+        f"- CPU share (thread CPU time / wall time while timing, PPO left out): median "
+        f"{med:.0%}, lowest {low:.0%}; below 100 % other processes took the core from the "
+        "benchmark while it was timing (a shared core's slowdown, e.g. a busy hyperthread "
+        "sibling, does not show here: compare the load average with the core count)"
+    )
     if _is_busy(res):
-        line += (". **The machine was busy: wall times are inflated and their ratios noisier "
-                 "than the repeats suggest; rerun on an idle machine, or with `--clock cpu`, "
-                 "before drawing conclusions.**")
+        line += (
+            ". **The machine was busy: wall times are inflated and their ratios noisier "
+            "than the repeats suggest; rerun on an idle machine, or with `--clock cpu`, "
+            "before drawing conclusions.**"
+        )
     return [line]
 
 
@@ -1095,8 +1342,13 @@ def write_markdown(res: Results, path: Path) -> None:
         *_contention(res),
         "",
     ]
-    writers = {"core": _md_core, "env": _md_env, "vec": _md_vec, "effects": _md_effects,
-               "ppo": _md_ppo}
+    writers = {
+        "core": _md_core,
+        "env": _md_env,
+        "vec": _md_vec,
+        "effects": _md_effects,
+        "ppo": _md_ppo,
+    }
     for name in SECTIONS:
         if res.section(name):
             lines += writers[name](res)
@@ -1136,14 +1388,32 @@ def _panel_core(ax: Any, res: Results) -> None:
     for mj, style in (("Euler", "s--"), ("RK4", "D:")):
         pts = sorted((r.n, r.value) for r in rows if r.case == f"MuJoCo {mj} rollout")
         if pts:
-            ax.plot(*zip(*pts, strict=True), style, color="black", ms=4, lw=1.5,
-                    label=f"MuJoCo {mj} rollout")
+            ax.plot(
+                *zip(*pts, strict=True),
+                style,
+                color="black",
+                ms=4,
+                lw=1.5,
+                label=f"MuJoCo {mj} rollout",
+            )
         loop = res.get("core", f"MuJoCo {mj} mj_step loop", 1)
         if loop is not None:
-            ax.plot([1], [loop.value], "x" if mj == "Euler" else "+", color="black", ms=8,
-                    mew=1.5, label=f"MuJoCo {mj} mj_step loop")
-    ax.set(xscale="log", yscale="log", xlabel="bodies N", ylabel="body-steps / s",
-           title="(1) core: World.step vs MuJoCo (one thread)")
+            ax.plot(
+                [1],
+                [loop.value],
+                "x" if mj == "Euler" else "+",
+                color="black",
+                ms=8,
+                mew=1.5,
+                label=f"MuJoCo {mj} mj_step loop",
+            )
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="bodies N",
+        ylabel="body-steps / s",
+        title="(1) core: World.step vs MuJoCo (one thread)",
+    )
     _n_ticks(ax, sorted({r.n for r in rows}))
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=6, ncol=2, loc="lower right")
@@ -1160,8 +1430,10 @@ def _panel_env(ax: Any, res: Results) -> None:
     ax.set_yticks(y, labels, fontsize=8)
     ax.invert_yaxis()
     ax.set_xlim(0, 1.45 * max([r.value for r in rows], default=1.0))
-    ax.set(xlabel="us per env.step (lower is faster)",
-           title=f"(2) single env via gym.make (x = time / {ENV_REFERENCE})")
+    ax.set(
+        xlabel="us per env.step (lower is faster)",
+        title=f"(2) single env via gym.make (x = time / {ENV_REFERENCE})",
+    )
     ax.grid(True, axis="x", alpha=0.3)
 
 
@@ -1187,10 +1459,22 @@ def _panel_vec(ax: Any, res: Results) -> None:
             xs = [measured[-1][0]] + [n for n, _ in extra]
             ys = [measured[-1][1]] + [v for _, v in extra]
             ax.plot(xs, ys, ":", color=color, lw=1.3)
-            ax.plot([n for n, _ in extra], [v for _, v in extra], "o", mfc="none", color=color,
-                    ms=5, label=f"{name} (extrapolated)")
-    ax.set(xscale="log", yscale="log", xlabel="num_envs N", ylabel="env-steps / s",
-           title="(3) vector envs: native, CartPole's, SyncVectorEnv")
+            ax.plot(
+                [n for n, _ in extra],
+                [v for _, v in extra],
+                "o",
+                mfc="none",
+                color=color,
+                ms=5,
+                label=f"{name} (extrapolated)",
+            )
+    ax.set(
+        xscale="log",
+        yscale="log",
+        xlabel="num_envs N",
+        ylabel="env-steps / s",
+        title="(3) vector envs: native, CartPole's, SyncVectorEnv",
+    )
     _n_ticks(ax, sorted({r.n for r in rows}))
     ax.grid(True, which="major", alpha=0.3)
     ax.legend(fontsize=6, loc="upper left")
@@ -1204,13 +1488,20 @@ def _panel_effects(ax: Any, res: Results) -> None:
     height = 0.8 / max(len(sizes), 1)
     for j, n in enumerate(sizes):
         vals = [getattr(res.get("effects", name, n), "ratio", math.nan) for name in names]
-        ax.barh(y + (j - (len(sizes) - 1) / 2) * height, vals, height=height,
-                label=f"N={n}", color=matplotlib.colormaps["tab10"](j + 2))
+        ax.barh(
+            y + (j - (len(sizes) - 1) / 2) * height,
+            vals,
+            height=height,
+            label=f"N={n}",
+            color=matplotlib.colormaps["tab10"](j + 2),
+        )
     ax.axvline(1.0, color="black", lw=0.8)
     ax.set_yticks(y, names, fontsize=7)
     ax.invert_yaxis()
-    ax.set(xlabel="step time / no-effects step time",
-           title=f"(4) effects ({res.config.effect_integrator}): pay only for what is listed")
+    ax.set(
+        xlabel="step time / no-effects step time",
+        title=f"(4) effects ({res.config.effect_integrator}): pay only for what is listed",
+    )
     ax.grid(True, axis="x", alpha=0.3)
     ax.legend(fontsize=7, loc="center right")
 
@@ -1218,27 +1509,43 @@ def _panel_effects(ax: Any, res: Results) -> None:
 def _panel_ppo(ax: Any, res: Results) -> None:
     rows = res.section("ppo")
     x = np.arange(len(rows))
-    ax.bar(x, [r.value for r in rows],
-           color=["tab:blue" if r.case == PPO_ADAPTER else "0.55" for r in rows])
+    ax.bar(
+        x,
+        [r.value for r in rows],
+        color=["tab:blue" if r.case == PPO_ADAPTER else "0.55" for r in rows],
+    )
     for k, r in enumerate(rows):
-        ax.text(k, r.value, f"{r.value:.0f}\n({_x(r.ratio)})", ha="center", va="bottom",
-                fontsize=7)
+        ax.text(k, r.value, f"{r.value:.0f}\n({_x(r.ratio)})", ha="center", va="bottom", fontsize=7)
     ax.set_xticks(x, [r.case for r in rows], fontsize=7)
     ax.set_ylim(0, 1.25 * max([r.value for r in rows], default=1.0))
-    ax.set(ylabel="env-steps / s",
-           title=f"(5) PPO on Detumble, {res.config.ppo_n_envs} envs (x = vs {PPO_DUMMY})")
+    ax.set(
+        ylabel="env-steps / s",
+        title=f"(5) PPO on Detumble, {res.config.ppo_n_envs} envs (x = vs {PPO_DUMMY})",
+    )
     ax.grid(True, axis="y", alpha=0.3)
 
 
 def _panel_targets(ax: Any, res: Results) -> None:
     ax.axis("off")
     items = targets(res)
-    cells = [[t.short, _x(t.measured) if math.isfinite(t.measured) else "-",
-              f"{t.op} {t.threshold:.3g}x", t.status] for t in items]
+    cells = [
+        [
+            t.short,
+            _x(t.measured) if math.isfinite(t.measured) else "-",
+            f"{t.op} {t.threshold:.3g}x",
+            t.status,
+        ]
+        for t in items
+    ]
     colors = {"pass": "#c8e6c9", "fail": "#ffcdd2", "n/a": "#eeeeee"}
-    table = ax.table(cellText=cells, colLabels=["target", "measured", "goal", ""],
-                     cellColours=[["white"] * 3 + [colors[t.status]] for t in items],
-                     colWidths=[0.56, 0.16, 0.16, 0.12], loc="center", cellLoc="left")
+    table = ax.table(
+        cellText=cells,
+        colLabels=["target", "measured", "goal", ""],
+        cellColours=[["white"] * 3 + [colors[t.status]] for t in items],
+        colWidths=[0.56, 0.16, 0.16, 0.12],
+        loc="center",
+        cellLoc="left",
+    )
     table.auto_set_font_size(False)
     table.set_fontsize(8)
     table.scale(1.0, 1.6)
@@ -1249,8 +1556,13 @@ def write_figure(res: Results, path: Path) -> None:
     """``speed.png``: one panel per measured section and the targets."""
     fig = Figure(figsize=(17, 10), layout="constrained")
     axes = fig.subplots(2, 3)
-    panels = {"core": _panel_core, "env": _panel_env, "vec": _panel_vec,
-              "effects": _panel_effects, "ppo": _panel_ppo}
+    panels = {
+        "core": _panel_core,
+        "env": _panel_env,
+        "vec": _panel_vec,
+        "effects": _panel_effects,
+        "ppo": _panel_ppo,
+    }
     for ax, name in zip(axes.flat, SECTIONS, strict=False):
         if res.section(name):
             panels[name](ax, res)
@@ -1264,8 +1576,11 @@ def write_figure(res: Results, path: Path) -> None:
     if _is_busy(res):
         busy = " - busy machine: " + (f"CPU share {share:.0%}, " if math.isfinite(share) else "")
         busy += f"load {c.get('load1_start', '?')}"
-    fig.suptitle(f"rigid_env speed ({res.config.name}, {res.config.clock} clock) - {c['cpu']}, "
-                 f"{c['cores']} - {c['date']}{busy}", fontsize=11)
+    fig.suptitle(
+        f"rigid_env speed ({res.config.name}, {res.config.clock} clock) - {c['cpu']}, "
+        f"{c['cores']} - {c['date']}{busy}",
+        fontsize=11,
+    )
     fig.savefig(path, dpi=110)
 
 
@@ -1285,9 +1600,11 @@ def _version(dist: str) -> str:
 
 
 def _versions() -> str:
-    return (f"Python {platform.python_version()}, numpy {np.__version__}, mujoco "
-            f"{mujoco.__version__}, gymnasium {gym.__version__}, stable-baselines3 "
-            f"{_version('stable-baselines3')}, torch {_version('torch')}")
+    return (
+        f"Python {platform.python_version()}, numpy {np.__version__}, mujoco "
+        f"{mujoco.__version__}, gymnasium {gym.__version__}, stable-baselines3 "
+        f"{_version('stable-baselines3')}, torch {_version('torch')}"
+    )
 
 
 def _cores() -> str:
@@ -1318,24 +1635,44 @@ def _sections(text: str) -> tuple[str, ...]:
     bad = [s for s in names if s not in SECTIONS]
     if bad or not names:
         raise argparse.ArgumentTypeError(
-            f"unknown section {', '.join(bad) or repr(text)}; choose from {', '.join(SECTIONS)}")
+            f"unknown section {', '.join(bad) or repr(text)}; choose from {', '.join(SECTIONS)}"
+        )
     return names
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The flags of ``rigid-env bench speed``."""
-    parser.add_argument("--out", type=Path, default=Path("results/speed"), metavar="DIR",
-                        help="output folder for speed.png, speed.md and speed.csv "
-                        "(default: results/speed)")
-    parser.add_argument("--quick", action="store_true",
-                        help="fewer sizes, integrators and repeats (about a minute)")
-    parser.add_argument("--only", type=_sections, default=SECTIONS, metavar="S1,S2",
-                        help=f"measure only these sections: {', '.join(SECTIONS)} (default: all)")
-    parser.add_argument("--repeats", type=int, default=None, metavar="K",
-                        help="repeats per case (default: 7, quick 5)")
-    parser.add_argument("--clock", choices=("wall", "cpu"), default="wall",
-                        help="wall: time.perf_counter (default); cpu: CPU time of the timing "
-                        "thread, steadier on a busy machine (PPO always uses wall time)")
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=Path("results/speed"),
+        metavar="DIR",
+        help="output folder for speed.png, speed.md and speed.csv (default: results/speed)",
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="fewer sizes, integrators and repeats (about a minute)"
+    )
+    parser.add_argument(
+        "--only",
+        type=_sections,
+        default=SECTIONS,
+        metavar="S1,S2",
+        help=f"measure only these sections: {', '.join(SECTIONS)} (default: all)",
+    )
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=None,
+        metavar="K",
+        help="repeats per case (default: 7, quick 5)",
+    )
+    parser.add_argument(
+        "--clock",
+        choices=("wall", "cpu"),
+        default="wall",
+        help="wall: time.perf_counter (default); cpu: CPU time of the timing "
+        "thread, steadier on a busy machine (PPO always uses wall time)",
+    )
     parser.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)
 
 
@@ -1349,22 +1686,34 @@ def run(args: argparse.Namespace) -> int:
     cfg = replace(cfg, clock=args.clock)
     out = Path(args.out)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out: {out} is a file; give a folder for speed.png, speed.md "
-                         "and speed.csv")
+        raise ValueError(
+            f"--out: {out} is a file; give a folder for speed.png, speed.md and speed.csv"
+        )
     out.mkdir(parents=True, exist_ok=True)
     sections = [s for s in SECTIONS if s in args.only]
     flags = " --quick" if args.quick else " --smoke" if args.smoke else ""
     flags += " --clock cpu" if cfg.clock == "cpu" else ""
-    res = Results(cfg, context={
-        "date": datetime.now(timezone.utc).astimezone().strftime("%Y-%m-%d %H:%M %Z"),
-        "cpu": cpu_model(), "cores": _cores(), "versions": _versions(),
-        "load_start": _load(), "load1_start": f"{_load_1min():.2f}",
-        "sections": ", ".join(sections),
-        "command": f"rigid-env bench speed{flags}"
-                   + ("" if tuple(sections) == SECTIONS else f" --only {','.join(sections)}"),
-    })
-    benches = {"core": bench_core, "env": bench_env, "vec": bench_vec,
-               "effects": bench_effects, "ppo": bench_ppo}
+    res = Results(
+        cfg,
+        context={
+            "date": datetime.now(timezone.utc).astimezone().strftime("%Y-%m-%d %H:%M %Z"),
+            "cpu": cpu_model(),
+            "cores": _cores(),
+            "versions": _versions(),
+            "load_start": _load(),
+            "load1_start": f"{_load_1min():.2f}",
+            "sections": ", ".join(sections),
+            "command": f"rigid-env bench speed{flags}"
+            + ("" if tuple(sections) == SECTIONS else f" --only {','.join(sections)}"),
+        },
+    )
+    benches = {
+        "core": bench_core,
+        "env": bench_env,
+        "vec": bench_vec,
+        "effects": bench_effects,
+        "ppo": bench_ppo,
+    }
     start = time.perf_counter()
     _log(f"speed benchmark ({cfg.name}): {', '.join(sections)}")
     for name in sections:
@@ -1379,8 +1728,10 @@ def run(args: argparse.Namespace) -> int:
     write_figure(res, out / "speed.png")
     _log(f"  figure: {time.perf_counter() - t0:.1f} s")
     print("\n".join(_md_targets(res)))
-    print(f"wrote {out / 'speed.md'}, {out / 'speed.csv'}, {out / 'speed.png'} "
-          f"({res.context['wall']} s)")
+    print(
+        f"wrote {out / 'speed.md'}, {out / 'speed.csv'}, {out / 'speed.png'} "
+        f"({res.context['wall']} s)"
+    )
     return 0
 
 

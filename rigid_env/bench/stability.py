@@ -218,8 +218,14 @@ def max_step_gain(e: FloatArray) -> FloatArray:
         return np.max((e[1:] - e[:-1]) / e[:-1], axis=0)
 
 
-def torque_free_world(inertia: ArrayLike, w0: ArrayLike, integrator: str, dt: float,
-                      on_error: str = "raise", **kwargs: object) -> World:
+def torque_free_world(
+    inertia: ArrayLike,
+    w0: ArrayLike,
+    integrator: str,
+    dt: float,
+    on_error: str = "raise",
+    **kwargs: object,
+) -> World:
     """A world of torque-free bodies: per-body ``inertia`` (N, 3) and ``w0`` (N, 3), at the
     origin with identity orientation."""
     inertia = np.atleast_2d(np.asarray(inertia, dtype=np.float64))
@@ -227,8 +233,7 @@ def torque_free_world(inertia: ArrayLike, w0: ArrayLike, integrator: str, dt: fl
     state = State.zeros(w0.shape[0])
     state.w[:] = w0
     model = BodyModel(np.ones(inertia.shape[0]), inertia)
-    return World(model, (), integrator=integrator, dt=dt, state=state,
-                 on_error=on_error, **kwargs)  # type: ignore[arg-type]
+    return World(model, (), integrator=integrator, dt=dt, state=state, on_error=on_error, **kwargs)  # type: ignore[arg-type]
 
 
 # --------------------------------------------------------------------------------------------
@@ -402,8 +407,9 @@ SEPARATRIX_W0 = (1.0, 15.0, 1.0)
 SEPARATRIX_T_END = 10.0
 
 
-def separatrix_margin(inertia: ArrayLike = SEPARATRIX_INERTIA,
-                      w0: ArrayLike = SEPARATRIX_W0) -> float:
+def separatrix_margin(
+    inertia: ArrayLike = SEPARATRIX_INERTIA, w0: ArrayLike = SEPARATRIX_W0
+) -> float:
     """``(M^2 - 2 E I2) / M^2``: how far (relative) the motion is from the separatrix."""
     i = np.asarray(inertia, dtype=np.float64)
     w = np.asarray(w0, dtype=np.float64)
@@ -451,8 +457,16 @@ def separatrix(integrator: str, dt: float, t_end: float = SEPARATRIX_T_END) -> S
         e_err = float(np.max(np.abs(e - e[0])) / e[0])
     if run.error is not None:
         w_err, e_err = float("inf"), float("inf")
-    return SeparatrixResult(integrator, dt, run.steps, run.error, w_err, e_err,
-                            separatrix_margin(), bool(np.any(side != side[0])))
+    return SeparatrixResult(
+        integrator,
+        dt,
+        run.steps,
+        run.error,
+        w_err,
+        e_err,
+        separatrix_margin(),
+        bool(np.any(side != side[0])),
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -489,9 +503,14 @@ def orientation_lag(speed: float = 50.0, rate: float = 60.0, steps: int = 60) ->
     one_lin = quat_integrate_linear(q0, w, h)
     turned = float(quat_angle_between(q0, one_lin))
     hw = h * speed
-    return LagResult(hw, hw - turned, hw**3 / 12.0, hw - 2.0 * np.arctan(hw / 2.0),
-                     float(quat_angle_between(q_exp, exact)),
-                     float(quat_angle_between(q_lin, exact)))
+    return LagResult(
+        hw,
+        hw - turned,
+        hw**3 / 12.0,
+        hw - 2.0 * np.arctan(hw / 2.0),
+        float(quat_angle_between(q_exp, exact)),
+        float(quat_angle_between(q_lin, exact)),
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -553,14 +572,21 @@ def scaled_world(integrator: str, mass_scale: float, length_scale: float) -> Wor
     model = BodyModel.single(2.0 * c, np.array([0.02, 0.03, 0.04]) * c * b * b)
     effects: list[ForceEffect | StepMap] = [
         Gravity(np.array([0.0, 0.0, -9.81]) * b),
-        QuadraticDrag(rho=1.225, cd=1.05, area=0.06 * c / b,
-                      center_of_pressure=np.array([0.0, 0.0, 0.05]) * b),
-        Thrusters(points=np.array([[0.2, 0.0, 0.0], [0.0, 0.15, 0.0]]) * b,
-                  directions=np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
-                  max_force=np.array([0.1, 0.1]) * c * b),
+        QuadraticDrag(
+            rho=1.225, cd=1.05, area=0.06 * c / b, center_of_pressure=np.array([0.0, 0.0, 0.05]) * b
+        ),
+        Thrusters(
+            points=np.array([[0.2, 0.0, 0.0], [0.0, 0.15, 0.0]]) * b,
+            directions=np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]),
+            max_force=np.array([0.1, 0.1]) * c * b,
+        ),
     ]
-    state = State.from_arrays(np.array([0.1, -0.2, 1.0]) * b, np.array([0.5, 0.0, 2.0]) * b,
-                              quat_from_rotvec(np.array([0.2, 0.1, -0.3])), [0.3, 2.0, 0.1])
+    state = State.from_arrays(
+        np.array([0.1, -0.2, 1.0]) * b,
+        np.array([0.5, 0.0, 2.0]) * b,
+        quat_from_rotvec(np.array([0.2, 0.1, -0.3])),
+        [0.3, 2.0, 0.1],
+    )
     return World(model, effects, integrator=integrator, dt=0.01, state=state)
 
 
@@ -593,10 +619,13 @@ def scale_invariance(integrator: str, steps: int) -> ScaleResult:
         run = record(scaled_world(integrator, c, b), steps, SCALE_COMMAND)
         x = run.x[:, 0] / b
         rot = max(rot, float(np.max(quat_angle_between(run.q, ref.q))))
-        rate = max(rate, float(np.max(np.linalg.norm(run.w - ref.w, axis=-1)
-                                      / np.linalg.norm(ref.w, axis=-1))))
-        pos = max(pos, float(np.max(np.linalg.norm(x - ref_x, axis=-1)
-                                    / np.linalg.norm(ref_x, axis=-1))))
+        rate = max(
+            rate,
+            float(np.max(np.linalg.norm(run.w - ref.w, axis=-1) / np.linalg.norm(ref.w, axis=-1))),
+        )
+        pos = max(
+            pos, float(np.max(np.linalg.norm(x - ref_x, axis=-1) / np.linalg.norm(ref_x, axis=-1)))
+        )
     return ScaleResult(integrator, rot, rate, pos)
 
 
@@ -604,11 +633,21 @@ def scale_invariance(integrator: str, steps: int) -> ScaleResult:
 # The table
 # --------------------------------------------------------------------------------------------
 
-FULL_LENGTHS = {"dzhanibekov_s": 60.0, "hard_steps": 20_000, "thin_steps": 10_000,
-                "long_steps": 100_000, "scale_steps": 300}
+FULL_LENGTHS = {
+    "dzhanibekov_s": 60.0,
+    "hard_steps": 20_000,
+    "thin_steps": 10_000,
+    "long_steps": 100_000,
+    "scale_steps": 300,
+}
 """The lengths the issue asks for."""
-CI_LENGTHS = {"dzhanibekov_s": 6.5, "hard_steps": 1_000, "thin_steps": 1_000,
-              "long_steps": 10_000, "scale_steps": 50}
+CI_LENGTHS = {
+    "dzhanibekov_s": 6.5,
+    "hard_steps": 1_000,
+    "thin_steps": 1_000,
+    "long_steps": 10_000,
+    "scale_steps": 50,
+}
 """The lengths the test-suite runs: the same physics, shorter (the Dzhanibekov horizon keeps
 the first flip, at 5.6 s; the fast spin's trouble, where it comes, comes within 20 steps)."""
 SEPARATRIX_RATES = (30.0, 60.0, 120.0, 240.0, 480.0)
@@ -652,10 +691,21 @@ def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print
     for name in ("rk4", "splitting"):
         log(f"dzhanibekov {name} {t_end:g} s")
         r = dzhanibekov(name, t_end)
-        rows.append(Row(f"Dzhanibekov {name}, dt 1e-3, {t_end:g} s: flips (exact {r.exact_flips})",
-                        r.flips, r.exact_flips, "=="))
-        rows.append(Row(f"Dzhanibekov {name}: last flip time, relative error",
-                        r.last_flip_rel_error, FLIP_TIME_RTOL))
+        rows.append(
+            Row(
+                f"Dzhanibekov {name}, dt 1e-3, {t_end:g} s: flips (exact {r.exact_flips})",
+                r.flips,
+                r.exact_flips,
+                "==",
+            )
+        )
+        rows.append(
+            Row(
+                f"Dzhanibekov {name}: last flip time, relative error",
+                r.last_flip_rel_error,
+                FLIP_TIME_RTOL,
+            )
+        )
     hard_steps, thin_steps = int(lengths["hard_steps"]), int(lengths["thin_steps"])
     for name in INTEGRATORS:
         log(f"hard batch {name} {max(hard_steps, thin_steps)} steps")
@@ -663,69 +713,157 @@ def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print
         failed_at = int(hr.run.first_failure[hr.index("fast_spin")])
         held = failed_at < 0 or failed_at > hard_steps
         status = "finite" if held else f"error at step {failed_at}"
-        rows.append(Row(f"Fast spin {name}, h|w| = 2, {hard_steps} steps: outcome", status,
-                        "finite or clear error", "finite"))
+        rows.append(
+            Row(
+                f"Fast spin {name}, h|w| = 2, {hard_steps} steps: outcome",
+                status,
+                "finite or clear error",
+                "finite",
+            )
+        )
         if name == "splitting":
-            rows.append(Row("Fast spin splitting: | |L| - |L0| | / |L0|",
-                            hr.l_norm_drift("fast_spin", hard_steps), L_NORM_RTOL))
+            rows.append(
+                Row(
+                    "Fast spin splitting: | |L| - |L0| | / |L0|",
+                    hr.l_norm_drift("fast_spin", hard_steps),
+                    L_NORM_RTOL,
+                )
+            )
             e = hr.energy("fast_spin", hard_steps)
-            rows.append(Row("Fast spin splitting: max |E - E0| / E0 (reported: h|w| = 2 is past "
-                            "splitting's linear stability limit, ~1.95 about this major axis)",
-                            float(np.max(np.abs(e - e[0])) / e[0]), "-", "report"))
+            rows.append(
+                Row(
+                    "Fast spin splitting: max |E - E0| / E0 (reported: h|w| = 2 is past "
+                    "splitting's linear stability limit, ~1.95 about this major axis)",
+                    float(np.max(np.abs(e - e[0])) / e[0]),
+                    "-",
+                    "report",
+                )
+            )
             below = torque_free_world((1.0, 2.0, 3.0), (0.5, 0.5, 150.0), "splitting", HARD_DT)
             e = energy(np.array([1.0, 2.0, 3.0]), record(below, hard_steps).w[:, 0])
-            rows.append(Row(f"Spin at h|w| = 1.5, splitting, {hard_steps} steps: max |E - E0| / E0",
-                            float(np.max(np.abs(e - e[0])) / e[0]), SPLITTING_ENERGY_BELOW_LIMIT))
+            rows.append(
+                Row(
+                    f"Spin at h|w| = 1.5, splitting, {hard_steps} steps: max |E - E0| / E0",
+                    float(np.max(np.abs(e - e[0])) / e[0]),
+                    SPLITTING_ENERGY_BELOW_LIMIT,
+                )
+            )
         if name in ("implicit_gyro", "implicit_euler"):
-            rows.append(Row(f"Fast spin {name}: largest one-step energy gain, relative",
-                            float(max_step_gain(hr.energy("fast_spin", hard_steps)[:, None])[0]),
-                            ENERGY_GAIN_RTOL))
+            rows.append(
+                Row(
+                    f"Fast spin {name}: largest one-step energy gain, relative",
+                    float(max_step_gain(hr.energy("fast_spin", hard_steps)[:, None])[0]),
+                    ENERGY_GAIN_RTOL,
+                )
+            )
         if name not in FORWARD_EULER_W:
             ok = all(hr.finite(b, thin_steps) for b in THIN_BODIES)
-            rows.append(Row(f"Thin rods 1e-4/1e-6, plates 1e-4/1e-6/flat, {name}, {thin_steps} "
-                            "steps: all finite", "finite" if ok else "NaN", "finite", "=="))
+            rows.append(
+                Row(
+                    f"Thin rods 1e-4/1e-6, plates 1e-4/1e-6/flat, {name}, {thin_steps} "
+                    "steps: all finite",
+                    "finite" if ok else "NaN",
+                    "finite",
+                    "==",
+                )
+            )
         if name == "splitting":
-            rows.append(Row("Thin rods and plates, splitting: | |L| - |L0| | / |L0|",
-                            max(hr.l_norm_drift(b, thin_steps) for b in THIN_BODIES),
-                            L_NORM_RTOL))
+            rows.append(
+                Row(
+                    "Thin rods and plates, splitting: | |L| - |L0| | / |L0|",
+                    max(hr.l_norm_drift(b, thin_steps) for b in THIN_BODIES),
+                    L_NORM_RTOL,
+                )
+            )
     log("explicit euler growth")
     g = explicit_euler_growth()
-    rows.append(Row("explicit_euler, unstable spin: energy growth E_last / E0 before the error",
-                    g.growth, 1.0e10, ">="))
-    rows.append(Row("explicit_euler: smallest E[k+1] / E[k] (never decreases)",
-                    g.min_step_ratio, 1.0, ">="))
-    rows.append(Row("explicit_euler: ends in NumericalInstabilityError, last state finite",
-                    "yes" if g.error and g.last_state_finite else "no", "yes", "=="))
+    rows.append(
+        Row(
+            "explicit_euler, unstable spin: energy growth E_last / E0 before the error",
+            g.growth,
+            1.0e10,
+            ">=",
+        )
+    )
+    rows.append(
+        Row("explicit_euler: smallest E[k+1] / E[k] (never decreases)", g.min_step_ratio, 1.0, ">=")
+    )
+    rows.append(
+        Row(
+            "explicit_euler: ends in NumericalInstabilityError, last state finite",
+            "yes" if g.error and g.last_state_finite else "no",
+            "yes",
+            "==",
+        )
+    )
     log("separatrix")
     sep = separatrix("rk4", 1.0 / 60.0)
-    rows.append(Row("Separatrix (10, 20, 26), rk4 60 Hz, 10 s: max |w - w_exact| [rad/s]",
-                    sep.max_w_error, SEPARATRIX_W_TOL))
+    rows.append(
+        Row(
+            "Separatrix (10, 20, 26), rk4 60 Hz, 10 s: max |w - w_exact| [rad/s]",
+            sep.max_w_error,
+            SEPARATRIX_W_TOL,
+        )
+    )
     lag = orientation_lag()
-    rows.append(Row("Orientation 50 rad/s at 60 Hz: exp map error after 1 s [rad]",
-                    lag.exp_error, EXP_MAP_TOL))
-    rows.append(Row("Orientation: linear update lag per step / ((h|w|)^3/12) - 1",
-                    abs(lag.lag_per_step / lag.predicted_lag - 1.0), LINEAR_LAG_RTOL))
-    rows.append(Row("Orientation: linear update error after 1 s [rad] (reported)",
-                    lag.linear_error, "-", "report"))
+    rows.append(
+        Row(
+            "Orientation 50 rad/s at 60 Hz: exp map error after 1 s [rad]",
+            lag.exp_error,
+            EXP_MAP_TOL,
+        )
+    )
+    rows.append(
+        Row(
+            "Orientation: linear update lag per step / ((h|w|)^3/12) - 1",
+            abs(lag.lag_per_step / lag.predicted_lag - 1.0),
+            LINEAR_LAG_RTOL,
+        )
+    )
+    rows.append(
+        Row(
+            "Orientation: linear update error after 1 s [rad] (reported)",
+            lag.linear_error,
+            "-",
+            "report",
+        )
+    )
     long_steps = int(lengths["long_steps"])
     log(f"long horizon {long_steps} steps")
     lr = long_horizon(long_steps)
-    rows.append(Row(f"Long horizon splitting, {long_steps} steps: max | |q| - 1 |",
-                    lr.max_unit_q_error, UNIT_Q_TOL))
-    rows.append(Row("Long horizon splitting: energy error last 10 % / first 10 %",
-                    lr.drift_ratio, SECULAR_DRIFT_FACTOR))
+    rows.append(
+        Row(
+            f"Long horizon splitting, {long_steps} steps: max | |q| - 1 |",
+            lr.max_unit_q_error,
+            UNIT_Q_TOL,
+        )
+    )
+    rows.append(
+        Row(
+            "Long horizon splitting: energy error last 10 % / first 10 %",
+            lr.drift_ratio,
+            SECULAR_DRIFT_FACTOR,
+        )
+    )
     scale_steps = int(lengths["scale_steps"])
     worst = 0.0
     for name in INTEGRATORS:
         log(f"scale invariance {name}")
         worst = max(worst, scale_invariance(name, scale_steps).worst)
-    rows.append(Row(f"Scale invariance, mass x1e+-6, length x1e+-3, all integrators, "
-                    f"{scale_steps} steps: relative difference", worst, SCALE_RTOL))
+    rows.append(
+        Row(
+            f"Scale invariance, mass x1e+-6, length x1e+-3, all integrators, "
+            f"{scale_steps} steps: relative difference",
+            worst,
+            SCALE_RTOL,
+        )
+    )
     return rows
 
 
-def separatrix_report(rates: Sequence[float] = SEPARATRIX_RATES,
-                      log: Callable[[str], None] = print) -> list[SeparatrixResult]:
+def separatrix_report(
+    rates: Sequence[float] = SEPARATRIX_RATES, log: Callable[[str], None] = print
+) -> list[SeparatrixResult]:
     """:func:`separatrix` for every integrator at every rate of ``rates``."""
     out = []
     for name in INTEGRATORS:
@@ -750,10 +888,14 @@ def separatrix_markdown(results: Sequence[SeparatrixResult]) -> str:
     rates = sorted({round(1.0 / r.dt) for r in results})
     margin = results[0].margin
     head = "| integrator | " + " | ".join(f"{r:g} Hz" for r in rates) + " |"
-    lines = [f"Separatrix margin (M^2 - 2 E I2) / M^2 = {margin:.3g}; each cell: largest relative "
-             "energy error over 10 s; **crosses** where it exceeds the margin "
-             "(+ side flipped: the sign of M^2 - 2 E I2 changed).", "", head,
-             "|---|" + "---|" * len(rates)]
+    lines = [
+        f"Separatrix margin (M^2 - 2 E I2) / M^2 = {margin:.3g}; each cell: largest relative "
+        "energy error over 10 s; **crosses** where it exceeds the margin "
+        "(+ side flipped: the sign of M^2 - 2 E I2 changed).",
+        "",
+        head,
+        "|---|" + "---|" * len(rates),
+    ]
     for name in dict.fromkeys(r.integrator for r in results):
         cells = []
         for rate in rates:
@@ -773,8 +915,11 @@ def separatrix_markdown(results: Sequence[SeparatrixResult]) -> str:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Flags of ``python -m rigid_env.bench.stability`` (and ``rigid-env bench stability``)."""
-    parser.add_argument("--quick", action="store_true",
-                        help="run the test-suite's shorter lengths instead of the full ones")
+    parser.add_argument(
+        "--quick",
+        action="store_true",
+        help="run the test-suite's shorter lengths instead of the full ones",
+    )
     parser.add_argument("--out", default=None, help="also write the Markdown to this file")
 
 
@@ -788,8 +933,10 @@ def run(args: argparse.Namespace) -> int:
 
     rows = stability_rows(lengths, log)
     report = separatrix_report(log=log)
-    text = (f"## Stability ({'quick' if args.quick else 'full'} lengths)\n\n{markdown(rows)}\n\n"
-            f"## Separatrix crossings\n\n{separatrix_markdown(report)}\n")
+    text = (
+        f"## Stability ({'quick' if args.quick else 'full'} lengths)\n\n{markdown(rows)}\n\n"
+        f"## Separatrix crossings\n\n{separatrix_markdown(report)}\n"
+    )
     print(text)
     if args.out:
         with open(args.out, "w", encoding="utf-8") as fh:
@@ -800,8 +947,10 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of ``python -m rigid_env.bench.stability``."""
-    parser = argparse.ArgumentParser(prog="python -m rigid_env.bench.stability",
-                                     description=__doc__.splitlines()[0] if __doc__ else None)
+    parser = argparse.ArgumentParser(
+        prog="python -m rigid_env.bench.stability",
+        description=__doc__.splitlines()[0] if __doc__ else None,
+    )
     add_arguments(parser)
     return run(parser.parse_args(argv))
 

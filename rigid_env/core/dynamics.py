@@ -89,8 +89,16 @@ class Dynamics:
         force = np.zeros((n, 3))
         torque = np.zeros((n, 3))
         for e, sl in zip(self.effects, self.slices, strict=True):
-            e.accumulate(self.model, x, v, q, w,
-                         None if sl is None or action is None else action[:, sl], force, torque)
+            e.accumulate(
+                self.model,
+                x,
+                v,
+                q,
+                w,
+                None if sl is None or action is None else action[:, sl],
+                force,
+                torque,
+            )
         return (force if self.has_force else None), (torque if self.has_torque else None)
 
     def accelerations(

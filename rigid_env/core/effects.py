@@ -45,7 +45,7 @@ def apply_map(u: FloatArray, m: FloatArray) -> FloatArray:
     """
     out = u[:, 0:1] * m[0]
     for a in range(1, m.shape[0]):
-        out += u[:, a:a + 1] * m[a]
+        out += u[:, a : a + 1] * m[a]
     return out
 
 
@@ -321,7 +321,9 @@ class PointForces(LinearActuator):
         if not np.all(np.isfinite(points)):
             raise ValueError("point_forces.points: every number must be finite")
         if not (np.isfinite(self.max_force) and self.max_force >= 0.0):
-            raise ValueError(f"point_forces.max_force: must be finite and >= 0, got {self.max_force}")
+            raise ValueError(
+                f"point_forces.max_force: must be finite and >= 0, got {self.max_force}"
+            )
         k = points.shape[0]
         # Row 3k + j is a unit force along body axis j at point k.
         fmap = np.tile(np.eye(3), (k, 1)) * float(self.max_force)

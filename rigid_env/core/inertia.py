@@ -400,8 +400,7 @@ def _check_mesh(func: str, vertices: ArrayLike, faces: ArrayLike) -> tuple[Float
     f = f_raw.astype(np.int64)
     if f.min() < 0 or f.max() >= v.shape[0]:
         raise ValueError(
-            f"{func}: faces index vertices outside 0..{v.shape[0] - 1} "
-            f"(range {f.min()}..{f.max()})"
+            f"{func}: faces index vertices outside 0..{v.shape[0] - 1} (range {f.min()}..{f.max()})"
         )
     return v, f
 
@@ -505,12 +504,18 @@ def box_mesh(size: ArrayLike) -> tuple[FloatArray, IntArray]:
     vertices = (2.0 * bits - 1.0) * half
     faces = np.array(
         [
-            [0, 4, 6], [0, 6, 2],  # x = -a/2
-            [1, 3, 7], [1, 7, 5],  # x = +a/2
-            [0, 1, 5], [0, 5, 4],  # y = -b/2
-            [2, 6, 7], [2, 7, 3],  # y = +b/2
-            [0, 2, 3], [0, 3, 1],  # z = -c/2
-            [4, 5, 7], [4, 7, 6],  # z = +c/2
+            [0, 4, 6],
+            [0, 6, 2],  # x = -a/2
+            [1, 3, 7],
+            [1, 7, 5],  # x = +a/2
+            [0, 1, 5],
+            [0, 5, 4],  # y = -b/2
+            [2, 6, 7],
+            [2, 7, 3],  # y = +b/2
+            [0, 2, 3],
+            [0, 3, 1],  # z = -c/2
+            [4, 5, 7],
+            [4, 7, 6],  # z = +c/2
         ],
         dtype=np.int64,
     )
@@ -544,18 +549,43 @@ def icosphere_mesh(radius: float, subdivisions: int) -> tuple[FloatArray, IntArr
     # The 12 vertices (0, +-1, +-phi) and their cyclic permutations.
     vertices = np.array(
         [
-            [-1, phi, 0], [1, phi, 0], [-1, -phi, 0], [1, -phi, 0],
-            [0, -1, phi], [0, 1, phi], [0, -1, -phi], [0, 1, -phi],
-            [phi, 0, -1], [phi, 0, 1], [-phi, 0, -1], [-phi, 0, 1],
+            [-1, phi, 0],
+            [1, phi, 0],
+            [-1, -phi, 0],
+            [1, -phi, 0],
+            [0, -1, phi],
+            [0, 1, phi],
+            [0, -1, -phi],
+            [0, 1, -phi],
+            [phi, 0, -1],
+            [phi, 0, 1],
+            [-phi, 0, -1],
+            [-phi, 0, 1],
         ],
         dtype=np.float64,
     )
     faces = np.array(
         [
-            [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11],
-            [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-            [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9],
-            [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+            [0, 11, 5],
+            [0, 5, 1],
+            [0, 1, 7],
+            [0, 7, 10],
+            [0, 10, 11],
+            [1, 5, 9],
+            [5, 11, 4],
+            [11, 10, 2],
+            [10, 7, 6],
+            [7, 1, 8],
+            [3, 9, 4],
+            [3, 4, 2],
+            [3, 2, 6],
+            [3, 6, 8],
+            [3, 8, 9],
+            [4, 9, 5],
+            [2, 4, 11],
+            [6, 2, 10],
+            [8, 6, 7],
+            [9, 8, 1],
         ],
         dtype=np.int64,
     )

@@ -164,7 +164,7 @@ def explicit_euler(dyn: Dynamics, s: State, action: FloatArray | None, h: float)
 def symplectic_euler(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
 
-        v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)
+    v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)
     """
     a, alpha = dyn.accelerations(s.x, s.v, s.q, s.w, action)
     v1 = _axpy(s.v, h, a)
@@ -224,8 +224,10 @@ def implicit_euler(
                 w_new = np.where(iso[:, None], _axpy(s.w, h, alpha_ext), w_new)
         else:
             w_new = _axpy(s.w, h, alpha_ext)
-        change = np.maximum(np.max(np.abs(w_new - w1) / (1.0 + np.abs(w1)), axis=1),
-                            np.max(np.abs(v_new - v1) / (1.0 + np.abs(v1)), axis=1))
+        change = np.maximum(
+            np.max(np.abs(w_new - w1) / (1.0 + np.abs(w1)), axis=1),
+            np.max(np.abs(v_new - v1) / (1.0 + np.abs(v1)), axis=1),
+        )
         v1 = np.where(active[:, None], v_new, v1)
         w1 = np.where(active[:, None], w_new, w1)
         active &= change > tol  # a NaN body stops too: the world's guard reports it
@@ -262,8 +264,8 @@ def leapfrog(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> St
 def midpoint(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     """Explicit midpoint rule, the orientation moved on the group:
 
-        y_m = y0 + h/2 f(y0)             (q_m = q exp(h/4 w))
-        y1  = y0 + h f(y_m)              (q1 = q exp(h/2 w_m))
+    y_m = y0 + h/2 f(y0)             (q_m = q exp(h/4 w))
+    y1  = y0 + h f(y_m)              (q1 = q exp(h/2 w_m))
     """
     a, alpha = dyn.accelerations(s.x, s.v, s.q, s.w, action)
     x_m = s.x + 0.5 * h * s.v
@@ -278,8 +280,8 @@ def midpoint(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> St
 def rk4(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w)`` with ``q' = 1/2 q (x) (0, w)``:
 
-        k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
-        y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|
+    k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
+    y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|
     """
     x, v, q, w = s.x, s.v, s.q, s.w
     zero = None
@@ -289,10 +291,12 @@ def rk4(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
         return vs, a, _qdot(qs, ws), alpha
 
     k1 = f(x, v, q, w)
-    k2 = f(x + 0.5 * h * k1[0], _axpy(v, 0.5 * h, k1[1]), q + 0.5 * h * k1[2],
-           _axpy(w, 0.5 * h, k1[3]))
-    k3 = f(x + 0.5 * h * k2[0], _axpy(v, 0.5 * h, k2[1]), q + 0.5 * h * k2[2],
-           _axpy(w, 0.5 * h, k2[3]))
+    k2 = f(
+        x + 0.5 * h * k1[0], _axpy(v, 0.5 * h, k1[1]), q + 0.5 * h * k1[2], _axpy(w, 0.5 * h, k1[3])
+    )
+    k3 = f(
+        x + 0.5 * h * k2[0], _axpy(v, 0.5 * h, k2[1]), q + 0.5 * h * k2[2], _axpy(w, 0.5 * h, k2[3])
+    )
     k4 = f(x + h * k3[0], _axpy(v, h, k3[1]), q + h * k3[2], _axpy(w, h, k3[3]))
 
     def combine(y, i):
@@ -390,8 +394,9 @@ def _axis_rotation(q: FloatArray, L: FloatArray, inv_i: FloatArray, axis: int, h
     q[:, 1 + j] = qj * ch - qi * sh
 
 
-def _isotropic_exact(q: FloatArray, w: FloatArray, inertia: FloatArray, h: float,
-                     q1: FloatArray, w1: FloatArray) -> tuple[FloatArray, FloatArray]:
+def _isotropic_exact(
+    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float, q1: FloatArray, w1: FloatArray
+) -> tuple[FloatArray, FloatArray]:
     """In a batch that mixes isotropic and other bodies, give the isotropic ones the exact map
     ``q exp(h w / 2)``, constant ``w`` they take alone (so a batch equals its single bodies,
     bit for bit); an unmixed batch is returned as it is."""
@@ -401,8 +406,9 @@ def _isotropic_exact(q: FloatArray, w: FloatArray, inertia: FloatArray, h: float
     return (np.where(iso[:, None], _rotate(q, w, h), q1), np.where(iso[:, None], w, w1))
 
 
-def free_rotation_split(q: FloatArray, w: FloatArray, inertia: FloatArray, h: float,
-                        isotropic: bool) -> tuple[FloatArray, FloatArray]:
+def free_rotation_split(
+    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float, isotropic: bool
+) -> tuple[FloatArray, FloatArray]:
     """Second-order symmetric splitting of torque-free rotation into exact axis rotations
     (McLachlan 1993; Dullweber, Leimkuhler and McLachlan, J. Chem. Phys. 107, 1997):
 
@@ -426,15 +432,23 @@ def free_rotation_split(q: FloatArray, w: FloatArray, inertia: FloatArray, h: fl
     return _isotropic_exact(q, w, inertia, h, q1, L * inv_i)
 
 
-def _kick(dyn: Dynamics, x: FloatArray, v: FloatArray, q: FloatArray, w: FloatArray,
-          action: FloatArray | None, h: float) -> tuple[FloatArray, FloatArray]:
+def _kick(
+    dyn: Dynamics,
+    x: FloatArray,
+    v: FloatArray,
+    q: FloatArray,
+    w: FloatArray,
+    action: FloatArray | None,
+    h: float,
+) -> tuple[FloatArray, FloatArray]:
     """Flow of the external forces for time ``h`` with ``x, q`` frozen (gyroscopic term
     excluded). Exact in one evaluation when no force depends on velocity (then the kick is a
     constant acceleration); otherwise the explicit midpoint rule, second order."""
     a, alpha = dyn.accelerations(x, v, q, w, action, gyro=False)
     if dyn.velocity_dependent:
-        a, alpha = dyn.accelerations(x, _axpy(v, 0.5 * h, a), q, _axpy(w, 0.5 * h, alpha),
-                                     action, gyro=False)
+        a, alpha = dyn.accelerations(
+            x, _axpy(v, 0.5 * h, a), q, _axpy(w, 0.5 * h, alpha), action, gyro=False
+        )
     return _axpy(v, h, a), _axpy(w, h, alpha)
 
 
@@ -470,8 +484,15 @@ _YOSHIDA_C1 = 1.0 / (2.0 - 2.0 ** (1.0 / 3.0))  # 1.3512...
 _YOSHIDA_C0 = 1.0 - 2.0 * _YOSHIDA_C1  # -1.7024..., a step backwards in time
 
 
-def _kick_rk4(dyn: Dynamics, x: FloatArray, v: FloatArray, q: FloatArray, w: FloatArray,
-              action: FloatArray | None, h: float) -> tuple[FloatArray, FloatArray]:
+def _kick_rk4(
+    dyn: Dynamics,
+    x: FloatArray,
+    v: FloatArray,
+    q: FloatArray,
+    w: FloatArray,
+    action: FloatArray | None,
+    h: float,
+) -> tuple[FloatArray, FloatArray]:
     """Flow of the external forces for time ``h`` with ``x, q`` frozen, to a local error of
     ``O(h^5)``: :func:`_kick` (exact, one evaluation) when no force depends on velocity,
     otherwise classical RK4 on ``(v, w)``:
@@ -501,9 +522,14 @@ def _kick_rk4(dyn: Dynamics, x: FloatArray, v: FloatArray, q: FloatArray, w: Flo
     return combine(v, 0), combine(w, 1)
 
 
-def _strang(dyn: Dynamics, s: State, action: FloatArray | None, h: float,
-            free: Callable[..., tuple[FloatArray, FloatArray]],
-            kick: Callable[..., tuple[FloatArray, FloatArray]]) -> State:
+def _strang(
+    dyn: Dynamics,
+    s: State,
+    action: FloatArray | None,
+    h: float,
+    free: Callable[..., tuple[FloatArray, FloatArray]],
+    kick: Callable[..., tuple[FloatArray, FloatArray]],
+) -> State:
     """``kick(h/2) -> [x += h v ; (q, w) <- free(h)] -> kick(h/2)``, the Strang splitting of
     :func:`splitting` with the free-rotation map and the kick passed in."""
     model = dyn.model
@@ -536,8 +562,12 @@ def yoshida4(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> St
     """
     model = dyn.model
     x, v, q, w = s.x, s.v, s.q, s.w
-    kicks = (0.5 * _YOSHIDA_C1, 0.5 * (_YOSHIDA_C1 + _YOSHIDA_C0),
-             0.5 * (_YOSHIDA_C0 + _YOSHIDA_C1), 0.5 * _YOSHIDA_C1)
+    kicks = (
+        0.5 * _YOSHIDA_C1,
+        0.5 * (_YOSHIDA_C1 + _YOSHIDA_C0),
+        0.5 * (_YOSHIDA_C0 + _YOSHIDA_C1),
+        0.5 * _YOSHIDA_C1,
+    )
     for kick, c in zip(kicks, (_YOSHIDA_C1, _YOSHIDA_C0, _YOSHIDA_C1), strict=False):
         if dyn.effects:
             v, w = _kick_rk4(dyn, x, v, q, w, action, kick * h)
@@ -574,17 +604,20 @@ def _ellip_pi(nu: FloatArray, phi: FloatArray, m: FloatArray) -> FloatArray:
     c2 = np.cos(ph) ** 2
     d2 = 1.0 - m * s2
     out = sn * special.elliprf(c2, d2, 1.0) + (nu / 3.0) * (sn * s2) * special.elliprj(
-        c2, d2, 1.0, 1.0 - nu * s2)
+        c2, d2, 1.0, 1.0 - nu * s2
+    )
     if np.any(k != 0.0):
         with np.errstate(invalid="ignore"):  # m = 1 makes the complete integral infinite
-            complete = (special.elliprf(0.0, 1.0 - m, 1.0)
-                        + (nu / 3.0) * special.elliprj(0.0, 1.0 - m, 1.0, 1.0 - nu))
+            complete = special.elliprf(0.0, 1.0 - m, 1.0) + (nu / 3.0) * special.elliprj(
+                0.0, 1.0 - m, 1.0, 1.0 - nu
+            )
             out = out + np.where(k != 0.0, 2.0 * k * complete, 0.0)
     return out
 
 
-def free_rotation_exact(q: FloatArray, w: FloatArray, inertia: FloatArray, h: float,
-                        isotropic: bool) -> tuple[FloatArray, FloatArray]:
+def free_rotation_exact(
+    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float, isotropic: bool
+) -> tuple[FloatArray, FloatArray]:
     """Exact torque-free motion for time ``h`` of ``N`` bodies: Jacobi elliptic functions for
     the body angular velocity and an elliptic integral of the third kind for the orientation.
 
@@ -646,8 +679,9 @@ def free_rotation_exact(q: FloatArray, w: FloatArray, inertia: FloatArray, h: fl
     j1, j2, j3 = jj[:, 0], jj[:, 1], jj[:, 2]
     u1, u2, u3 = u[:, 0], u[:, 1], u[:, 2]
     # Sign of the sorting permutation: +1 even, -1 odd (time runs backwards in sorted Euler).
-    parity = np.sign((order[:, 1] - order[:, 0]) * (order[:, 2] - order[:, 0])
-                     * (order[:, 2] - order[:, 1]))
+    parity = np.sign(
+        (order[:, 1] - order[:, 0]) * (order[:, 2] - order[:, 0]) * (order[:, 2] - order[:, 1])
+    )
     p3 = j1 * (j3 - j1) * u1 * u1 + j2 * (j3 - j2) * u2 * u2  # 2 E J3 - L^2 >= 0
     p1 = j2 * (j2 - j1) * u2 * u2 + j3 * (j3 - j1) * u3 * u3  # L^2 - 2 E J1 >= 0
     d2 = j3 * (j3 - j2) * u3 * u3 - j1 * (j2 - j1) * u1 * u1  # L^2 - 2 E J2
@@ -695,8 +729,8 @@ def free_rotation_exact(q: FloatArray, w: FloatArray, inertia: FloatArray, h: fl
 
     with np.errstate(divide="ignore", invalid="ignore"):
         d_psi_moving = l_norm * h / jp + (
-            coef_a * (_ellip_pi(nu, am1, m) - _ellip_pi(nu, am0, m))
-            - coef_b * (g(am1) - g(am0))) / np.where(moving, big_omega, 1.0)
+            coef_a * (_ellip_pi(nu, am1, m) - _ellip_pi(nu, am0, m)) - coef_b * (g(am1) - g(am0))
+        ) / np.where(moving, big_omega, 1.0)
     wp_abs = np.abs(up)
     d_psi_still = h * (two_e + l_norm * wp_abs) / (l_norm + jp * wp_abs + still)
     d_psi = np.where(moving, d_psi_moving, d_psi_still)

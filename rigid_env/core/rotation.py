@@ -143,9 +143,11 @@ def canonical(q: ArrayLike) -> FloatArray:
     """
     q = _as_float(q)
     # Sign decided by the first non-zero component in the order w, x, y, z.
-    lead = np.where(q[..., 0] != 0.0, q[..., 0],
-                    np.where(q[..., 1] != 0.0, q[..., 1],
-                             np.where(q[..., 2] != 0.0, q[..., 2], q[..., 3])))
+    lead = np.where(
+        q[..., 0] != 0.0,
+        q[..., 0],
+        np.where(q[..., 1] != 0.0, q[..., 1], np.where(q[..., 2] != 0.0, q[..., 2], q[..., 3])),
+    )
     return np.where((lead < 0.0)[..., None], -q, q)
 
 
@@ -325,7 +327,8 @@ def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
     diff = ua - ub
     obtuse = np.sum(mid * mid, axis=-1, keepdims=True) < np.sum(diff * diff, axis=-1, keepdims=True)
     coef = np.sum(mid * diff, axis=-1, keepdims=True) / np.where(
-        obtuse, np.sum(diff * diff, axis=-1, keepdims=True), 1.0)
+        obtuse, np.sum(diff * diff, axis=-1, keepdims=True), 1.0
+    )
     mid = np.where(obtuse, mid - coef * diff, mid)
     q = np.empty((*out_shape[:-1], 4), dtype=np.float64)
     q[..., 0] = 0.5 * np.sum(mid * mid, axis=-1)
@@ -417,14 +420,42 @@ def matrix_to_quat(m: ArrayLike) -> FloatArray:
     cands = np.stack([trace, m00, m11, m22], axis=-1)
     k = np.argmax(cands, axis=-1)
     # 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22, ... ; off-diagonals give the products.
-    q_w = np.stack([1.0 + trace, m[..., 2, 1] - m[..., 1, 2], m[..., 0, 2] - m[..., 2, 0],
-                    m[..., 1, 0] - m[..., 0, 1]], axis=-1)
-    q_x = np.stack([m[..., 2, 1] - m[..., 1, 2], 1.0 + m00 - m11 - m22,
-                    m[..., 0, 1] + m[..., 1, 0], m[..., 0, 2] + m[..., 2, 0]], axis=-1)
-    q_y = np.stack([m[..., 0, 2] - m[..., 2, 0], m[..., 0, 1] + m[..., 1, 0],
-                    1.0 - m00 + m11 - m22, m[..., 1, 2] + m[..., 2, 1]], axis=-1)
-    q_z = np.stack([m[..., 1, 0] - m[..., 0, 1], m[..., 0, 2] + m[..., 2, 0],
-                    m[..., 1, 2] + m[..., 2, 1], 1.0 - m00 - m11 + m22], axis=-1)
+    q_w = np.stack(
+        [
+            1.0 + trace,
+            m[..., 2, 1] - m[..., 1, 2],
+            m[..., 0, 2] - m[..., 2, 0],
+            m[..., 1, 0] - m[..., 0, 1],
+        ],
+        axis=-1,
+    )
+    q_x = np.stack(
+        [
+            m[..., 2, 1] - m[..., 1, 2],
+            1.0 + m00 - m11 - m22,
+            m[..., 0, 1] + m[..., 1, 0],
+            m[..., 0, 2] + m[..., 2, 0],
+        ],
+        axis=-1,
+    )
+    q_y = np.stack(
+        [
+            m[..., 0, 2] - m[..., 2, 0],
+            m[..., 0, 1] + m[..., 1, 0],
+            1.0 - m00 + m11 - m22,
+            m[..., 1, 2] + m[..., 2, 1],
+        ],
+        axis=-1,
+    )
+    q_z = np.stack(
+        [
+            m[..., 1, 0] - m[..., 0, 1],
+            m[..., 0, 2] + m[..., 2, 0],
+            m[..., 1, 2] + m[..., 2, 1],
+            1.0 - m00 - m11 + m22,
+        ],
+        axis=-1,
+    )
     all_q = np.stack([q_w, q_x, q_y, q_z], axis=-2)
     q = np.take_along_axis(all_q, k[..., None, None], axis=-2)[..., 0, :]
     return canonical(quat_normalize(q))
@@ -455,8 +486,7 @@ def rodrigues(rotvec: ArrayLike) -> FloatArray:
     # series near 0: first dropped terms a^6/5040 and a^6/40320.
     a2 = a * a
     s1 = np.where(small, 1.0 - a2 / 6.0 + a2 * a2 / 120.0, np.sin(a) / safe)
-    s2 = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0,
-                  2.0 * (np.sin(0.5 * a) / safe) ** 2)
+    s2 = np.where(small, 0.5 - a2 / 24.0 + a2 * a2 / 720.0, 2.0 * (np.sin(0.5 * a) / safe) ** 2)
     k = skew(rotvec)
     eye = np.broadcast_to(np.eye(3), k.shape)
     return eye + s1[..., None, None] * k + s2[..., None, None] * (k @ k)

@@ -42,7 +42,9 @@ class BodyModel:
         mass = np.atleast_1d(np.asarray(self.mass, dtype=np.float64)).reshape(-1)
         inertia = np.atleast_2d(np.asarray(self.inertia, dtype=np.float64))
         if inertia.shape[-1] != 3 or inertia.ndim != 2:
-            raise ValueError(f"inertia: expected shape (N, 3) principal moments, got {inertia.shape}")
+            raise ValueError(
+                f"inertia: expected shape (N, 3) principal moments, got {inertia.shape}"
+            )
         if not (np.all(np.isfinite(mass)) and np.all(mass > 0.0)):
             raise ValueError("mass: every mass must be finite and > 0 [kg]")
         if not (np.all(np.isfinite(inertia)) and np.all(inertia > 0.0)):
@@ -52,7 +54,9 @@ class BodyModel:
         object.__setattr__(self, "inv_mass", (1.0 / mass)[:, None])
         object.__setattr__(self, "inv_inertia", 1.0 / inertia)
         spread = inertia.max(axis=1) - inertia.min(axis=1)
-        object.__setattr__(self, "isotropic", bool(np.all(spread <= ISOTROPY_RTOL * inertia.max(axis=1))))
+        object.__setattr__(
+            self, "isotropic", bool(np.all(spread <= ISOTROPY_RTOL * inertia.max(axis=1)))
+        )
 
     @property
     def n(self) -> int:
@@ -62,7 +66,9 @@ class BodyModel:
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
         """One body's mass [kg] and principal moments (3,) [kg m^2], shared by the whole batch."""
-        return cls(np.array([mass], dtype=np.float64), np.asarray(inertia, dtype=np.float64)[None, :])
+        return cls(
+            np.array([mass], dtype=np.float64), np.asarray(inertia, dtype=np.float64)[None, :]
+        )
 
 
 @dataclass

@@ -91,8 +91,10 @@ class World:
         if max_angular_speed is not None and not (
             np.isfinite(max_angular_speed) and max_angular_speed > 0.0
         ):
-            raise ValueError(f"max_angular_speed: must be a finite number > 0 [rad/s] or None "
-                             f"(off), got {max_angular_speed}")
+            raise ValueError(
+                f"max_angular_speed: must be a finite number > 0 [rad/s] or None "
+                f"(off), got {max_angular_speed}"
+            )
         if on_error not in ("raise", "freeze"):
             raise ValueError(f"on_error: must be 'raise' or 'freeze', got {on_error!r}")
         self.model = model
@@ -185,14 +187,17 @@ class World:
         if action is None or self.action_dim == 0:
             if action is not None and np.size(action) != 0:
                 raise ValueError(
-                    f"action: this world has no actuators, got {np.size(action)} numbers")
+                    f"action: this world has no actuators, got {np.size(action)} numbers"
+                )
             return None
         act = np.asarray(action, dtype=np.float64)
         if act.ndim == 1:
             act = act[None, :]
         if act.ndim != 2 or act.shape[-1] != self.action_dim or act.shape[0] not in (1, self.n):
-            raise ValueError(f"action: expected shape ({self.n}, {self.action_dim}) or "
-                             f"({self.action_dim},), got {np.shape(action)}")
+            raise ValueError(
+                f"action: expected shape ({self.n}, {self.action_dim}) or "
+                f"({self.action_dim},), got {np.shape(action)}"
+            )
         if not np.all(np.isfinite(act)):
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
         return act
@@ -209,8 +214,12 @@ class World:
         # Integrators may pass an unchanged array through (x' = 0 leaves x as it was); copy it so
         # that the step maps, which work in place, cannot reach the state kept for a rollback.
         if any(getattr(s, k) is getattr(before, k) for k in "xvqw"):
-            s = State(*(getattr(s, k).copy() if getattr(s, k) is getattr(before, k)
-                        else getattr(s, k) for k in "xvqw"))
+            s = State(
+                *(
+                    getattr(s, k).copy() if getattr(s, k) is getattr(before, k) else getattr(s, k)
+                    for k in "xvqw"
+                )
+            )
         return s
 
     def _guard(self, s: State) -> BoolArray | None:
@@ -221,13 +230,18 @@ class World:
         total = s.x.sum() + s.v.sum() + s.q.sum() + s.w.sum()
         if np.isfinite(total):
             return None
-        bad = ~(np.isfinite(s.x).all(1) & np.isfinite(s.v).all(1) & np.isfinite(s.q).all(1)
-                & np.isfinite(s.w).all(1))
+        bad = ~(
+            np.isfinite(s.x).all(1)
+            & np.isfinite(s.v).all(1)
+            & np.isfinite(s.q).all(1)
+            & np.isfinite(s.w).all(1)
+        )
         if not bad.any():  # finite values whose sum overflowed
             return None
         if self.on_error == "raise":
-            raise NumericalInstabilityError(np.flatnonzero(bad).tolist(), self.step_count + 1,
-                                            self.integrator.name, self.dt)
+            raise NumericalInstabilityError(
+                np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name, self.dt
+            )
         return bad
 
     # ---------------------------------------------------------------------------------------
@@ -279,24 +293,30 @@ def check_state(state: State) -> None:
     for name, width in (("x", 3), ("v", 3), ("q", 4), ("w", 3)):
         a = np.asarray(getattr(state, name))
         if a.shape != (n, width):
-            raise ValueError(f"state.{name}: expected shape ({max(n, 1)}, {width}) like state.x, "
-                             f"got {a.shape}")
+            raise ValueError(
+                f"state.{name}: expected shape ({max(n, 1)}, {width}) like state.x, got {a.shape}"
+            )
         finite = np.isfinite(a).all(axis=1)
         if not finite.all():
             b = int(np.flatnonzero(~finite)[0])
-            raise ValueError(f"state.{name}: body {b} has a non-finite entry {a[b].tolist()}; "
-                             "every state number must be finite")
+            raise ValueError(
+                f"state.{name}: body {b} has a non-finite entry {a[b].tolist()}; "
+                "every state number must be finite"
+            )
     zero = ~np.any(state.q != 0.0, axis=1)
     if zero.any():
         b = int(np.flatnonzero(zero)[0])
-        raise ValueError(f"state.q: body {b} is the zero quaternion, which is no rotation; give "
-                         "a unit quaternion (w, x, y, z), e.g. [1, 0, 0, 0]")
+        raise ValueError(
+            f"state.q: body {b} is the zero quaternion, which is no rotation; give "
+            "a unit quaternion (w, x, y, z), e.g. [1, 0, 0, 0]"
+        )
 
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
     """(N,) ``1/2 m |v|^2 + 1/2 sum_k I_k w_k^2`` [J]."""
-    return 0.5 * (model.mass * np.sum(s.v * s.v, axis=1)
-                  + np.sum(model.inertia * s.w * s.w, axis=1))
+    return 0.5 * (
+        model.mass * np.sum(s.v * s.v, axis=1) + np.sum(model.inertia * s.w * s.w, axis=1)
+    )
 
 
 def angular_momentum_world(model: BodyModel, s: State) -> FloatArray:
@@ -315,9 +335,18 @@ def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[
     """
     if int(steps) != steps or steps < 0:
         raise ValueError(f"steps: must be an integer >= 0, got {steps}")
-    rec: dict[str, list[FloatArray]] = {k: [] for k in (
-        "position", "velocity", "orientation", "angular_velocity_body", "angular_velocity_world",
-        "energy", "angular_momentum_world")}
+    rec: dict[str, list[FloatArray]] = {
+        k: []
+        for k in (
+            "position",
+            "velocity",
+            "orientation",
+            "angular_velocity_body",
+            "angular_velocity_world",
+            "energy",
+            "angular_momentum_world",
+        )
+    }
 
     def record() -> None:
         s = world.state

@@ -70,7 +70,9 @@ class Randomization:
             if not (np.isfinite(val) and 0.0 <= val < 1.0):
                 raise ValueError(f"randomization.{name}: must lie in [0, 1), got {val}")
         if not (np.isfinite(self.sensor_noise) and self.sensor_noise >= 0.0):
-            raise ValueError(f"randomization.sensor_noise: must be >= 0 [rad/s], got {self.sensor_noise}")
+            raise ValueError(
+                f"randomization.sensor_noise: must be >= 0 [rad/s], got {self.sensor_noise}"
+            )
 
     @property
     def physical(self) -> bool:
@@ -88,6 +90,20 @@ def random_quaternion(rng: np.random.Generator) -> FloatArray:
     """Rotation uniform on SO(3) as a unit quaternion (4,) (normalised 4-D Gaussian)."""
     q = rng.normal(size=4)
     return q / np.linalg.norm(q)
+
+
+def positive(name: str, value: float, unit: str) -> float:
+    """``value`` as a float, or a one-line ``ValueError`` naming the argument."""
+    if not (np.isfinite(value) and value > 0.0):
+        raise ValueError(f"{name}: must be a finite number > 0 [{unit}], got {value}")
+    return float(value)
+
+
+def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray, FloatArray]:
+    """Orientation uniform on SO(3) and body angular velocity (3,) of magnitude uniform on
+    [0, ``max_spin``] about a uniform direction; drawn in that order."""
+    q = random_quaternion(rng)
+    return q, rng.uniform(0.0, max_spin) * random_unit_vectors(rng)
 
 
 class TaskBatch:
@@ -125,13 +141,20 @@ class TaskBatch:
         if int(num_envs) != num_envs or num_envs < 1:
             raise ValueError(f"num_envs: must be an integer >= 1, got {num_envs}")
         if rotation_repr not in ("quaternion", "sixd"):
-            raise ValueError(f"rotation_repr: must be 'quaternion' or 'sixd', got {rotation_repr!r}")
+            raise ValueError(
+                f"rotation_repr: must be 'quaternion' or 'sixd', got {rotation_repr!r}"
+            )
         self.n = int(num_envs)
-        self.scene: Scene = load_scene(scene if scene is not None else default_scene_path(self.scene_name))
-        self.world = self.scene.build_world(n=self.n, integrator=integrator, dt=dt,
-                                            substeps=substeps, on_error="freeze")
+        self.scene: Scene = load_scene(
+            scene if scene is not None else default_scene_path(self.scene_name)
+        )
+        self.world = self.scene.build_world(
+            n=self.n, integrator=integrator, dt=dt, substeps=substeps, on_error="freeze"
+        )
         if self.world.action_dim == 0:
-            raise ValueError("scene: a task needs actuators (thrusters or point_forces); the scene has none")
+            raise ValueError(
+                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
+            )
         self.dt = self.world.dt
         self.rotation_repr = rotation_repr
         if isinstance(randomization, dict):
@@ -151,8 +174,14 @@ class TaskBatch:
         self.w_scale = self.angular_velocity_scale()
         rot_dim = 4 if rotation_repr == "quaternion" else 6
         self.obs_dim = rot_dim + 6 + self.task_obs_dim
-        bound = np.concatenate([np.ones(rot_dim), np.full(3, 5.0), np.ones(3),
-                                np.full(self.task_obs_dim, self.task_obs_bound)]).astype(np.float32)
+        bound = np.concatenate(
+            [
+                np.ones(rot_dim),
+                np.full(3, 5.0),
+                np.ones(3),
+                np.full(self.task_obs_dim, self.task_obs_bound),
+            ]
+        ).astype(np.float32)
         self.single_observation_space = spaces.Box(-bound, bound, dtype=np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
 
@@ -186,15 +215,21 @@ class TaskBatch:
         if act.shape == (self.action_dim,) and self.n == 1:
             act = act[None, :]
         if act.shape != (self.n, self.action_dim):
-            raise ValueError(f"action: expected shape ({self.n}, {self.action_dim})"
-                             f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
-                             f"got {act.shape}")
+            raise ValueError(
+                f"action: expected shape ({self.n}, {self.action_dim})"
+                f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                f"got {act.shape}"
+            )
         if not np.all(np.isfinite(act)):
-            raise ValueError("action: contains NaN or inf; send finite thruster commands in [-1, 1]")
+            raise ValueError(
+                "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
+            )
         # Huge finite commands saturate like a real thruster: clipped to [-1, 1].
         return np.clip(act, -1.0, 1.0)
 
-    def reset_envs(self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
+    def reset_envs(
+        self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
+    ) -> None:
         """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index)."""
         s = self.world.state
         for k, i in enumerate(idx):
@@ -216,12 +251,20 @@ class TaskBatch:
         r = self.randomization
         if r.physical:
             if self.world.model.n == 1:  # first randomised reset: give every body its own copy
-                self.world.set_model(BodyModel(np.repeat(self.base_model.mass, self.n),
-                                               np.repeat(self.base_model.inertia, self.n, axis=0)))
+                self.world.set_model(
+                    BodyModel(
+                        np.repeat(self.base_model.mass, self.n),
+                        np.repeat(self.base_model.inertia, self.n, axis=0),
+                    )
+                )
             m0 = self.base_model.mass[0]
             i0 = self.base_model.inertia[0]
             mass = m0 * rng.uniform(1.0 - r.mass, 1.0 + r.mass) if r.mass > 0 else m0
-            inertia = i0 * rng.uniform(1.0 - r.inertia, 1.0 + r.inertia, size=3) if r.inertia > 0 else i0.copy()
+            inertia = (
+                i0 * rng.uniform(1.0 - r.inertia, 1.0 + r.inertia, size=3)
+                if r.inertia > 0
+                else i0.copy()
+            )
             # Keep I_max <= I_a + I_b (a physical body), clipping the largest moment.
             k = int(np.argmax(inertia))
             inertia[k] = min(inertia[k], inertia.sum() - inertia[k])
@@ -249,8 +292,9 @@ class TaskBatch:
         reward, terminated = self.evaluate(command)
         return reward, terminated, failed
 
-    def observe(self, rngs: Sequence[np.random.Generator],
-                idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
+    def observe(
+        self, rngs: Sequence[np.random.Generator], idx: NDArray[np.int64] | None = None
+    ) -> NDArray[np.float32]:
         """(N, obs_dim) float32 observation, clipped into the observation space.
 
         Args:
@@ -265,8 +309,12 @@ class TaskBatch:
             noise = np.stack([rng.normal(0.0, self.randomization.sensor_noise, 3) for rng in rngs])
             w = w + noise
         extra = self.task_observation()
-        parts = [rot, np.clip(w / self.w_scale, -5.0, 5.0), np.tanh(w / 0.1),
-                 extra if idx is None else extra[idx]]
+        parts = [
+            rot,
+            np.clip(w / self.w_scale, -5.0, 5.0),
+            np.tanh(w / 0.1),
+            extra if idx is None else extra[idx],
+        ]
         obs = np.concatenate(parts, axis=1).astype(np.float32)
         return np.clip(obs, self.single_observation_space.low, self.single_observation_space.high)
 
@@ -308,7 +356,9 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     def __init__(self, render_mode: str | None = None, **kwargs: Any) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']}")
+            raise ValueError(
+                f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']}"
+            )
         self.task = self.task_cls(1, **kwargs)
         self.observation_space = self.task.single_observation_space
         self.action_space = self.task.single_action_space
@@ -342,12 +392,16 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     def render(self):
         """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""
         if self.render_mode is None:
-            gym.logger.warn("render: no render_mode was given; pass render_mode='rgb_array' to gym.make")
+            gym.logger.warn(
+                "render: no render_mode was given; pass render_mode='rgb_array' to gym.make"
+            )
             return None
         from rigid_env.render import TaskRenderer
 
         if self._renderer is None:
-            self._renderer = TaskRenderer(self.task, mode=self.render_mode, fps=self.metadata["render_fps"])
+            self._renderer = TaskRenderer(
+                self.task, mode=self.render_mode, fps=self.metadata["render_fps"]
+            )
         return self._renderer.render(0)
 
     def close(self) -> None:
@@ -372,11 +426,19 @@ class RigidBodyVectorEnv(VectorEnv):
     """
 
     task_cls: ClassVar[type[TaskBatch]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "render_fps": 20,
-                                          "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata: ClassVar[dict[str, Any]] = {
+        "render_modes": ["rgb_array"],
+        "render_fps": 20,
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
 
-    def __init__(self, num_envs: int = 1, max_episode_steps: int | None = None,
-                 render_mode: str | None = None, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        **kwargs: Any,
+    ) -> None:
         self.task = self.task_cls(num_envs, **kwargs)
         self.num_envs = self.task.n
         self.max_episode_steps = max_episode_steps
@@ -390,7 +452,9 @@ class RigidBodyVectorEnv(VectorEnv):
         self._rngs: list[np.random.Generator] = []
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
 
-    def reset(self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None):
+    def reset(
+        self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
+    ):
         """Reset every sub-environment; an int ``seed`` seeds sub-env ``i`` with ``seed + i``."""
         super().reset(seed=seed if isinstance(seed, int) else None)
         if seed is None:
@@ -442,7 +506,9 @@ class RigidBodyVectorEnv(VectorEnv):
         from rigid_env.render import TaskRenderer
 
         if self._renderer is None:
-            self._renderer = TaskRenderer(self.task, mode=self.render_mode, fps=self.metadata["render_fps"])
+            self._renderer = TaskRenderer(
+                self.task, mode=self.render_mode, fps=self.metadata["render_fps"]
+            )
         return self._renderer.render(0)
 
     def close_extras(self, **kwargs: Any) -> None:

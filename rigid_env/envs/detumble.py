@@ -10,8 +10,8 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
-    random_quaternion,
-    random_unit_vectors,
+    positive,
+    random_tumble,
 )
 from rigid_env.envs.rewards import tolerance
 
@@ -28,15 +28,18 @@ class DetumbleTask(TaskBatch):
 
     scene_name = "detumble"
 
-    def __init__(self, num_envs: int, *, max_initial_spin: float = 3.0,
-                 success_threshold: float = 0.05, fuel_weight: float = 0.1,
-                 success_bonus: float = 1.0, **kwargs: Any) -> None:
-        if not (np.isfinite(max_initial_spin) and max_initial_spin > 0.0):
-            raise ValueError(f"max_initial_spin: must be > 0 [rad/s], got {max_initial_spin}")
-        if not (np.isfinite(success_threshold) and success_threshold > 0.0):
-            raise ValueError(f"success_threshold: must be > 0 [rad/s], got {success_threshold}")
-        self.max_initial_spin = float(max_initial_spin)
-        self.success_threshold = float(success_threshold)
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        max_initial_spin: float = 3.0,
+        success_threshold: float = 0.05,
+        fuel_weight: float = 0.1,
+        success_bonus: float = 1.0,
+        **kwargs: Any,
+    ) -> None:
+        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
+        self.success_threshold = positive("success_threshold", success_threshold, "rad/s")
         self.fuel_weight = float(fuel_weight)
         self.success_bonus = float(success_bonus)
         super().__init__(num_envs, **kwargs)
@@ -45,17 +48,20 @@ class DetumbleTask(TaskBatch):
         return self.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q = random_quaternion(rng)
-        w = rng.uniform(0.0, self.max_initial_spin) * random_unit_vectors(rng)
+        q, w = random_tumble(rng, self.max_initial_spin)
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
 
     def evaluate(self, action):
         speed = self.angular_speed()
         self.success = speed < self.success_threshold
         # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
-        spin_cost = 1.0 - tolerance(speed, (0.0, self.success_threshold),
-                                    margin=self.max_initial_spin, sigmoid="linear",
-                                    value_at_margin=0.0)
+        spin_cost = 1.0 - tolerance(
+            speed,
+            (0.0, self.success_threshold),
+            margin=self.max_initial_spin,
+            sigmoid="linear",
+            value_at_margin=0.0,
+        )
         fuel = np.mean(np.abs(action), axis=1)
         reward = -spin_cost - self.fuel_weight * fuel + self.success_bonus * self.success
         return reward, self.success.copy()

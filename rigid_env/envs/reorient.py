@@ -11,8 +11,9 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    positive,
     random_quaternion,
-    random_unit_vectors,
+    random_tumble,
 )
 from rigid_env.envs.rewards import tolerance
 
@@ -31,12 +32,17 @@ class ReorientTask(TaskBatch):
     task_obs_dim = 4
     target_dim = 4
 
-    def __init__(self, num_envs: int, *, max_initial_spin: float = 1.0,
-                 success_angle: float = np.deg2rad(5.0), success_spin: float = 0.05,
-                 fuel_weight: float = 0.05, **kwargs: Any) -> None:
-        if not (np.isfinite(max_initial_spin) and max_initial_spin > 0.0):
-            raise ValueError(f"max_initial_spin: must be > 0 [rad/s], got {max_initial_spin}")
-        self.max_initial_spin = float(max_initial_spin)
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        max_initial_spin: float = 1.0,
+        success_angle: float = np.deg2rad(5.0),
+        success_spin: float = 0.05,
+        fuel_weight: float = 0.05,
+        **kwargs: Any,
+    ) -> None:
+        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
         self.success_angle = float(success_angle)
         self.success_spin = float(success_spin)
         self.fuel_weight = float(fuel_weight)
@@ -46,8 +52,7 @@ class ReorientTask(TaskBatch):
         return self.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q = random_quaternion(rng)
-        w = rng.uniform(0.0, self.max_initial_spin) * random_unit_vectors(rng)
+        q, w = random_tumble(rng, self.max_initial_spin)
         target = canonical(random_quaternion(rng))
         return np.zeros(3), np.zeros(3), q, w, target
 
@@ -62,10 +67,16 @@ class ReorientTask(TaskBatch):
         angle = quat_angle_between(self.world.state.q, self.target)
         speed = self.angular_speed()
         self.success = (angle < self.success_angle) & (speed < self.success_spin)
-        r_angle = tolerance(angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear",
-                            value_at_margin=0.0)
-        r_spin = tolerance(speed, (0.0, self.success_spin), margin=self.max_initial_spin,
-                           sigmoid="linear", value_at_margin=0.0)
+        r_angle = tolerance(
+            angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear", value_at_margin=0.0
+        )
+        r_spin = tolerance(
+            speed,
+            (0.0, self.success_spin),
+            margin=self.max_initial_spin,
+            sigmoid="linear",
+            value_at_margin=0.0,
+        )
         reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * np.mean(np.abs(action), axis=1)
         return reward, np.zeros(self.n, dtype=bool)
 

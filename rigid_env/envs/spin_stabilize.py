@@ -7,7 +7,13 @@ from typing import Any
 import numpy as np
 
 from rigid_env.core.rotation import quat_from_axis_angle, quat_rotate
-from rigid_env.envs.base import RigidBodyEnv, RigidBodyVectorEnv, TaskBatch, random_quaternion
+from rigid_env.envs.base import (
+    RigidBodyEnv,
+    RigidBodyVectorEnv,
+    TaskBatch,
+    positive,
+    random_quaternion,
+)
 from rigid_env.envs.rewards import tolerance
 
 
@@ -25,12 +31,18 @@ class SpinStabilizeTask(TaskBatch):
     scene_name = "spin_stabilize"
     task_obs_dim = 1
 
-    def __init__(self, num_envs: int, *, target_spin: float = 2.0,
-                 max_initial_tilt: float = np.deg2rad(10.0), success_angle: float = np.deg2rad(5.0),
-                 hold_time: float = 1.0, fuel_weight: float = 0.1, **kwargs: Any) -> None:
-        if not (np.isfinite(target_spin) and target_spin > 0.0):
-            raise ValueError(f"target_spin: must be > 0 [rad/s], got {target_spin}")
-        self.target_spin = float(target_spin)
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        target_spin: float = 2.0,
+        max_initial_tilt: float = np.deg2rad(10.0),
+        success_angle: float = np.deg2rad(5.0),
+        hold_time: float = 1.0,
+        fuel_weight: float = 0.1,
+        **kwargs: Any,
+    ) -> None:
+        self.target_spin = positive("target_spin", target_spin, "rad/s")
         self.max_initial_tilt = float(max_initial_tilt)
         self.success_angle = float(success_angle)
         self.fuel_weight = float(fuel_weight)
@@ -70,9 +82,9 @@ class SpinStabilizeTask(TaskBatch):
         self.streak = np.where(within, self.streak + 1, 0)
         self.success = self.streak >= self.hold_steps
         rate_error = np.abs(self.angular_speed() - self.target_spin)
-        reward = (tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0))
-                  * tolerance(rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin)
-                  - self.fuel_weight * np.mean(np.abs(action), axis=1))
+        reward = tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0)) * tolerance(
+            rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin
+        ) - self.fuel_weight * np.mean(np.abs(action), axis=1)
         return reward, np.zeros(self.n, dtype=bool)
 
 

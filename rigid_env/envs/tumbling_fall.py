@@ -10,8 +10,8 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
-    random_quaternion,
-    random_unit_vectors,
+    positive,
+    random_tumble,
 )
 from rigid_env.envs.rewards import tolerance
 
@@ -31,15 +31,21 @@ class TumblingFallTask(TaskBatch):
     task_obs_dim = 2
     task_obs_bound = 5.0
 
-    def __init__(self, num_envs: int, *, max_initial_spin: float = 3.0,
-                 drop_height: tuple[float, float] = (50.0, 70.0), success_threshold: float = 0.1,
-                 fuel_weight: float = 0.05, success_bonus: float = 10.0, **kwargs: Any) -> None:
-        if not (np.isfinite(max_initial_spin) and max_initial_spin > 0.0):
-            raise ValueError(f"max_initial_spin: must be > 0 [rad/s], got {max_initial_spin}")
+    def __init__(
+        self,
+        num_envs: int,
+        *,
+        max_initial_spin: float = 3.0,
+        drop_height: tuple[float, float] = (50.0, 70.0),
+        success_threshold: float = 0.1,
+        fuel_weight: float = 0.05,
+        success_bonus: float = 10.0,
+        **kwargs: Any,
+    ) -> None:
         lo, hi = drop_height
         if not (0.0 < lo <= hi):
             raise ValueError(f"drop_height: need 0 < low <= high [m], got {drop_height}")
-        self.max_initial_spin = float(max_initial_spin)
+        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
         self.drop_height = (float(lo), float(hi))
         self.success_threshold = float(success_threshold)
         self.fuel_weight = float(fuel_weight)
@@ -50,8 +56,7 @@ class TumblingFallTask(TaskBatch):
         return self.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q = random_quaternion(rng)
-        w = rng.uniform(0.0, self.max_initial_spin) * random_unit_vectors(rng)
+        q, w = random_tumble(rng, self.max_initial_spin)
         x = np.array([0.0, 0.0, rng.uniform(*self.drop_height)])
         return x, np.zeros(3), q, w, np.zeros(0)
 
@@ -63,11 +68,18 @@ class TumblingFallTask(TaskBatch):
         speed = self.angular_speed()
         landed = self.world.state.x[:, 2] <= 0.0
         self.success = landed & (speed < self.success_threshold)
-        spin_cost = 1.0 - tolerance(speed, (0.0, self.success_threshold),
-                                    margin=self.max_initial_spin, sigmoid="linear",
-                                    value_at_margin=0.0)
-        reward = (-spin_cost - self.fuel_weight * np.mean(np.abs(action), axis=1)
-                  + self.success_bonus * self.success)
+        spin_cost = 1.0 - tolerance(
+            speed,
+            (0.0, self.success_threshold),
+            margin=self.max_initial_spin,
+            sigmoid="linear",
+            value_at_margin=0.0,
+        )
+        reward = (
+            -spin_cost
+            - self.fuel_weight * np.mean(np.abs(action), axis=1)
+            + self.success_bonus * self.success
+        )
         return reward, landed
 
 

@@ -15,10 +15,11 @@ import numpy as np
 import pytest
 import yaml
 
-import rigid_env  # noqa: F401
+import rigid_env
 from agents.config import ConfigError, load_config
 from agents.controllers import BoundedAllocator, PDController
-from agents.evaluate import evaluate, main as evaluate_main
+from agents.evaluate import evaluate
+from agents.evaluate import main as evaluate_main
 from agents.vec_adapter import RigidBodySB3VecEnv
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -49,8 +50,14 @@ def test_pd_controller_solves_every_task(env_id):
     """The analytic controller succeeds on 20 of 20 fixed seeds of each task (in either
     rotation representation); doing nothing does not."""
     for rep in ("quaternion", "sixd"):
-        res = evaluate(None, env_id, episodes=20, seed=500, only=["pd", "zero"],
-                       env_kwargs={"rotation_repr": rep})
+        res = evaluate(
+            None,
+            env_id,
+            episodes=20,
+            seed=500,
+            only=["pd", "zero"],
+            env_kwargs={"rotation_repr": rep},
+        )
         assert res["pd"]["success_rate"] == 1.0, (rep, res["pd"])
         assert res["zero"]["success_rate"] < 0.3  # only near-still starts pass uncontrolled
 
@@ -63,8 +70,12 @@ def test_adapter_matches_dummy_vec_env_transitions():
     n, steps, limit = 3, 25, 7
     kwargs = {"randomization": {"sensor_noise": 0.01, "thrust": 0.2}}
     ours = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=n, max_episode_steps=limit, **kwargs)
-    ref = DummyVecEnv([lambda: gym.make("RigidEnv/Detumble-v0", max_episode_steps=limit, **kwargs)
-                       for _ in range(n)])
+    ref = DummyVecEnv(
+        [
+            lambda: gym.make("RigidEnv/Detumble-v0", max_episode_steps=limit, **kwargs)
+            for _ in range(n)
+        ]
+    )
     ours.seed(42)
     ref.seed(42)
     o1, o2 = ours.reset(), ref.reset()
@@ -105,8 +116,9 @@ def test_config_validation_errors(tmp_path):
 
 
 def _run(args: list[str], timeout: float = 240) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=timeout)
+    return subprocess.run(
+        [sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout
+    )
 
 
 def test_train_cli_bad_config_is_one_line(tmp_path):
@@ -122,8 +134,19 @@ def test_train_cli_bad_config_is_one_line(tmp_path):
 def test_training_smoke_run(algo, tmp_path):
     cfg = ROOT / f"configs/agents/{algo}_detumble.yaml"
     extra = ["--n-envs", "2"]
-    out = _run(["-m", "agents.train", str(cfg), "--total-timesteps", "300", "--runs-dir",
-                str(tmp_path), "--no-progress", *extra])
+    out = _run(
+        [
+            "-m",
+            "agents.train",
+            str(cfg),
+            "--total-timesteps",
+            "300",
+            "--runs-dir",
+            str(tmp_path),
+            "--no-progress",
+            *extra,
+        ]
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     run = tmp_path / f"Detumble__{algo}__0"
     meta = json.loads((run / "model.json").read_text())
@@ -137,16 +160,31 @@ def test_checkpoint_kill_and_resume(tmp_path):
     """Kill training right after a checkpoint; --resume continues from its step count with the
     saved VecNormalize statistics (their sample count keeps growing, never restarts)."""
     cfg = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
-    cfg.update(total_timesteps=100_000, n_envs=2, checkpoint_freq=256,
-               hyperparams={**cfg["hyperparams"], "n_steps": 64, "batch_size": 64, "n_epochs": 1},
-               eval={"freq": 100_000, "episodes": 1, "seed": 99})
+    cfg.update(
+        total_timesteps=100_000,
+        n_envs=2,
+        checkpoint_freq=256,
+        hyperparams={**cfg["hyperparams"], "n_steps": 64, "batch_size": 64, "n_epochs": 1},
+        eval={"freq": 100_000, "episodes": 1, "seed": 99},
+    )
     path = tmp_path / "cfg.yaml"
     path.write_text(yaml.safe_dump(cfg))
     run = tmp_path / "runs" / "Detumble__ppo__0"
-    proc = subprocess.Popen([sys.executable, "-m", "agents.train", str(path), "--runs-dir",
-                             str(tmp_path / "runs"), "--no-progress"], cwd=ROOT,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            start_new_session=True)
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "agents.train",
+            str(path),
+            "--runs-dir",
+            str(tmp_path / "runs"),
+            "--no-progress",
+        ],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+    )
     deadline = time.time() + 180
     ckpt = run / "checkpoints" / "model_vecnormalize_512_steps.pkl"
     while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
@@ -161,12 +199,23 @@ def test_checkpoint_kill_and_resume(tmp_path):
 
     from agents.train import _latest_checkpoint
 
-    latest_zip, latest_steps = _latest_checkpoint(run / "checkpoints")
+    _, latest_steps = _latest_checkpoint(run / "checkpoints")
     with open(run / "checkpoints" / f"model_vecnormalize_{latest_steps}_steps.pkl", "rb") as fh:
         count_at_ckpt = pickle.load(fh).obs_rms.count
     target = latest_steps + 512
-    out = _run(["-m", "agents.train", str(path), "--runs-dir", str(tmp_path / "runs"),
-                "--resume", "--total-timesteps", str(target), "--no-progress"])
+    out = _run(
+        [
+            "-m",
+            "agents.train",
+            str(path),
+            "--runs-dir",
+            str(tmp_path / "runs"),
+            "--resume",
+            "--total-timesteps",
+            str(target),
+            "--no-progress",
+        ]
+    )
     assert out.returncode == 0, out.stderr[-2000:]
     meta = json.loads((run / "model.json").read_text())
     assert meta["num_timesteps"] == target  # continued, not restarted (would be 2x)
@@ -185,8 +234,13 @@ def test_evaluate_cli_errors(tmp_path, capsys):
 
 @pytest.mark.skipif(not (PRETRAINED / "ppo_detumble.zip").exists(), reason="no pretrained policy")
 def test_pretrained_detumble_policy_reaches_95_percent():
-    res = evaluate(PRETRAINED / "ppo_detumble.zip", "RigidEnv/Detumble-v0", episodes=20,
-                   seed=777_000, only=["model", "pd"])
+    res = evaluate(
+        PRETRAINED / "ppo_detumble.zip",
+        "RigidEnv/Detumble-v0",
+        episodes=20,
+        seed=777_000,
+        only=["model", "pd"],
+    )
     assert res["model"]["success_rate"] >= 0.95
     assert res["model"]["mean_fuel"] <= 1.5 * res["pd"]["mean_fuel"]
 

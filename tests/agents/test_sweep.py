@@ -32,8 +32,10 @@ BASE = ROOT / "configs/agents/ppo_detumble.yaml"
 
 HAS_RAY = importlib.util.find_spec("ray") is not None
 needs_ray = pytest.mark.skipif(
-    not HAS_RAY, reason="ray[tune] is not installed (pip install -e '.[sweep]'); "
-    "sweep runs on Ray are not tested")
+    not HAS_RAY,
+    reason="ray[tune] is not installed (pip install -e '.[sweep]'); "
+    "sweep runs on Ray are not tested",
+)
 
 #: A trial of a few hundred steps: 2 envs x 64-step rollouts, 50-step episodes.
 TINY = {
@@ -72,9 +74,14 @@ def test_shipped_sweep_files_load():
 
 
 def test_grid_is_the_cartesian_product_with_seeds_innermost(tmp_path):
-    p = _sweep_file(tmp_path, grid={"seed": [0, 1, 2],
-                                    "hyperparams.learning_rate": [3.0e-4, 1.0e-3],
-                                    "env_kwargs.integrator": ["splitting", "rk4"]})
+    p = _sweep_file(
+        tmp_path,
+        grid={
+            "seed": [0, 1, 2],
+            "hyperparams.learning_rate": [3.0e-4, 1.0e-3],
+            "env_kwargs.integrator": ["splitting", "rk4"],
+        },
+    )
     sweep = load_sweep(p)
     points = grid_points(sweep)
     assert len(points) == 12 and [pt["seed"] for pt in points[:3]] == [0, 1, 2]
@@ -83,23 +90,26 @@ def test_grid_is_the_cartesian_product_with_seeds_innermost(tmp_path):
     assert len(set(labels)) == 4  # seeds share a setting
 
 
-@pytest.mark.parametrize(("change", "named"), [
-    ({"learning_rate": 1.0e-3}, "learning_rate"),                      # unknown top-level key
-    ({"grid": {"seed": [0], "lr": [1]}}, "grid.lr"),                   # unknown axis
-    ({"grid": {"seed": [0], "hyperparams.learnin_rate": [1.0e-3]}}, "hyperparams.learnin_rate"),
-    ({"grid": {"seed": [0], "env_kwargs.integrator": ["rk5"]}}, "rk5"),
-    ({"grid": {"seed": [0, 0]}}, "grid.seed"),                          # duplicate value
-    ({"grid": {"seed": "0"}}, "grid.seed"),                             # not a list
-    ({"grid": {"env_id": ["RigidEnv/Nope-v0"]}}, "env_id"),
-    ({"metric": "accuracy"}, "metric"),
-    ({"cpus_per_trial": 0}, "cpus_per_trial"),
-    ({"total_timesteps": "1e5"}, "total_timesteps"),                    # YAML 1.1 string
-    ({"overrides": {"eval": {"frq": 10}}}, "eval.frq"),
-    ({"overrides": {"seed": 3}}, "overrides.seed"),
-    ({"evaluation": {"episode": 3}}, "evaluation.episode"),
-    ({"base": "nope.yaml"}, "base"),
-    ({"name": "a/b"}, "name"),
-])
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [
+        ({"learning_rate": 1.0e-3}, "learning_rate"),  # unknown top-level key
+        ({"grid": {"seed": [0], "lr": [1]}}, "grid.lr"),  # unknown axis
+        ({"grid": {"seed": [0], "hyperparams.learnin_rate": [1.0e-3]}}, "hyperparams.learnin_rate"),
+        ({"grid": {"seed": [0], "env_kwargs.integrator": ["rk5"]}}, "rk5"),
+        ({"grid": {"seed": [0, 0]}}, "grid.seed"),  # duplicate value
+        ({"grid": {"seed": "0"}}, "grid.seed"),  # not a list
+        ({"grid": {"env_id": ["RigidEnv/Nope-v0"]}}, "env_id"),
+        ({"metric": "accuracy"}, "metric"),
+        ({"cpus_per_trial": 0}, "cpus_per_trial"),
+        ({"total_timesteps": "1e5"}, "total_timesteps"),  # YAML 1.1 string
+        ({"overrides": {"eval": {"frq": 10}}}, "eval.frq"),
+        ({"overrides": {"seed": 3}}, "overrides.seed"),
+        ({"evaluation": {"episode": 3}}, "evaluation.episode"),
+        ({"base": "nope.yaml"}, "base"),
+        ({"name": "a/b"}, "name"),
+    ],
+)
 def test_bad_sweep_file_is_one_line_naming_the_key(tmp_path, capsys, change, named):
     p = _sweep_file(tmp_path, **change)
     with pytest.raises(ConfigError) as exc:
@@ -144,14 +154,22 @@ def test_trial_trains_with_agents_train_reports_and_skips_when_done(tmp_path):
     assert [r["timesteps"] for r in reports] == [128, 256, 256]
     assert [r["final"] for r in reports] == [False, False, True]
     assert reports[-1]["episodes"] == 4 and 0.0 <= final["success_rate"] <= 1.0
-    for name in ("config.yaml", "model.zip", "vecnormalize.pkl", "model.json",
-                 "eval/evaluations.npz", "checkpoints/model_256_steps.zip", "final_eval.json"):
+    for name in (
+        "config.yaml",
+        "model.zip",
+        "vecnormalize.pkl",
+        "model.json",
+        "eval/evaluations.npz",
+        "checkpoints/model_256_steps.zip",
+        "final_eval.json",
+    ):
         assert (run_dir / name).exists(), name
 
     stamp = (run_dir / "model.zip").stat().st_mtime_ns
     again: list[dict] = []
-    assert run_trial({"seed": 0}, spec, report=again.append)["success_rate"] == \
-        final["success_rate"]
+    assert (
+        run_trial({"seed": 0}, spec, report=again.append)["success_rate"] == final["success_rate"]
+    )
     assert len(again) == 1 and (run_dir / "model.zip").stat().st_mtime_ns == stamp
 
     # Deterministic per seed, and the same training job: agents.train with the trial's
@@ -183,15 +201,25 @@ def local_ray():
 
     import ray
 
-    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
-             logging_level=logging.ERROR)
+    ray.init(
+        address="local",
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        logging_level=logging.ERROR,
+    )
     yield ray
     ray.shutdown()
 
 
 def _assert_run_folder(run_dir: Path) -> None:
-    for name in ("config.yaml", "model.zip", "model.json", "eval/evaluations.npz",
-                 "final_eval.json"):
+    for name in (
+        "config.yaml",
+        "model.zip",
+        "model.json",
+        "eval/evaluations.npz",
+        "final_eval.json",
+    ):
         assert (run_dir / name).exists(), run_dir / name
 
 
@@ -236,8 +264,9 @@ def test_interrupted_sweep_resumes_only_unfinished_trials(tmp_path, local_ray, c
     sweep = load_sweep(p)
     with pytest.raises(SweepError, match="no sweep to resume"):
         run_sweep(sweep, resume=True)
-    rows = run_sweep(sweep, tune_callbacks=[_InterruptAfterFirstTrial(tmp_path / "flag")],
-                     log=lambda line: None)
+    rows = run_sweep(
+        sweep, tune_callbacks=[_InterruptAfterFirstTrial(tmp_path / "flag")], log=lambda line: None
+    )
     assert len(rows) == 1
     done = Path(rows[0].run_dir)
     other = done.parent / f"Detumble__ppo__{1 - rows[0].seed}"
@@ -278,4 +307,3 @@ def test_bad_address_format_is_one_line(tmp_path, capsys):
         pytest.skip("ray[tune] is not installed")
     assert main([str(_sweep_file(tmp_path)), "--address", "localhost"]) == 2
     assert "expected ray://HOST:PORT" in capsys.readouterr().err
-

@@ -65,8 +65,9 @@ def forced():
     scene = load_scene(data)
     action = np.array([[1.0, 1.0]])
     t = CHECK_INTERVAL * np.arange(6)
-    ref = reference_trajectory(scene.body_model(1), scene.effects(), scene.initial_state(1), t,
-                               action[0])
+    ref = reference_trajectory(
+        scene.body_model(1), scene.effects(), scene.initial_state(1), t, action[0]
+    )
     return scene, action, ref
 
 
@@ -93,7 +94,8 @@ def test_order_on_exact_torque_free_case(name, torque_free):
     observed = _order(*errs)
     assert abs(observed - order) <= ORDER_TOL, (
         f"{name}: observed order {observed:.2f} (errors {errs[0]:.3e}, {errs[1]:.3e} at dt = "
-        f"{dt:g}, {dt / 2:g}), documented {order}")
+        f"{dt:g}, {dt / 2:g}), documented {order}"
+    )
 
 
 @pytest.mark.parametrize("name", list(INTEGRATORS))
@@ -111,7 +113,8 @@ def test_order_with_torques_and_drag(name, forced):
         errs.append(measure_errors(world, ref, k, action)["err_state"])
     observed = _order(*errs)
     assert abs(observed - order) <= ORDER_TOL, (
-        f"{name}: observed order {observed:.2f} with forces (errors {errs}), documented {order}")
+        f"{name}: observed order {observed:.2f} with forces (errors {errs}), documented {order}"
+    )
 
 
 def test_rk4_reference_number():
@@ -131,11 +134,38 @@ def test_rk4_reference_number():
 
 def _batch() -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Bodies covering both branches, unsorted moments, symmetric bodies and steady spins."""
-    inertia = np.array([[1, 2, 3], [1, 2, 3], [3, 1, 2], [2, 3, 1], [1, 1, 3], [1, 3, 3],
-                        [1, 2, 3], [1, 2, 3], [1, 1, 3], [2, 2, 2], [1, 2, 3]], dtype=float)
-    w = np.array([[1, 0.1, 2], [2, 0.3, 0.5], [0.2, 2, 1], [0.4, -1, -0.7], [1, 0.5, 0.7],
-                  [1, 0.5, 0.7], [0, 0, 2], [0, 1.5, 0], [1, 0.5, 0], [0.3, -0.2, 1],
-                  [0, 0, 0]], dtype=float)
+    inertia = np.array(
+        [
+            [1, 2, 3],
+            [1, 2, 3],
+            [3, 1, 2],
+            [2, 3, 1],
+            [1, 1, 3],
+            [1, 3, 3],
+            [1, 2, 3],
+            [1, 2, 3],
+            [1, 1, 3],
+            [2, 2, 2],
+            [1, 2, 3],
+        ],
+        dtype=float,
+    )
+    w = np.array(
+        [
+            [1, 0.1, 2],
+            [2, 0.3, 0.5],
+            [0.2, 2, 1],
+            [0.4, -1, -0.7],
+            [1, 0.5, 0.7],
+            [1, 0.5, 0.7],
+            [0, 0, 2],
+            [0, 1.5, 0],
+            [1, 0.5, 0],
+            [0.3, -0.2, 1],
+            [0, 0, 0],
+        ],
+        dtype=float,
+    )
     rng = np.random.default_rng(7)
     q = quat_normalize(rng.normal(size=(len(w), 4)))
     return inertia, w, q
@@ -146,7 +176,7 @@ def test_exact_flow_batch_equals_loop_and_keeps_invariants():
     h = 0.37
     q1, w1 = free_rotation_exact(q, w, inertia, h, False)
     for i in range(len(w)):
-        qi, wi = free_rotation_exact(q[i:i + 1], w[i:i + 1], inertia[i:i + 1], h, False)
+        qi, wi = free_rotation_exact(q[i : i + 1], w[i : i + 1], inertia[i : i + 1], h, False)
         assert np.array_equal(qi[0], q1[i]) and np.array_equal(wi[0], w1[i])
     assert np.all(np.isfinite(q1)) and np.all(np.isfinite(w1))
     energy0, energy1 = np.sum(inertia * w * w, 1), np.sum(inertia * w1 * w1, 1)
@@ -170,10 +200,20 @@ def test_exact_flow_steady_spins_rotate_by_exponential_map():
 
 def test_exact_free_one_long_step_equals_many_short():
     inertia, w, q = _batch()
-    world_one = World(BodyModel(np.ones(len(w)), inertia), [], integrator="exact_free", dt=5.0,
-                      state=State(np.zeros_like(w), np.zeros_like(w), q, w))
-    world_many = World(BodyModel(np.ones(len(w)), inertia), [], integrator="exact_free",
-                       dt=0.05, state=State(np.zeros_like(w), np.zeros_like(w), q, w))
+    world_one = World(
+        BodyModel(np.ones(len(w)), inertia),
+        [],
+        integrator="exact_free",
+        dt=5.0,
+        state=State(np.zeros_like(w), np.zeros_like(w), q, w),
+    )
+    world_many = World(
+        BodyModel(np.ones(len(w)), inertia),
+        [],
+        integrator="exact_free",
+        dt=0.05,
+        state=State(np.zeros_like(w), np.zeros_like(w), q, w),
+    )
     world_one.step()
     for _ in range(100):
         world_many.step()

@@ -85,18 +85,29 @@ def test_reference_and_exact_flow_agree(inertia, w0, branch):
     """The reference's textbook formulas and the integrator's unified ones are written
     separately; they must give the same angular velocity."""
     w_ref = torque_free_angular_velocity(inertia, w0, T)
-    w_core = np.concatenate([
-        free_rotation_exact(Q0[None, :], np.asarray(w0, float)[None, :],
-                            np.asarray(inertia, float)[None, :], float(t), False)[1]
-        for t in T])
+    w_core = np.concatenate(
+        [
+            free_rotation_exact(
+                Q0[None, :],
+                np.asarray(w0, float)[None, :],
+                np.asarray(inertia, float)[None, :],
+                float(t),
+                False,
+            )[1]
+            for t in T
+        ]
+    )
     assert np.max(np.abs(w_ref - w_core)) < 1e-12 * np.max(np.abs(w0))
 
 
 def test_steady_spin_and_symmetric_body():
     # a spin about a principal axis stays constant; so does a symmetric body about a
     # transverse axis (I1 = I2, w3 = 0)
-    for inertia, w0 in (((1.0, 2.0, 3.0), (0.0, 0.0, 2.0)), ((1.0, 2.0, 3.0), (0.0, 1.5, 0.0)),
-                        ((1.0, 1.0, 3.0), (1.0, 0.5, 0.0))):
+    for inertia, w0 in (
+        ((1.0, 2.0, 3.0), (0.0, 0.0, 2.0)),
+        ((1.0, 2.0, 3.0), (0.0, 1.5, 0.0)),
+        ((1.0, 1.0, 3.0), (1.0, 0.5, 0.0)),
+    ):
         w = torque_free_angular_velocity(inertia, w0, T)
         assert np.array_equal(w, np.tile(w0, (T.size, 1)))
     # a symmetric body precesses: w3 constant, (w1, w2) turn at (I3 - I1) / I1 w3
@@ -114,8 +125,10 @@ def test_ivp_reference_free_fall_is_parabola():
     ref = reference_trajectory(model, [Gravity(g)], s0, t)
     parabola = s0.x[0] + np.outer(t, s0.v[0]) + 0.5 * np.outer(t**2, g)
     assert np.max(np.abs(ref.x - parabola)) < 1e-10  # metres
-    assert np.max(np.abs(ref.w - torque_free_angular_velocity((1.0, 2.0, 3.0), s0.w[0], t))) \
+    assert (
+        np.max(np.abs(ref.w - torque_free_angular_velocity((1.0, 2.0, 3.0), s0.w[0], t)))
         < IVP_AGREEMENT
+    )
 
 
 def test_reference_rejects_per_step_maps():

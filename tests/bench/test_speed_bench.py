@@ -59,13 +59,22 @@ def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
     for mj in ("Euler", "RK4"):
         assert ("core", f"MuJoCo {mj} rollout") in cases
         assert ("core", f"MuJoCo {mj} mj_step loop") in cases
-    assert {("env", "Pendulum-v1"), ("env", "InvertedPendulum-v5"),
-            ("env", speed.DETUMBLE)} <= cases
+    assert {
+        ("env", "Pendulum-v1"),
+        ("env", "InvertedPendulum-v5"),
+        ("env", speed.DETUMBLE),
+    } <= cases
     assert {("vec", speed.CARTPOLE_CASE), ("vec", speed.SYNC_CASE), ("vec", "Detumble")} <= cases
-    assert {("effects", speed.NO_EFFECTS), ("effects", speed.NOISE_FLOOR),
-            ("effects", "all of them")} <= cases
-    assert {("ppo", speed.PPO_ADAPTER), ("ppo", speed.PPO_DUMMY),
-            ("ppo", speed.PPO_SUBPROC)} <= cases
+    assert {
+        ("effects", speed.NO_EFFECTS),
+        ("effects", speed.NOISE_FLOOR),
+        ("effects", "all of them"),
+    } <= cases
+    assert {
+        ("ppo", speed.PPO_ADAPTER),
+        ("ppo", speed.PPO_DUMMY),
+        ("ppo", speed.PPO_SUBPROC),
+    } <= cases
     # SyncVectorEnv is measured at the small sizes only; the others are marked extrapolated.
     sync = {int(r["n"]): r["note"] for r in rows if r["case"] == speed.SYNC_CASE}
     for n, note in sync.items():
@@ -74,19 +83,38 @@ def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
 
 def test_markdown_has_header_sections_and_targets(smoke_out: Path) -> None:
     text = (smoke_out / "speed.md").read_text(encoding="utf-8")
-    for key in ("- Date:", "- Machine:", "- Versions:", "numpy", "mujoco", "gymnasium",
-                "stable-baselines3", "## 1. Core", "## 2. Single environment",
-                "## 3. Vector environment", "## 4. Effects", "## 5. Training",
-                "## Targets", "| target | measured | goal | status | note |"):
+    for key in (
+        "- Date:",
+        "- Machine:",
+        "- Versions:",
+        "numpy",
+        "mujoco",
+        "gymnasium",
+        "stable-baselines3",
+        "## 1. Core",
+        "## 2. Single environment",
+        "## 3. Vector environment",
+        "## 4. Effects",
+        "## 5. Training",
+        "## Targets",
+        "| target | measured | goal | status | note |",
+    ):
         assert key in text, key
     assert "Traceback" not in text
 
 
 def test_measure_interleaves_repeats_and_resets_before_each() -> None:
     log: list[str] = []
-    cases = [speed.Case(name, lambda name=name: log.append(name), work=4.0,
-                        reset=lambda name=name: log.append(f"reset {name}"), calls=2)
-             for name in ("a", "b")]
+    cases = [
+        speed.Case(
+            name,
+            lambda name=name: log.append(name),
+            work=4.0,
+            reset=lambda name=name: log.append(f"reset {name}"),
+            calls=2,
+        )
+        for name in ("a", "b")
+    ]
     timings = speed.measure(cases, min_time=0.0, repeats=3, warmup=False)
     assert set(timings) == {"a", "b"}
     for t in timings.values():
@@ -94,9 +122,26 @@ def test_measure_interleaves_repeats_and_resets_before_each() -> None:
         assert t.rate == pytest.approx(t.work / t.median)
         assert len(t.cpu_per_call) == 3 and t.seconds == t.per_call  # wall clock by default
     # Round r starts with case r mod 2; each repeat is its reset and then its calls.
-    assert log == ["reset a", "a", "a", "reset b", "b", "b",
-                   "reset b", "b", "b", "reset a", "a", "a",
-                   "reset a", "a", "a", "reset b", "b", "b"]
+    assert log == [
+        "reset a",
+        "a",
+        "a",
+        "reset b",
+        "b",
+        "b",
+        "reset b",
+        "b",
+        "b",
+        "reset a",
+        "a",
+        "a",
+        "reset a",
+        "a",
+        "a",
+        "reset b",
+        "b",
+        "b",
+    ]
 
 
 def test_mujoco_states_spin_the_free_body_at_the_given_body_rates() -> None:
@@ -111,12 +156,16 @@ def test_mujoco_states_spin_the_free_body_at_the_given_body_rates() -> None:
         np.testing.assert_array_equal(data.qvel[:3], 0.0)
 
 
-@pytest.mark.parametrize("argv, words", [
-    (["--only", "nope"], "unknown section"),
-    (["--repeats", "0"], "--repeats"),
-])
-def test_bad_flags_give_one_line_errors(argv: list[str], words: str,
-                                        capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    "argv, words",
+    [
+        (["--only", "nope"], "unknown section"),
+        (["--repeats", "0"], "--repeats"),
+    ],
+)
+def test_bad_flags_give_one_line_errors(
+    argv: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     assert main(["bench", "speed", "--smoke", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("rigid-env") and words in err[0], err

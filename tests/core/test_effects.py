@@ -43,9 +43,12 @@ def state(n: int, seed: int = 0) -> State:
     """``n`` bodies with varied positions, velocities, orientations and spins."""
     rng = np.random.default_rng(seed)
     q = rng.standard_normal((n, 4))
-    return State.from_arrays(rng.uniform(-5, 5, (n, 3)), rng.uniform(-3, 3, (n, 3)),
-                             q / np.linalg.norm(q, axis=1, keepdims=True),
-                             rng.uniform(-2, 2, (n, 3)))
+    return State.from_arrays(
+        rng.uniform(-5, 5, (n, 3)),
+        rng.uniform(-3, 3, (n, 3)),
+        q / np.linalg.norm(q, axis=1, keepdims=True),
+        rng.uniform(-2, 2, (n, 3)),
+    )
 
 
 # Integrators exact for a constant acceleration (x(t) is a quadratic): rk4 (order >= 2 RK
@@ -71,8 +74,9 @@ def test_free_fall_is_exact(name: str) -> None:
 def test_free_fall_first_order_methods_are_not_exact() -> None:
     """Control for the test above: symplectic Euler errs by h t g / 2 = 0.049 m after 1 s."""
     s0 = state(1)
-    world = World(BodyModel.single(1.0, [1.0, 1.0, 1.0]), (Gravity(G),), "symplectic_euler",
-                  0.01, state=s0)
+    world = World(
+        BodyModel.single(1.0, [1.0, 1.0, 1.0]), (Gravity(G),), "symplectic_euler", 0.01, state=s0
+    )
     for _ in range(100):
         world.step()
     x = s0.x + s0.v + 0.5 * G  # exact at t = 1 s
@@ -87,8 +91,9 @@ def test_linear_damping_is_geometric(name: str) -> None:
     x_n = x0 + h v0 (1 - alpha^n) / (1 - alpha)."""
     alpha, h, n = 0.9, 0.02, 60
     s0 = state(3)
-    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (LinearDamping(alpha),), name, h,
-                  state=s0)
+    world = World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]), (LinearDamping(alpha),), name, h, state=s0
+    )
     for _ in range(n):
         world.step()
     v = alpha**n * s0.v
@@ -155,8 +160,16 @@ def test_drag_with_offset_centre_of_pressure_hand_computation() -> None:
     f = -0.5 * rho * cd * area * np.linalg.norm(v_p) * v_p
     tau = np.cross(r_cp, r.T @ f)
     force, torque = np.zeros((1, 3)), np.zeros((1, 3))
-    drag.accumulate(BodyModel.single(1.0, [1.0, 2.0, 3.0]), x[None], v[None], q[None], w[None],
-                    None, force, torque)
+    drag.accumulate(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        x[None],
+        v[None],
+        q[None],
+        w[None],
+        None,
+        force,
+        torque,
+    )
     assert np.abs(force[0] - f).max() < ONE_EVAL_TOL * np.abs(f).max()
     assert np.abs(torque[0] - tau).max() < ONE_EVAL_TOL * np.abs(f).max()
 
@@ -192,21 +205,39 @@ def test_thruster_spin_up_about_principal_axis_asymmetric_body() -> None:
 def test_thruster_world_force_follows_orientation() -> None:
     """World force R (d F): a body turned 90 degrees about z pushes its body-x thruster along
     world y, its body-y thruster along world -x."""
-    thr = Thrusters(points=[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
-                    directions=[[2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],  # normalised inside
-                    max_force=[3.0, 0.5])
+    thr = Thrusters(
+        points=[[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]],
+        directions=[[2.0, 0.0, 0.0], [0.0, 1.0, 0.0]],  # normalised inside
+        max_force=[3.0, 0.5],
+    )
     q = np.array([[np.cos(np.pi / 4), 0.0, 0.0, np.sin(np.pi / 4)]])
     model = BodyModel.single(2.0, [1.0, 1.0, 1.0])
-    for action, expected in (([1.0, 0.0], [0.0, 3.0, 0.0]), ([0.0, -1.0], [0.5, 0.0, 0.0]),
-                             ([0.5, 1.0], [-0.5, 1.5, 0.0])):
+    for action, expected in (
+        ([1.0, 0.0], [0.0, 3.0, 0.0]),
+        ([0.0, -1.0], [0.5, 0.0, 0.0]),
+        ([0.5, 1.0], [-0.5, 1.5, 0.0]),
+    ):
         force, torque = np.zeros((1, 3)), np.zeros((1, 3))
-        thr.accumulate(model, np.zeros((1, 3)), np.zeros((1, 3)), q, np.zeros((1, 3)),
-                       np.array([action]), force, torque)
+        thr.accumulate(
+            model,
+            np.zeros((1, 3)),
+            np.zeros((1, 3)),
+            q,
+            np.zeros((1, 3)),
+            np.array([action]),
+            force,
+            torque,
+        )
         assert np.abs(force[0] - expected).max() < ONE_EVAL_TOL
         assert np.array_equal(torque[0], [0.0, 0.0, 0.0])  # through the centre of mass
     # The same through a world: one symplectic Euler step, v = h F / m along world y.
-    world = World(model, (thr,), "symplectic_euler", 0.1,
-                  state=State.from_arrays(np.zeros(3), np.zeros(3), q[0], np.zeros(3)))
+    world = World(
+        model,
+        (thr,),
+        "symplectic_euler",
+        0.1,
+        state=State.from_arrays(np.zeros(3), np.zeros(3), q[0], np.zeros(3)),
+    )
     world.step([1.0, 0.0])
     assert np.abs(world.state.v[0] - [0.0, 0.1 * 3.0 / 2.0, 0.0]).max() < ONE_EVAL_TOL
     assert np.array_equal(world.state.w[0], [0.0, 0.0, 0.0])
@@ -226,8 +257,16 @@ def test_point_forces_torque_is_r_cross_f() -> None:
     r = Rotation.from_quat(q[:, [1, 2, 3, 0]]).as_matrix()
     f_world = np.einsum("nij,nj->ni", r, f_body.sum(axis=1))
     force, torque = np.zeros((n, 3)), np.zeros((n, 3))
-    pf.accumulate(BodyModel.single(1.0, [1.0, 2.0, 3.0]), np.zeros((n, 3)), np.zeros((n, 3)),
-                  q, np.zeros((n, 3)), u, force, torque)
+    pf.accumulate(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        np.zeros((n, 3)),
+        np.zeros((n, 3)),
+        q,
+        np.zeros((n, 3)),
+        u,
+        force,
+        torque,
+    )
     assert np.abs(torque - tau).max() < ONE_EVAL_TOL * 10
     assert np.abs(force - f_world).max() < ONE_EVAL_TOL * 10
 
@@ -243,15 +282,20 @@ def test_gravity_has_no_torque_and_its_potential() -> None:
     assert np.abs(u - model.mass * 9.81 * s.x[:, 2]).max() < ONE_EVAL_TOL * 100
 
 
-@pytest.mark.parametrize(("make", "match"), [
-    (lambda: Gravity([0.0, np.nan, 0.0]), "gravity.g"),
-    (lambda: QuadraticDrag(rho=-1.0), "rho"),
-    (lambda: LinearDamping(1.5), "alpha"),
-    (lambda: AngularDamping(0.0), "alpha"),
-    (lambda: Thrusters(points=[[0, 0, 0]], directions=[[0, 0, 0]], max_force=[1.0]),
-     "direction"),
-    (lambda: PointForces(points=[[np.inf, 0, 0]]), "points"),
-])
+@pytest.mark.parametrize(
+    ("make", "match"),
+    [
+        (lambda: Gravity([0.0, np.nan, 0.0]), "gravity.g"),
+        (lambda: QuadraticDrag(rho=-1.0), "rho"),
+        (lambda: LinearDamping(1.5), "alpha"),
+        (lambda: AngularDamping(0.0), "alpha"),
+        (
+            lambda: Thrusters(points=[[0, 0, 0]], directions=[[0, 0, 0]], max_force=[1.0]),
+            "direction",
+        ),
+        (lambda: PointForces(points=[[np.inf, 0, 0]]), "points"),
+    ],
+)
 def test_bad_parameters_are_named(make, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         make()

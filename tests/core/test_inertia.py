@@ -75,8 +75,12 @@ def _hemisphere_quadrature(radius: float, z_base: float, up: bool, n: int) -> Fl
     rr, tt, pp = np.meshgrid(rho, theta, phi, indexing="ij")
     w = rr**2 * np.sin(tt) * drho * dtheta * dphi
     sign = 1.0 if up else -1.0
-    pts = [rr * np.sin(tt) * np.cos(pp), rr * np.sin(tt) * np.sin(pp),
-           z_base + sign * rr * np.cos(tt), w]
+    pts = [
+        rr * np.sin(tt) * np.cos(pp),
+        rr * np.sin(tt) * np.sin(pp),
+        z_base + sign * rr * np.cos(tt),
+        w,
+    ]
     return np.stack(pts, axis=-1).reshape(-1, 4)
 
 
@@ -115,7 +119,9 @@ def test_box_mesh_is_exact() -> None:
     assert props.mass == pytest.approx(mass, rel=EXACT_RTOL)
     # A polyhedron's integrals are exact: the box's closed form to rounding.
     np.testing.assert_allclose(
-        props.inertia_ref, inertia.box(mass, size).inertia_ref, rtol=0.0,
+        props.inertia_ref,
+        inertia.box(mass, size).inertia_ref,
+        rtol=0.0,
         atol=EXACT_RTOL * np.max(props.principal_moments),
     )
     np.testing.assert_allclose(props.center_of_mass, 0.0, atol=EXACT_RTOL * size.max())
@@ -167,8 +173,11 @@ def test_ellipsoid_against_grid_and_mesh() -> None:
     exact = inertia.ellipsoid(1.0, semi)
     # Cartesian grid, 80 cells per axis, cells kept if their centre lies inside: the jagged
     # boundary makes the error irregular in n, measured at a few 1e-5 here; 1e-3 bounds it.
-    pts = _cell_grid(semi, 80, lambda x, y, z: (x / semi[0]) ** 2 + (y / semi[1]) ** 2
-                     + (z / semi[2]) ** 2 <= 1.0)
+    pts = _cell_grid(
+        semi,
+        80,
+        lambda x, y, z: (x / semi[0]) ** 2 + (y / semi[1]) ** 2 + (z / semi[2]) ** 2 <= 1.0,
+    )
     assert _rel_err(inertia.from_points(pts), exact) < 1.0e-3
     # A scaled icosphere is a closed mesh of the ellipsoid; 4 subdivisions: 0.2 % error.
     vertices, faces = inertia.icosphere_mesh(1.0, 4)
@@ -176,7 +185,8 @@ def test_ellipsoid_against_grid_and_mesh() -> None:
     # Equal semi-axes: the sphere's closed form.
     np.testing.assert_allclose(
         inertia.ellipsoid(3.0, [0.2, 0.2, 0.2]).inertia_ref,
-        inertia.sphere(3.0, 0.2).inertia_ref, rtol=EXACT_RTOL,
+        inertia.sphere(3.0, 0.2).inertia_ref,
+        rtol=EXACT_RTOL,
     )
 
 
@@ -198,11 +208,13 @@ def test_capsule_against_quadrature() -> None:
     radius, length = 0.3, 0.8
     exact = inertia.capsule(1.0, radius, length)
     n = 32
-    pts = np.concatenate([
-        _cylinder_quadrature(radius, -length / 2, length / 2, n),
-        _hemisphere_quadrature(radius, length / 2, True, n),
-        _hemisphere_quadrature(radius, -length / 2, False, n),
-    ])
+    pts = np.concatenate(
+        [
+            _cylinder_quadrature(radius, -length / 2, length / 2, n),
+            _hemisphere_quadrature(radius, length / 2, True, n),
+            _hemisphere_quadrature(radius, -length / 2, False, n),
+        ]
+    )
     props = inertia.from_points(pts)
     # The quadrature's mass is the volume pi r^2 L + 4/3 pi r^3, to O(1/n^2).
     volume = np.pi * radius**2 * length + 4.0 / 3.0 * np.pi * radius**3
@@ -220,7 +232,8 @@ def test_capsule_against_quadrature() -> None:
 def test_capsule_limits() -> None:
     # Length 0 is a sphere, exactly.
     np.testing.assert_allclose(
-        inertia.capsule(2.0, 0.4, 0.0).inertia_ref, inertia.sphere(2.0, 0.4).inertia_ref,
+        inertia.capsule(2.0, 0.4, 0.0).inertia_ref,
+        inertia.sphere(2.0, 0.4).inertia_ref,
         rtol=EXACT_RTOL,
     )
     # A long thin capsule tends to the cylinder of the same mass. To first order in r / L the
@@ -255,8 +268,12 @@ def test_points_hand_computed() -> None:
         props.center_of_mass, offset + m2 * length / (m1 + m2) * x_axis, rtol=EXACT_RTOL
     )
     mu = m1 * m2 / (m1 + m2)
-    np.testing.assert_allclose(props.principal_moments, [0.0, mu * length**2, mu * length**2],
-                               rtol=0.0, atol=EXACT_RTOL * mu * length**2)
+    np.testing.assert_allclose(
+        props.principal_moments,
+        [0.0, mu * length**2, mu * length**2],
+        rtol=0.0,
+        atol=EXACT_RTOL * mu * length**2,
+    )
     # Two masses on the diagonal x = y: product of inertia I_xy = -sum m x y = -2 m.
     props = inertia.from_points([[1, 1, 0, m], [-1, -1, 0, m]])
     expected = m * np.array([[2.0, -2.0, 0.0], [-2.0, 2.0, 0.0], [0.0, 0.0, 4.0]])
@@ -266,8 +283,9 @@ def test_points_hand_computed() -> None:
     np.testing.assert_allclose(props.inertia_ref, 0.0, atol=0.0)
     # Zero-mass points are allowed and change nothing.
     with_ghost = inertia.from_points([[d, 0, 0, m], [-d, 0, 0, m], [5, 5, 5, 0.0]])
-    np.testing.assert_allclose(with_ghost.inertia_ref, np.diag([0, 2 * m * d**2, 2 * m * d**2]),
-                               atol=1.0e-15)
+    np.testing.assert_allclose(
+        with_ghost.inertia_ref, np.diag([0, 2 * m * d**2, 2 * m * d**2]), atol=1.0e-15
+    )
 
 
 def test_points_rigid_motion_invariance() -> None:
@@ -279,10 +297,12 @@ def test_points_rigid_motion_invariance() -> None:
     a, b = inertia.from_points(pts), inertia.from_points(moved)
     scale = float(np.max(a.principal_moments))
     # Principal moments are invariants; the tensor transforms as R I R^T, the COM as R c + t.
-    np.testing.assert_allclose(b.principal_moments, a.principal_moments, rtol=0.0,
-                               atol=EXACT_RTOL * scale)
-    np.testing.assert_allclose(b.inertia_ref, rot @ a.inertia_ref @ rot.T, rtol=0.0,
-                               atol=EXACT_RTOL * scale)
+    np.testing.assert_allclose(
+        b.principal_moments, a.principal_moments, rtol=0.0, atol=EXACT_RTOL * scale
+    )
+    np.testing.assert_allclose(
+        b.inertia_ref, rot @ a.inertia_ref @ rot.T, rtol=0.0, atol=EXACT_RTOL * scale
+    )
     np.testing.assert_allclose(b.center_of_mass, rot @ a.center_of_mass + shift, atol=1.0e-12)
     assert b.mass == pytest.approx(a.mass, rel=EXACT_RTOL)
 
@@ -316,7 +336,8 @@ def test_mass_properties_derived_fields_and_frozen() -> None:
     np.testing.assert_allclose(props.principal_moments, [1.0, 2.0, 2.5], rtol=EXACT_RTOL)
     np.testing.assert_allclose(
         props.principal_axes @ np.diag(props.principal_moments) @ props.principal_axes.T,
-        props.inertia_ref, atol=1.0e-12,
+        props.inertia_ref,
+        atol=1.0e-12,
     )
     with pytest.raises(ValueError):  # arrays are read-only
         props.inertia_ref[0, 0] = 5.0
@@ -386,8 +407,7 @@ def test_bad_meshes_raise() -> None:
         (lambda: inertia.principal_axes(np.eye(2)), "inertia"),
         (lambda: inertia.check_triangle_inequality([1.0, 2.0]), "moments"),
         (lambda: MassProperties(1.0, [0, 0], np.eye(3)), "center_of_mass"),
-        (lambda: MassProperties(1.0, [0, 0, 0], [[1, 1, 0], [0, 1, 0], [0, 0, 1]]),
-         "inertia_ref"),
+        (lambda: MassProperties(1.0, [0, 0, 0], [[1, 1, 0], [0, 1, 0], [0, 0, 1]]), "inertia_ref"),
         (lambda: MassProperties(1.0, [0, 0, 0], np.diag([-1.0, 1.0, 1.0])), "inertia_ref"),
     ],
 )

@@ -51,12 +51,20 @@ def euler_rhs(torque_body: FloatArray):
     return rhs
 
 
-def reference(times: FloatArray, torque_body: FloatArray | None = None
-              ) -> tuple[FloatArray, FloatArray]:
+def reference(
+    times: FloatArray, torque_body: FloatArray | None = None
+) -> tuple[FloatArray, FloatArray]:
     """Body w (T, 3) and unit q (T, 4) at ``times`` from DOP853 at rtol = atol = 1e-12."""
     tau = np.zeros(3) if torque_body is None else torque_body
-    sol = solve_ivp(euler_rhs(tau), (0.0, times[-1]), np.concatenate([W0, Q0]),
-                    method="DOP853", rtol=1e-12, atol=1e-12, t_eval=times)
+    sol = solve_ivp(
+        euler_rhs(tau),
+        (0.0, times[-1]),
+        np.concatenate([W0, Q0]),
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-12,
+        t_eval=times,
+    )
     assert sol.success
     q = sol.y[3:].T
     return sol.y[:3].T, q / np.linalg.norm(q, axis=1, keepdims=True)
@@ -69,8 +77,11 @@ def make_world(name: str, dt: float, effects=()) -> World:
 
 def run(world: World, steps: int, action=None) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Body w, q and world L after each step, each with a leading time axis (steps + 1)."""
-    ws, qs, ls = [world.state.w[0].copy()], [world.state.q[0].copy()], \
-        [world.angular_momentum_world()[0]]
+    ws, qs, ls = (
+        [world.state.w[0].copy()],
+        [world.state.q[0].copy()],
+        [world.angular_momentum_world()[0]],
+    )
     for _ in range(steps):
         world.step(action)
         ws.append(world.state.w[0].copy())
@@ -171,8 +182,16 @@ def test_unknown_integrator_lists_known_names() -> None:
 
 def test_registry_contract() -> None:
     """The names and orders fixed in DESIGN.md."""
-    expected = {"explicit_euler": 1, "implicit_euler": 1, "symplectic_euler": 1, "leapfrog": 2,
-                "midpoint": 2, "rk4": 4, "implicit_gyro": 1, "splitting": 2}
+    expected = {
+        "explicit_euler": 1,
+        "implicit_euler": 1,
+        "symplectic_euler": 1,
+        "leapfrog": 2,
+        "midpoint": 2,
+        "rk4": 4,
+        "implicit_gyro": 1,
+        "splitting": 2,
+    }
     for name, order in expected.items():
         assert INTEGRATORS[name].order == order
         assert INTEGRATORS[name].name == name
@@ -191,6 +210,7 @@ def test_step_leaves_input_untouched_and_renormalises(name: str) -> None:
 def test_energy_behaviour_signatures() -> None:
     """The documented failure and cures: explicit Euler gains energy on free rotation;
     implicit Euler and implicit_gyro lose it; splitting keeps |L| (above) and bounds E."""
+
     def energy_change(name: str) -> float:
         w = make_world(name, 0.05)
         e0 = w.energy()[0]

@@ -126,16 +126,20 @@ def test_canonical_sign_and_same_rotation() -> None:
 def test_rodrigues_agrees_with_quaternion_path() -> None:
     axes = random_vectors(200)
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-    angles = np.concatenate([rng.uniform(0.0, np.pi, 190),
-                             [0.0, 1e-12, 1e-8, 1e-4, 9e-4, 1.1e-3, np.pi - 1e-9, np.pi,
-                              np.pi + 1e-6, 2.0 * np.pi]])
+    angles = np.concatenate(
+        [
+            rng.uniform(0.0, np.pi, 190),
+            [0.0, 1e-12, 1e-8, 1e-4, 9e-4, 1.1e-3, np.pi - 1e-9, np.pi, np.pi + 1e-6, 2.0 * np.pi],
+        ]
+    )
     rv = axes * angles[:, None]
     err = np.abs(rot.rodrigues(rv) - rot.quat_to_matrix(rot.quat_from_rotvec(rv))).max()
     assert err < ROUNDOFF
 
 
-@pytest.mark.parametrize("angle", [0.0, 1e-12, 1e-9, 1e-6, 9.99e-4, 1e-3, 1.001e-3, 0.5, 2.0,
-                                   np.pi - 1e-6, np.pi - 1e-9])
+@pytest.mark.parametrize(
+    "angle", [0.0, 1e-12, 1e-9, 1e-6, 9.99e-4, 1e-3, 1.001e-3, 0.5, 2.0, np.pi - 1e-6, np.pi - 1e-9]
+)
 def test_exp_log_are_inverse(angle: float) -> None:
     """log(exp(phi)) = phi for |phi| < pi, relative to |phi| (absolute at 0), incl. the switch
     between series and closed form at 1e-3."""
@@ -147,8 +151,10 @@ def test_exp_log_are_inverse(angle: float) -> None:
     assert np.abs(back - rv).max() <= ROUNDOFF * max(angle, 1e-300) + 1e-300
     # exp(log q) = q for the other direction, both signs of q.
     for sign in (1.0, -1.0):
-        assert rot.quat_angle_between(rot.quat_from_rotvec(rot.quat_to_rotvec(sign * q)),
-                                      q).max() < ANGLE_ROUNDOFF
+        assert (
+            rot.quat_angle_between(rot.quat_from_rotvec(rot.quat_to_rotvec(sign * q)), q).max()
+            < ANGLE_ROUNDOFF
+        )
 
 
 def test_log_at_exactly_pi() -> None:
@@ -181,8 +187,9 @@ def test_angle_between_tiny_angle() -> None:
     # Sign-blind: -q is the same rotation.
     assert np.abs(rot.quat_angle_between(p, -q) - 1e-9).max() < TINY_ANGLE_ABS
     # And the exact value from identity: no rounding in the construction.
-    assert rot.quat_angle_between(rot.identity_quat(), rot.quat_from_rotvec([1e-9, 0, 0])) \
-        == pytest.approx(1e-9, rel=1e-15)
+    assert rot.quat_angle_between(
+        rot.identity_quat(), rot.quat_from_rotvec([1e-9, 0, 0])
+    ) == pytest.approx(1e-9, rel=1e-15)
 
 
 def test_angle_between_large_angles() -> None:
@@ -198,13 +205,16 @@ def test_angle_between_large_angles() -> None:
 # --------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize(("branch", "rotvec"), [
-    (0, [0.1, -0.2, 0.3]),           # small rotation: trace dominates
-    (1, [0.9 * np.pi, 0.1, 0.0]),    # near pi about x: m00 dominates
-    (2, [0.0, -0.95 * np.pi, 0.2]),  # about y: m11
-    (3, [0.1, 0.0, np.pi]),          # about z (just beyond pi): m22
-    (1, [np.pi, 0.0, 0.0]),          # exactly pi: w = 0, only the diagonal branch works
-])
+@pytest.mark.parametrize(
+    ("branch", "rotvec"),
+    [
+        (0, [0.1, -0.2, 0.3]),  # small rotation: trace dominates
+        (1, [0.9 * np.pi, 0.1, 0.0]),  # near pi about x: m00 dominates
+        (2, [0.0, -0.95 * np.pi, 0.2]),  # about y: m11
+        (3, [0.1, 0.0, np.pi]),  # about z (just beyond pi): m22
+        (1, [np.pi, 0.0, 0.0]),  # exactly pi: w = 0, only the diagonal branch works
+    ],
+)
 def test_matrix_to_quat_shepperd_branches(branch: int, rotvec: list[float]) -> None:
     q = rot.quat_from_rotvec(np.array(rotvec))
     m = rot.quat_to_matrix(q)
@@ -229,9 +239,13 @@ def test_matrix_quat_roundtrip_random() -> None:
 # Euler angles, Unity order: R = Ry(y) Rx(x) Rz(z), angles (x, y, z)
 # --------------------------------------------------------------------------------------------
 
-EULER = np.column_stack([rng.uniform(-np.pi / 2, np.pi / 2, 200),
-                         rng.uniform(-np.pi, np.pi, 200),
-                         rng.uniform(-np.pi, np.pi, 200)])
+EULER = np.column_stack(
+    [
+        rng.uniform(-np.pi / 2, np.pi / 2, 200),
+        rng.uniform(-np.pi, np.pi, 200),
+        rng.uniform(-np.pi, np.pi, 200),
+    ]
+)
 
 
 def test_euler_against_hand_built_axis_rotations() -> None:
@@ -275,8 +289,13 @@ def test_euler_roundtrip_at_gimbal_lock(sign: float, offset: float) -> None:
     """At and next to x = +-pi/2 the angles are not unique (only y -+ z is at the lock) and
     are ill-conditioned (an error of eps / cos x), yet the rotation comes back to round-off."""
     n = 40
-    angles = np.column_stack([np.full(n, sign * np.pi / 2 + offset),
-                              rng.uniform(-np.pi, np.pi, n), rng.uniform(-np.pi, np.pi, n)])
+    angles = np.column_stack(
+        [
+            np.full(n, sign * np.pi / 2 + offset),
+            rng.uniform(-np.pi, np.pi, n),
+            rng.uniform(-np.pi, np.pi, n),
+        ]
+    )
     q = rot.euler_to_quat(angles)
     back = rot.quat_to_euler(q)
     assert np.all(np.isfinite(back))
@@ -330,8 +349,12 @@ def test_slerp_near_identical_inputs() -> None:
     same = rot.slerp(p, p, np.full(20, 0.5))
     assert rot.quat_angle_between(same, p).max() < ANGLE_ROUNDOFF
     # Shorter arc: -q gives the same path.
-    assert rot.quat_angle_between(rot.slerp(p, -q, np.full(20, 0.5)),
-                                  rot.slerp(p, q, np.full(20, 0.5))).max() < ANGLE_ROUNDOFF
+    assert (
+        rot.quat_angle_between(
+            rot.slerp(p, -q, np.full(20, 0.5)), rot.slerp(p, q, np.full(20, 0.5))
+        ).max()
+        < ANGLE_ROUNDOFF
+    )
 
 
 def test_quat_integrate_exp_composes_exactly() -> None:

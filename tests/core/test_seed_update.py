@@ -50,8 +50,9 @@ class Seed:
     the world force ``R f_k`` at the world point ``x + R r_k``.
     """
 
-    def __init__(self, mass: float, inertia: FloatArray, points: FloatArray, x, v, q,
-                 w_body) -> None:
+    def __init__(
+        self, mass: float, inertia: FloatArray, points: FloatArray, x, v, q, w_body
+    ) -> None:
         self.m = mass
         self.points = np.asarray(points, float)
         self.i_ref = np.diag(inertia)
@@ -92,8 +93,13 @@ def commands(steps: int, dim: int) -> FloatArray:
     return rng.uniform(-1.0, 1.0, (steps, dim))
 
 
-def compare(inertia: list[float], w_body0: list[float], points: FloatArray, cmd: FloatArray,
-            dt: float = 0.01) -> float:
+def compare(
+    inertia: list[float],
+    w_body0: list[float],
+    points: FloatArray,
+    cmd: FloatArray,
+    dt: float = 0.01,
+) -> float:
     """Largest relative difference (in x, v, w_world, R) of seed vs World over ``cmd``, with
     point forces of 0.5 N per unit command at ``points``."""
     max_force = 0.5
@@ -101,8 +107,13 @@ def compare(inertia: list[float], w_body0: list[float], points: FloatArray, cmd:
     q0 = np.array([0.8, -0.2, 0.4, 0.4]) / np.linalg.norm([0.8, -0.2, 0.4, 0.4])
     x0, v0 = np.array([1.0, 2.0, 3.0]), np.array([0.5, 0.0, -1.0])
     seed = Seed(2.0, np.array(inertia), points, x0, v0, q0, w_body0)
-    world = World(BodyModel.single(2.0, inertia), (forces,), "symplectic_euler", dt,
-                  state=State.from_arrays(x0, v0, q0, w_body0))
+    world = World(
+        BodyModel.single(2.0, inertia),
+        (forces,),
+        "symplectic_euler",
+        dt,
+        state=State.from_arrays(x0, v0, q0, w_body0),
+    )
     worst = 0.0
     for u in cmd:
         seed.step(dt, max_force * u.reshape(-1, 3))  # (K, 3) body-frame forces
@@ -142,8 +153,15 @@ def test_seed_and_body_frame_agree_for_symmetric_top_about_its_axis() -> None:
 
 def seed_free_drift(dt: float, steps: int) -> float:
     """Max |L(t) - L(0)| [kg m^2/s] of the seed, torque-free, inertia (1, 2, 3)."""
-    seed = Seed(1.0, np.array([1.0, 2.0, 3.0]), POINTS, np.zeros(3), np.zeros(3),
-                np.array([1.0, 0.0, 0.0, 0.0]), np.array([1.0, 0.1, 2.0]))
+    seed = Seed(
+        1.0,
+        np.array([1.0, 2.0, 3.0]),
+        POINTS,
+        np.zeros(3),
+        np.zeros(3),
+        np.array([1.0, 0.0, 0.0, 0.0]),
+        np.array([1.0, 0.1, 2.0]),
+    )
     L0 = seed.angular_momentum_world()
     drift = 0.0
     for _ in range(steps):

@@ -32,14 +32,16 @@ CLAMP_RTOL = 4.0e-16
 N = 5
 rng = np.random.default_rng(11)
 MASS = rng.uniform(0.5, 3.0, N)
-INERTIA = np.column_stack([rng.uniform(0.5, 1.0, N), rng.uniform(1.5, 2.0, N),
-                           rng.uniform(2.5, 3.0, N)])  # per body: asymmetric, ...
+INERTIA = np.column_stack(
+    [rng.uniform(0.5, 1.0, N), rng.uniform(1.5, 2.0, N), rng.uniform(2.5, 3.0, N)]
+)  # per body: asymmetric, ...
 INERTIA[2] = 1.3  # ... one isotropic (no gyroscopic term: the world skips it for it alone) ...
 INERTIA[3, :2] = 0.7  # ... and one symmetric top
 Q = rng.standard_normal((N, 4))
 Q /= np.linalg.norm(Q, axis=1, keepdims=True)
-STATE0 = State.from_arrays(rng.uniform(-2, 2, (N, 3)), rng.uniform(-3, 3, (N, 3)), Q,
-                           rng.uniform(-3, 3, (N, 3)))
+STATE0 = State.from_arrays(
+    rng.uniform(-2, 2, (N, 3)), rng.uniform(-3, 3, (N, 3)), Q, rng.uniform(-3, 3, (N, 3))
+)
 ACTIONS = rng.uniform(-1, 1, (8, N, 2))
 
 
@@ -49,8 +51,11 @@ def effects() -> tuple:
     return (
         Gravity([0.0, 0.0, -9.81]),
         QuadraticDrag(rho=1.2, cd=1.0, area=0.2, center_of_pressure=[0.05, 0.0, -0.1]),
-        Thrusters(points=[[0.3, 0.0, 0.0], [0.0, -0.2, 0.1]],
-                  directions=[[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], max_force=[1.0, 2.0]),
+        Thrusters(
+            points=[[0.3, 0.0, 0.0], [0.0, -0.2, 0.1]],
+            directions=[[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            max_force=[1.0, 2.0],
+        ),
         LinearDamping(0.999),
         AngularDamping(0.995),
     )
@@ -67,8 +72,10 @@ def test_batch_equals_loop_of_single_bodies_bitwise(name: str) -> None:
     stepped alone (no step mixes bodies or lets one body's numbers change another's rounding).
     """
     batch = world_of(BodyModel(MASS, INERTIA), STATE0, name)
-    singles = [world_of(BodyModel(MASS[i:i + 1], INERTIA[i:i + 1]), STATE0.take([i]), name)
-               for i in range(N)]
+    singles = [
+        world_of(BodyModel(MASS[i : i + 1], INERTIA[i : i + 1]), STATE0.take([i]), name)
+        for i in range(N)
+    ]
     for u in ACTIONS:
         batch.step(u)
         for i, world in enumerate(singles):
@@ -106,16 +113,19 @@ def test_shared_model_broadcasts_like_per_body_model() -> None:
 # --------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("action", [
-    np.zeros((N, 3)),          # wrong action_dim
-    np.zeros((N - 1, 2)),      # wrong body count
-    np.zeros(3),               # flat, wrong length
-    np.zeros((1, N, 2)),       # an extra axis
-    np.float64(0.5),           # a scalar
-    np.full((N, 2), np.nan),
-    np.array([[0.0, np.inf]] * N),
-    np.array([-np.inf, 0.0]),
-])
+@pytest.mark.parametrize(
+    "action",
+    [
+        np.zeros((N, 3)),  # wrong action_dim
+        np.zeros((N - 1, 2)),  # wrong body count
+        np.zeros(3),  # flat, wrong length
+        np.zeros((1, N, 2)),  # an extra axis
+        np.float64(0.5),  # a scalar
+        np.full((N, 2), np.nan),
+        np.array([[0.0, np.inf]] * N),
+        np.array([-np.inf, 0.0]),
+    ],
+)
 def test_bad_action_raises_value_error_naming_action(action: FloatArray) -> None:
     world = world_of(BodyModel(MASS, INERTIA), STATE0, "rk4")
     with pytest.raises(ValueError, match="action"):
@@ -151,10 +161,17 @@ W_BLOWUP = np.array([[1.0, 0.1, 2.0], [50.0, 1.0, 100.0], [0.5, 0.5, 0.5]])
 
 def blowup_world(bodies: list[int], on_error: str) -> World:
     n = len(bodies)
-    state = State.from_arrays(np.zeros((n, 3)), np.zeros((n, 3)), np.tile([1.0, 0, 0, 0], (n, 1)),
-                              W_BLOWUP[bodies])
-    return World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), "explicit_euler", 0.1,
-                 state=state, on_error=on_error)
+    state = State.from_arrays(
+        np.zeros((n, 3)), np.zeros((n, 3)), np.tile([1.0, 0, 0, 0], (n, 1)), W_BLOWUP[bodies]
+    )
+    return World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        (),
+        "explicit_euler",
+        0.1,
+        state=state,
+        on_error=on_error,
+    )
 
 
 def test_raise_names_body_step_and_integrator() -> None:
@@ -277,14 +294,22 @@ def test_torque_free_world_leaves_translation_alone() -> None:
 def test_max_angular_speed_clamps(name: str) -> None:
     w_max = 5.0
     w0 = np.array([[10.0, 1.0, 20.0], [0.1, 0.2, 0.3]])
-    state = State.from_arrays(np.zeros((2, 3)), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)),
-                              w0)
+    state = State.from_arrays(
+        np.zeros((2, 3)), np.zeros((2, 3)), np.tile([1.0, 0, 0, 0], (2, 1)), w0
+    )
     thr = Thrusters(points=[[0.5, 0.0, 0.0]], directions=[[0.0, 1.0, 0.0]], max_force=[50.0])
-    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state,
-                  max_angular_speed=w_max)
+    world = World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        (thr,),
+        name,
+        0.05,
+        state=state,
+        max_angular_speed=w_max,
+    )
     # Without the limit (explicit Euler then overflows at h |w| > 1: the limit as safety valve).
-    free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state,
-                 on_error="freeze")
+    free = World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state, on_error="freeze"
+    )
     free_max = 0.0
     for _ in range(40):
         world.step([1.0])
@@ -295,10 +320,15 @@ def test_max_angular_speed_clamps(name: str) -> None:
     assert not world.failed.any()
     assert free_max > 2 * w_max  # the limit did something
     # A body that stays below the limit is untouched, bit for bit (the clamp is a no-op).
-    slow = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05, state=state.take([1]),
-                 max_angular_speed=w_max)
-    slow_free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05,
-                      state=state.take([1]))
+    slow = World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        (),
+        name,
+        0.05,
+        state=state.take([1]),
+        max_angular_speed=w_max,
+    )
+    slow_free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05, state=state.take([1]))
     for _ in range(10):
         slow.step()
         slow_free.step()
@@ -307,8 +337,14 @@ def test_max_angular_speed_clamps(name: str) -> None:
 
 def test_clamp_keeps_direction() -> None:
     state = State.from_arrays(np.zeros(3), np.zeros(3), [1.0, 0, 0, 0], [0.0, 0.0, 30.0])
-    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), "symplectic_euler", 0.01,
-                  state=state, max_angular_speed=3.0)
+    world = World(
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        (),
+        "symplectic_euler",
+        0.01,
+        state=state,
+        max_angular_speed=3.0,
+    )
     world.step()
     # About a principal axis w stays on it; its size is the limit.
     assert np.array_equal(world.state.w[0, :2], [0.0, 0.0])

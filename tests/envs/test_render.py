@@ -116,8 +116,12 @@ def test_huge_spin_renders_without_warnings():
 
 
 def test_vector_env_renders_sub_env_0():
-    envs = gym.make_vec("RigidEnv/Reorient-v0", num_envs=3, vectorization_mode="vector_entry_point",
-                        render_mode="rgb_array")
+    envs = gym.make_vec(
+        "RigidEnv/Reorient-v0",
+        num_envs=3,
+        vectorization_mode="vector_entry_point",
+        render_mode="rgb_array",
+    )
     envs.reset(seed=1)
     envs.step(envs.action_space.sample())
     frame = envs.render()
@@ -138,8 +142,11 @@ def test_renderer_size_and_bad_arguments():
 def test_box_of_a_non_box_shape_has_its_moments():
     """A sphere of radius r (I = 2/5 m r^2) is drawn as the cube with the same moments, whose
     side a satisfies m a^2 / 6 = 2/5 m r^2: a = sqrt(12/5) r."""
-    scene = {"dt": 0.05, "body": {"mass": 2.0, "shape": {"sphere": 0.1}},
-             "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": 0.1}}}
+    scene = {
+        "dt": 0.05,
+        "body": {"mass": 2.0, "shape": {"sphere": 0.1}},
+        "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": 0.1}},
+    }
     task = DetumbleTask(1, scene=scene)
     np.testing.assert_allclose(body_box_size(task), np.full(3, np.sqrt(12.0 / 5.0) * 0.1))
     points, dirs = actuator_layout(task)  # one point force: three components along x, y, z
@@ -161,8 +168,11 @@ def test_record_video_writes_a_file(tmp_path):
         pytest.skip("gymnasium's RecordVideo needs moviepy: pip install moviepy")
     folder = tmp_path / "videos"
     env = gym.wrappers.RecordVideo(
-        gym.make("RigidEnv/Detumble-v0", render_mode="rgb_array"), video_folder=str(folder),
-        episode_trigger=lambda episode: True, disable_logger=True)
+        gym.make("RigidEnv/Detumble-v0", render_mode="rgb_array"),
+        video_folder=str(folder),
+        episode_trigger=lambda episode: True,
+        disable_logger=True,
+    )
     env.reset(seed=0)
     for _ in range(25):
         env.step(env.action_space.sample())

@@ -20,8 +20,16 @@ CI = st.CI_LENGTHS
 # The eight integrators of DESIGN.md's contract, whose outcomes the figures below pin down.
 # Integrators added later run through every generic test (finite or a clear error, thin bodies,
 # scale invariance) and appear in the benchmark's tables, but no outcome is pinned for them.
-CONTRACT = ("explicit_euler", "symplectic_euler", "implicit_euler", "leapfrog", "midpoint",
-            "rk4", "implicit_gyro", "splitting")
+CONTRACT = (
+    "explicit_euler",
+    "symplectic_euler",
+    "implicit_euler",
+    "leapfrog",
+    "midpoint",
+    "rk4",
+    "implicit_gyro",
+    "splitting",
+)
 
 
 # --------------------------------------------------------------------------------------------
@@ -34,19 +42,27 @@ CONTRACT = ("explicit_euler", "symplectic_euler", "implicit_euler", "leapfrog", 
 EXACT_VS_DOP853 = 1.0e-8
 
 
-@pytest.mark.parametrize(("inertia", "w0"), [
-    (st.DZHANIBEKOV_INERTIA, st.DZHANIBEKOV_W0),
-    (st.SEPARATRIX_INERTIA, st.SEPARATRIX_W0),
-    ((1.0, 2.0, 3.0), (2.0, 0.5, -0.3)),   # circulates about the minor axis, w3 < 0
-    ((3.0, 1.0, 2.0), (0.3, -1.0, 2.0)),   # axes out of order (even permutation)
-    ((2.0, 1.0, 3.0), (1.0, 2.0, -0.5)),   # odd permutation: time runs backwards
-])
+@pytest.mark.parametrize(
+    ("inertia", "w0"),
+    [
+        (st.DZHANIBEKOV_INERTIA, st.DZHANIBEKOV_W0),
+        (st.SEPARATRIX_INERTIA, st.SEPARATRIX_W0),
+        ((1.0, 2.0, 3.0), (2.0, 0.5, -0.3)),  # circulates about the minor axis, w3 < 0
+        ((3.0, 1.0, 2.0), (0.3, -1.0, 2.0)),  # axes out of order (even permutation)
+        ((2.0, 1.0, 3.0), (1.0, 2.0, -0.5)),  # odd permutation: time runs backwards
+    ],
+)
 def test_exact_body_rates_match_dop853(inertia, w0):
     i = np.asarray(inertia)
 
     def euler(_t, w):
-        return np.array([(i[1] - i[2]) * w[1] * w[2] / i[0], (i[2] - i[0]) * w[2] * w[0] / i[1],
-                         (i[0] - i[1]) * w[0] * w[1] / i[2]])
+        return np.array(
+            [
+                (i[1] - i[2]) * w[1] * w[2] / i[0],
+                (i[2] - i[0]) * w[2] * w[0] / i[1],
+                (i[0] - i[1]) * w[0] * w[1] / i[2],
+            ]
+        )
 
     t = np.linspace(0.0, 20.0, 201)
     ref = solve_ivp(euler, (0.0, 20.0), w0, method="DOP853", rtol=1e-13, atol=1e-13, t_eval=t)
@@ -110,9 +126,16 @@ def test_fast_spin_is_finite_or_a_clear_error(hard_runs, integrator):
 # Step at which the fast-spin body overflows (-1: it stays finite for the whole run, also in
 # the benchmark's 20,000 steps): the explicit methods within 20 steps; rk4 (its stability
 # region reaches 2.8 along the imaginary axis) and the implicit and splitting methods never.
-FAST_SPIN_FAILS_AT = {"explicit_euler": 19, "symplectic_euler": 18, "leapfrog": 14,
-                      "midpoint": 14, "rk4": -1, "implicit_euler": -1, "implicit_gyro": -1,
-                      "splitting": -1}
+FAST_SPIN_FAILS_AT = {
+    "explicit_euler": 19,
+    "symplectic_euler": 18,
+    "leapfrog": 14,
+    "midpoint": 14,
+    "rk4": -1,
+    "implicit_euler": -1,
+    "implicit_gyro": -1,
+    "splitting": -1,
+}
 
 
 @pytest.mark.parametrize("integrator", CONTRACT)
@@ -169,8 +192,10 @@ def test_thin_rods_and_flat_plates_stay_finite(hard_runs, integrator):
 def test_thin_rods_kill_both_forward_eulers_on_the_same_step(hard_runs):
     """The rods spin at 20 rad/s about the long axis (h|w| = 0.2): forward Euler's energy grows
     by ~(1 + (h w)^2) per step and overflows; symplectic Euler shares its w update."""
-    first = {n: int(hard_runs[n].run.first_failure[hard_runs[n].index("rod_1e-6")])
-             for n in FORWARD_EULER_W}
+    first = {
+        n: int(hard_runs[n].run.first_failure[hard_runs[n].index("rod_1e-6")])
+        for n in FORWARD_EULER_W
+    }
     assert 0 < first["explicit_euler"] < CI["thin_steps"]
     # Symplectic Euler turns q by the new (already overflowing) w: one step earlier.
     assert first["explicit_euler"] - first["symplectic_euler"] in (0, 1)
@@ -224,10 +249,16 @@ def test_separatrix_rk4_at_60_hz_tracks_the_exact_solution():
 # 60 Hz; splitting only just (7.8e-4) and without changing side (|L| is exact and the sign of
 # M^2 - 2 E I2 never flips); splitting stops crossing at 120 Hz, leapfrog / midpoint at 240 Hz,
 # the implicit ones not even at 480 Hz (they damp towards the major axis).
-SEPARATRIX_60HZ_ENERGY_ERROR = {"explicit_euler": np.inf, "symplectic_euler": np.inf,
-                                "implicit_euler": 0.749, "leapfrog": 0.0103,
-                                "midpoint": 0.0103, "rk4": 7.81e-6, "implicit_gyro": 0.749,
-                                "splitting": 7.80e-4}
+SEPARATRIX_60HZ_ENERGY_ERROR = {
+    "explicit_euler": np.inf,
+    "symplectic_euler": np.inf,
+    "implicit_euler": 0.749,
+    "leapfrog": 0.0103,
+    "midpoint": 0.0103,
+    "rk4": 7.81e-6,
+    "implicit_gyro": 0.749,
+    "splitting": 7.80e-4,
+}
 
 
 @pytest.mark.parametrize("integrator", CONTRACT)

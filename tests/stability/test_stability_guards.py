@@ -30,21 +30,32 @@ WILD_W = (1.0e200, -2.0e200, 1.5e200)
 BATCH_INERTIA = np.array([[1.0, 2.0, 3.0], [0.5, 0.7, 1.1], [2.0, 2.5, 4.0], [1.0, 1.5, 2.4]])
 
 
-def _thruster_world(integrator: str, w0: np.ndarray, bodies=(0, 1, 2, 3),
-                    on_error: str = "freeze") -> World:
+def _thruster_world(
+    integrator: str, w0: np.ndarray, bodies=(0, 1, 2, 3), on_error: str = "freeze"
+) -> World:
     """Bodies ``bodies`` of a batch of four with asymmetric inertias, gravity and two thrusters
     (per-body commands); body k starts at rates ``w0[k]`` moving along x at k m/s."""
     idx = list(bodies)
     n = len(idx)
-    effects = [Gravity(),
-               Thrusters(points=np.array([[0.3, 0.0, 0.0], [0.0, 0.0, -0.2]]),
-                         directions=np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
-                         max_force=np.array([2.0, 1.0]))]
+    effects = [
+        Gravity(),
+        Thrusters(
+            points=np.array([[0.3, 0.0, 0.0], [0.0, 0.0, -0.2]]),
+            directions=np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0]]),
+            max_force=np.array([2.0, 1.0]),
+        ),
+    ]
     state = State.zeros(n)
     state.w[:] = w0[idx]
     state.v[:, 0] = idx
-    return World(BodyModel(np.ones(n), BATCH_INERTIA[idx]), effects, integrator=integrator,
-                 dt=0.01, state=state, on_error=on_error)  # type: ignore[arg-type]
+    return World(
+        BodyModel(np.ones(n), BATCH_INERTIA[idx]),
+        effects,
+        integrator=integrator,
+        dt=0.01,
+        state=state,
+        on_error=on_error,
+    )  # type: ignore[arg-type]
 
 
 def _commands(steps: int, n: int) -> np.ndarray:
@@ -70,8 +81,14 @@ def test_error_names_body_step_integrator_and_advice():
     assert isinstance(err, FloatingPointError)
     assert (err.bodies, err.step, err.integrator, err.dt) == ([1], 19, "explicit_euler", 0.01)
     msg = str(err)
-    for part in ("body 1", "step 19", "'explicit_euler'", "smaller dt", "'implicit_gyro'",
-                 "'splitting'"):
+    for part in (
+        "body 1",
+        "step 19",
+        "'explicit_euler'",
+        "smaller dt",
+        "'implicit_gyro'",
+        "'splitting'",
+    ):
         assert part in msg
     assert world.step_count == 18
     for a in (world.state.x, world.state.v, world.state.q, world.state.w):
@@ -108,8 +125,7 @@ def test_diverging_body_leaves_the_others_bit_identical(integrator):
     wild = calm.copy()
     wild[1] = WILD_W
     cmd = _commands(STEPS, 4)
-    worlds = {"wild": _thruster_world(integrator, wild),
-              "calm": _thruster_world(integrator, calm)}
+    worlds = {"wild": _thruster_world(integrator, wild), "calm": _thruster_world(integrator, calm)}
     for k in range(STEPS):
         for w in worlds.values():
             w.step(cmd[k])
@@ -177,8 +193,9 @@ def test_clamp_scales_w_down_to_the_limit_keeping_its_direction():
 def test_clamp_holds_after_every_step_and_tames_the_fast_spin(integrator):
     """Fast spin (200 rad/s, dt 0.01) under a 50 rad/s clamp: |w| <= 50 after every step, and
     even forward Euler stays finite (the clamp bounds the energy it can pump in)."""
-    world = torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, integrator, 0.01,
-                              max_angular_speed=50.0)
+    world = torque_free_world(
+        FAST_SPIN_INERTIA, FAST_SPIN_W, integrator, 0.01, max_angular_speed=50.0
+    )
     for _ in range(300):
         world.step()
         assert np.linalg.norm(world.state.w[0]) <= 50.0 * (1.0 + CLAMP_RTOL)
@@ -215,10 +232,15 @@ def test_non_finite_command_is_an_error(bad):
     assert world.step_count == 0
 
 
-@pytest.mark.parametrize(("field", "body", "value"), [
-    ("x", 1, float("nan")), ("v", 0, float("inf")), ("q", 2, float("nan")),
-    ("w", 1, -float("inf")),
-])
+@pytest.mark.parametrize(
+    ("field", "body", "value"),
+    [
+        ("x", 1, float("nan")),
+        ("v", 0, float("inf")),
+        ("q", 2, float("nan")),
+        ("w", 1, -float("inf")),
+    ],
+)
 def test_non_finite_state_is_an_error(field, body, value):
     state = State.zeros(3)
     getattr(state, field)[body, 0] = value
@@ -237,17 +259,39 @@ def test_zero_quaternion_in_a_state_is_an_error():
         World(BodyModel.single(1.0, FAST_SPIN_INERTIA), state=state)
 
 
-@pytest.mark.parametrize(("top", "field"), [
-    ({"dt": float("nan")}, "dt"),
-    ({"max_angular_speed": float("inf")}, "max_angular_speed"),
-    ({"body": {"mass": float("nan"), "shape": {"box": [0.3, 0.2, 0.1]}}}, "body.mass"),
-    ({"body": {"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]},
-               "inertia": [1.0, float("inf"), 2.0]}}, "body.inertia"),
-    ({"initial": {"angular_velocity": [0.0, float("nan"), 0.0]}}, "initial.angular_velocity"),
-    ({"actuators": {"thrusters": [{"point": [float("nan"), 0.0, 0.0],
-                                   "direction": [0.0, 1.0, 0.0], "max_force": 1.0}]}},
-     "actuators.thrusters"),
-])
+@pytest.mark.parametrize(
+    ("top", "field"),
+    [
+        ({"dt": float("nan")}, "dt"),
+        ({"max_angular_speed": float("inf")}, "max_angular_speed"),
+        ({"body": {"mass": float("nan"), "shape": {"box": [0.3, 0.2, 0.1]}}}, "body.mass"),
+        (
+            {
+                "body": {
+                    "mass": 1.0,
+                    "shape": {"box": [0.3, 0.2, 0.1]},
+                    "inertia": [1.0, float("inf"), 2.0],
+                }
+            },
+            "body.inertia",
+        ),
+        ({"initial": {"angular_velocity": [0.0, float("nan"), 0.0]}}, "initial.angular_velocity"),
+        (
+            {
+                "actuators": {
+                    "thrusters": [
+                        {
+                            "point": [float("nan"), 0.0, 0.0],
+                            "direction": [0.0, 1.0, 0.0],
+                            "max_force": 1.0,
+                        }
+                    ]
+                }
+            },
+            "actuators.thrusters",
+        ),
+    ],
+)
 def test_non_finite_scene_number_is_an_error(top, field):
     with pytest.raises(SceneError, match=field.replace(".", r"\.")):
         load_scene(_scene(**top))
@@ -259,8 +303,11 @@ def test_non_finite_core_parameters_are_errors():
     with pytest.raises(ValueError, match="gravity"):
         Gravity(np.array([0.0, 0.0, float("inf")]))
     with pytest.raises(ValueError, match="thrusters"):
-        Thrusters(points=np.zeros((1, 3)), directions=np.array([[0.0, 1.0, 0.0]]),
-                  max_force=np.array([float("nan")]))
+        Thrusters(
+            points=np.zeros((1, 3)),
+            directions=np.array([[0.0, 1.0, 0.0]]),
+            max_force=np.array([float("nan")]),
+        )
     with pytest.raises(ValueError, match="dt"):
         World(BodyModel.single(1.0, FAST_SPIN_INERTIA), dt=float("nan"))
 
@@ -271,27 +318,38 @@ def test_non_finite_core_parameters_are_errors():
 
 
 def _inertia_scene(inertia) -> dict:
-    return _scene(body={"mass": 1.0, "shape": {"box": [0.3, 0.2, 0.1]},
-                        "inertia": [float(i) for i in inertia]})
+    return _scene(
+        body={
+            "mass": 1.0,
+            "shape": {"box": [0.3, 0.2, 0.1]},
+            "inertia": [float(i) for i in inertia],
+        }
+    )
 
 
-@pytest.mark.parametrize("inertia", [
-    (1.0, 2.0, 3.0),                     # I3 = I1 + I2: a flat plate, exactly
-    (0.25, 1.0, 1.25),                   # a 1 m x 0.5 m plate of zero thickness, m = 12 kg
-    (0.1, 0.2, 0.1 + 0.2),               # 0.1 + 0.2 = 0.30000000000000004 in binary
-    (1.0, 2.0, 3.0 * (1.0 + 1.0e-12)),   # 3e-12 over: within the tolerance (1e-9 of the sum)
-    (1.0e-6, 1.0, 1.0),                  # a thin rod, I1 / I3 = 1e-6
-])
+@pytest.mark.parametrize(
+    "inertia",
+    [
+        (1.0, 2.0, 3.0),  # I3 = I1 + I2: a flat plate, exactly
+        (0.25, 1.0, 1.25),  # a 1 m x 0.5 m plate of zero thickness, m = 12 kg
+        (0.1, 0.2, 0.1 + 0.2),  # 0.1 + 0.2 = 0.30000000000000004 in binary
+        (1.0, 2.0, 3.0 * (1.0 + 1.0e-12)),  # 3e-12 over: within the tolerance (1e-9 of the sum)
+        (1.0e-6, 1.0, 1.0),  # a thin rod, I1 / I3 = 1e-6
+    ],
+)
 def test_scene_accepts_a_flat_plate_on_the_triangle_inequality(inertia):
     world = load_scene(_inertia_scene(inertia)).build_world()
     np.testing.assert_array_equal(world.model.inertia[0], inertia)
 
 
-@pytest.mark.parametrize("inertia", [
-    (1.0, 2.0, 3.1),
-    (1.0, 2.0, 3.0 * (1.0 + 1.0e-6)),   # 3e-6 over: far beyond rounding
-    (5.0, 1.0, 2.0),
-])
+@pytest.mark.parametrize(
+    "inertia",
+    [
+        (1.0, 2.0, 3.1),
+        (1.0, 2.0, 3.0 * (1.0 + 1.0e-6)),  # 3e-6 over: far beyond rounding
+        (5.0, 1.0, 2.0),
+    ],
+)
 def test_scene_rejects_inertia_that_breaks_the_triangle_inequality(inertia):
     with pytest.raises(SceneError, match="triangle inequality"):
         load_scene(_inertia_scene(inertia))

@@ -41,7 +41,8 @@ def inertias(draw) -> np.ndarray:
 def spins(limit: float) -> st.SearchStrategy:
     """Body rates with components in [-limit, limit] rad/s."""
     return st.lists(st.floats(min_value=-limit, max_value=limit), min_size=3, max_size=3).map(
-        np.array)
+        np.array
+    )
 
 
 @st.composite
@@ -59,19 +60,32 @@ def thrusters(draw) -> Thrusters:
 
 
 @SETTINGS
-@given(inertia=inertias(), w0=spins(30.0), layout=thrusters(), data=st.data(),
-       integrator=st.sampled_from(list(INTEGRATORS)))
+@given(
+    inertia=inertias(),
+    w0=spins(30.0),
+    layout=thrusters(),
+    data=st.data(),
+    integrator=st.sampled_from(list(INTEGRATORS)),
+)
 def test_q_stays_unit_under_thrust(inertia, w0, layout, data, integrator):
     """Any integrator, random thrusters firing random commands: |q| = 1 to rounding and every
     state finite over 30 steps (h|w| <= 0.52)."""
-    cmd = np.array(data.draw(st.lists(st.floats(min_value=-1.0, max_value=1.0),
-                                      min_size=layout.action_dim, max_size=layout.action_dim)))
+    cmd = np.array(
+        data.draw(
+            st.lists(
+                st.floats(min_value=-1.0, max_value=1.0),
+                min_size=layout.action_dim,
+                max_size=layout.action_dim,
+            )
+        )
+    )
     q_raw = np.array(data.draw(st.lists(st.floats(-1.0, 1.0), min_size=4, max_size=4)))
     q_raw[0] += 1.0e-3  # never the zero quaternion
     q0 = quat_normalize(q_raw)
     state = State.from_arrays(np.zeros(3), np.zeros(3), q0, w0)
-    world = World(BodyModel.single(1.0, inertia), [layout], integrator=integrator, dt=DT,
-                  state=state)
+    world = World(
+        BodyModel.single(1.0, inertia), [layout], integrator=integrator, dt=DT, state=state
+    )
     for _ in range(30):
         world.step(cmd)
         assert abs(quat_norm(world.state.q)[0] - 1.0) <= UNIT_Q_ROUNDING

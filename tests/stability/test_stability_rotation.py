@@ -53,8 +53,14 @@ def test_euler_round_trip_at_and_near_gimbal_lock(offset, sign):
     round trip euler -> q -> euler -> q lands on the same rotation to a few ulps (before the fix
     the round trip was off by 7e-4 rad at offset 1e-12)."""
     n = 200
-    angles = np.stack([np.full(n, sign * (np.pi / 2 - offset)),
-                       RNG.uniform(-np.pi, np.pi, n), RNG.uniform(-np.pi, np.pi, n)], axis=1)
+    angles = np.stack(
+        [
+            np.full(n, sign * (np.pi / 2 - offset)),
+            RNG.uniform(-np.pi, np.pi, n),
+            RNG.uniform(-np.pi, np.pi, n),
+        ],
+        axis=1,
+    )
     q = euler_to_quat(angles)
     back = quat_to_euler(q)
     assert np.isfinite(back).all()
@@ -103,8 +109,9 @@ def test_rotation_by_zero_is_exactly_the_identity():
     assert np.array_equal(quat_from_rotvec(np.zeros(3)), identity_quat())
     assert np.array_equal(quat_to_rotvec(identity_quat()), np.zeros(3))
     assert np.array_equal(rodrigues(np.zeros(3)), np.eye(3))
-    assert np.array_equal(quat_integrate_exp(identity_quat((1,)), np.zeros((1, 3)), 0.01),
-                          identity_quat((1,)))
+    assert np.array_equal(
+        quat_integrate_exp(identity_quat((1,)), np.zeros((1, 3)), 0.01), identity_quat((1,))
+    )
 
 
 @pytest.mark.parametrize("angle", [1e-300, 1e-200, 1e-20, 1e-9, 1e-4, 9.99e-4, 1.001e-3, 0.1])
@@ -159,8 +166,9 @@ def test_slerp_near_identity_and_near_pi():
     finite, unit, at the right fraction of the arc (sin(theta) vanishes at both ends, which
     breaks the textbook formula)."""
     p = _random_quats(100)
-    axis = quat_normalize(np.concatenate([np.zeros((100, 1)), RNG.normal(size=(100, 3))],
-                                         axis=1))[:, 1:]
+    axis = quat_normalize(np.concatenate([np.zeros((100, 1)), RNG.normal(size=(100, 3))], axis=1))[
+        :, 1:
+    ]
     for angle in (1e-12, np.pi - 1e-9):
         q = quat_mul(p, quat_from_axis_angle(axis, np.full(100, angle)))
         mid = slerp(p, q, np.full(100, 0.25))
@@ -192,12 +200,16 @@ def test_angle_between_slightly_unnormalised_quaternions_is_finite():
 
 
 def test_normalise_cannot_divide_by_zero_and_hides_no_nan():
-    q = np.array([[0.0, 0.0, 0.0, 0.0],          # no direction: identity
-                  [np.nan, 0.0, 0.0, 1.0],        # NaN stays visible (the guard must see it)
-                  [np.inf, 0.0, 0.0, 0.0],        # inf too
-                  [1e200, -1e200, 0.0, 0.0],      # |q|^2 overflows: rescaled first
-                  [1e-200, 0.0, 0.0, 1e-200],     # |q|^2 underflows: rescaled first
-                  [1.0, 2.0, 3.0, 4.0]])
+    q = np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0],  # no direction: identity
+            [np.nan, 0.0, 0.0, 1.0],  # NaN stays visible (the guard must see it)
+            [np.inf, 0.0, 0.0, 0.0],  # inf too
+            [1e200, -1e200, 0.0, 0.0],  # |q|^2 overflows: rescaled first
+            [1e-200, 0.0, 0.0, 1e-200],  # |q|^2 underflows: rescaled first
+            [1.0, 2.0, 3.0, 4.0],
+        ]
+    )
     with np.errstate(all="raise"):
         n = quat_normalize(q)
     assert np.array_equal(n[0], [1.0, 0.0, 0.0, 0.0])
@@ -243,8 +255,7 @@ def test_shortest_arc_is_the_shortest_and_handles_exact_opposites():
     # A quarter turn is a quarter turn about a x b, not some longer way round.
     q = quat_from_two_vectors([1.0, 0.0, 0.0], [0.0, 1.0, 0.0])
     np.testing.assert_allclose(q, [np.sqrt(0.5), 0.0, 0.0, np.sqrt(0.5)], atol=EPS)
-    assert np.array_equal(quat_from_two_vectors([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]),
-                          identity_quat())
+    assert np.array_equal(quat_from_two_vectors([0.0, 0.0, 5.0], [0.0, 0.0, 1.0]), identity_quat())
 
 
 @pytest.mark.parametrize("bad", [[0.0, 0.0, 0.0], [np.nan, 1.0, 0.0], [np.inf, 0.0, 0.0]])
