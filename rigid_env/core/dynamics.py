@@ -19,7 +19,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import ForceEffect
+from rigid_env.core.effects import ForceEffect, LinearActuator
 from rigid_env.core.state import BodyModel
 
 FloatArray = NDArray[np.float64]
@@ -70,6 +70,23 @@ class Dynamics:
         self.has_torque = any(e.rotational for e in self.effects)
         self.has_gyro = not model.isotropic
         self.velocity_dependent = any(e.velocity_dependent for e in self.effects)
+        self._held_action: FloatArray | None = None
+        self._held: dict[int, tuple[FloatArray, FloatArray]] = {}
+
+    def hold(self, action: FloatArray | None) -> None:
+        """Compute the actuators' body-frame wrench of ``action`` once; :meth:`wrench` reuses
+        it for every call with this same array until :meth:`release` (a world step)."""
+        self._held_action = action
+        self._held = {
+            k: e.body_wrench(action[:, sl])
+            for k, (e, sl) in enumerate(zip(self.effects, self.slices, strict=True))
+            if action is not None and sl is not None and isinstance(e, LinearActuator)
+        }
+
+    def release(self) -> None:
+        """Forget the held actuator wrench (the command may change before the next step)."""
+        self._held_action = None
+        self._held = {}
 
     def wrench(
         self,
@@ -88,7 +105,11 @@ class Dynamics:
         n = x.shape[0]
         force = np.zeros((n, 3))
         torque = np.zeros((n, 3))
-        for e, sl in zip(self.effects, self.slices, strict=True):
+        held = self._held if action is not None and action is self._held_action else None
+        for k, (e, sl) in enumerate(zip(self.effects, self.slices, strict=True)):
+            if held is not None and k in held:
+                LinearActuator.add_body_wrench(q, *held[k], force, torque)
+                continue
             e.accumulate(
                 self.model,
                 x,

@@ -254,8 +254,21 @@ class LinearActuator(ForceEffect):
     def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         if action is None:
             return
-        force_world += quat_rotate(q, apply_map(action, self.force_map))
-        torque_body += apply_map(action, self.torque_map)
+        self.add_body_wrench(q, *self.body_wrench(action), force_world, torque_body)
+
+    @staticmethod
+    def add_body_wrench(
+        q: FloatArray,
+        force_body: FloatArray,
+        torque_body_in: FloatArray,
+        force_world: FloatArray,
+        torque_body: FloatArray,
+    ) -> None:
+        """Add a body-frame force (rotated to the world) and torque. The command is constant
+        over a world step, so :class:`~rigid_env.core.dynamics.Dynamics` computes
+        :meth:`body_wrench` once per step and reuses it in every integrator stage."""
+        force_world += quat_rotate(q, force_body)
+        torque_body += torque_body_in
 
 
 @dataclass(frozen=True)

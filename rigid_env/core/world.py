@@ -205,10 +205,14 @@ class World:
     def _integrate(self, s: State, act: FloatArray | None) -> State:
         step, dyn, h, w_max = self.integrator.step, self.dynamics, self.h, self.max_angular_speed
         before = s
-        for _ in range(self.substeps):
-            if w_max is not None:
-                s = _clamped(s, w_max)
-            s = step(dyn, s, act, h)
+        dyn.hold(act)  # the command is constant over the step: actuator wrench computed once
+        try:
+            for _ in range(self.substeps):
+                if w_max is not None:
+                    s = _clamped(s, w_max)
+                s = step(dyn, s, act, h)
+        finally:
+            dyn.release()
         if w_max is not None:
             s = _clamped(s, w_max)
         # Integrators may pass an unchanged array through (x' = 0 leaves x as it was); copy it so
