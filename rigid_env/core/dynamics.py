@@ -15,12 +15,15 @@ force effect -> no translational acceleration at all; isotropic inertia -> no gy
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core import columns
 from rigid_env.core.effects import ForceEffect, LinearActuator
-from rigid_env.core.state import BodyModel
+from rigid_env.core.state import ISOTROPY_RTOL, BodyModel
 
 FloatArray = NDArray[np.float64]
 
@@ -71,22 +74,118 @@ class Dynamics:
         self.has_gyro = not model.isotropic
         self.velocity_dependent = any(e.velocity_dependent for e in self.effects)
         self._held_action: FloatArray | None = None
-        self._held: dict[int, tuple[FloatArray, FloatArray]] = {}
+        self._held: dict[int, tuple[FloatArray, FloatArray]] | None = None
+        self._held_cols: Any = None
+
+    @cached_property
+    def columns_supported(self) -> bool:
+        """Whether every effect has a column form (:meth:`ForceEffect.add_columns`), so the
+        column kernels can step this world."""
+        return all(
+            isinstance(e, LinearActuator) or type(e).add_columns is not ForceEffect.add_columns
+            for e in self.effects
+        )
+
+    @cached_property
+    def model_columns(self) -> tuple[Any, list[Any], Any, list[Any], Any]:
+        """``(mass, inertia, 1/mass, 1/inertia, isotropic)`` as columns for the kernels of
+        :mod:`rigid_env.core.columns`: Python floats for a shared model, (N,) arrays for a
+        model per body; ``isotropic`` a bool, or an (N,) mask when the batch mixes both."""
+        m = self.model
+        if m.n == 1:
+            return (
+                float(m.mass[0]),
+                [float(c) for c in m.inertia[0]],
+                float(m.inv_mass[0, 0]),
+                [float(c) for c in m.inv_inertia[0]],
+                bool(m.isotropic),
+            )
+        top = m.inertia.max(axis=1)
+        iso = (top - m.inertia.min(axis=1)) <= ISOTROPY_RTOL * top
+        flag: Any = True if iso.all() else False if not iso.any() else iso
+        return (
+            m.mass.copy(),
+            [m.inertia[:, k].copy() for k in range(3)],
+            m.inv_mass[:, 0].copy(),
+            [m.inv_inertia[:, k].copy() for k in range(3)],
+            flag,
+        )
+
+    def held_columns(self, action: FloatArray | None) -> Any:
+        """The actuator wrench of ``action`` as kernel columns (computed once per world step
+        while held, see :meth:`hold`)."""
+        if action is None:
+            return None
+        held = action is self._held_action
+        if held and self._held_cols is not None:
+            return self._held_cols
+        cols = self.wrench_columns([action[:, a] for a in range(action.shape[1])])
+        if held:
+            self._held_cols = cols
+        return cols
+
+    def wrench_columns(self, u: Sequence[Any] | None) -> tuple[list[Any], list[Any]] | None:
+        """Body-frame force and torque of all actuators for command columns ``u`` (floats
+        for one body, (N,) arrays for a batch); None entries are zero."""
+        if u is None:
+            return None
+        force: list[Any] = [None, None, None]
+        torque: list[Any] = [None, None, None]
+        for e, sl in zip(self.effects, self.slices, strict=True):
+            if sl is not None and isinstance(e, LinearActuator):
+                e.wrench_columns(u[sl], force, torque)
+        if all(c is None for c in force) and all(c is None for c in torque):
+            return None
+        return force, torque
+
+    def column_accelerations(
+        self,
+        ops: columns.Ops,
+        v: Sequence[Any],
+        q: Sequence[Any],
+        w: Sequence[Any],
+        wrench: tuple[list[Any], list[Any]] | None,
+    ) -> tuple[list[Any] | None, list[Any] | None]:
+        """:meth:`accelerations` without the gyroscopic term, over columns (see
+        :mod:`rigid_env.core.columns`): linear (world) and angular (body) acceleration as
+        three columns each (None = zero), or None for a term no effect produces. The
+        actuators enter through ``wrench``, their body-frame wrench for the step."""
+        mass, _, inv_m, inv_i, _ = self.model_columns
+        force: list[Any] = [None, None, None]
+        torque: list[Any] = [None, None, None]
+        for e in self.effects:
+            if not isinstance(e, LinearActuator):
+                e.add_columns(ops, mass, v, q, w, force, torque)
+        if wrench is not None:
+            fb, tb = wrench
+            if any(c is not None for c in fb):
+                fw = columns.rotate(q, [0.0 if c is None else c for c in fb])
+                for k in range(3):
+                    force[k] = fw[k] if force[k] is None else force[k] + fw[k]
+            for k in range(3):
+                if tb[k] is not None:
+                    torque[k] = tb[k] if torque[k] is None else torque[k] + tb[k]
+        a = None
+        if any(c is not None for c in force):
+            a = [None if c is None else c * inv_m for c in force]
+        alpha = None
+        if any(c is not None for c in torque):
+            alpha = [None if c is None else c * inv_i[k] for k, c in enumerate(torque)]
+        return a, alpha
 
     def hold(self, action: FloatArray | None) -> None:
-        """Compute the actuators' body-frame wrench of ``action`` once; :meth:`wrench` reuses
-        it for every call with this same array until :meth:`release` (a world step)."""
+        """Hold ``action`` for a world step: the actuators' body-frame wrench is then formed
+        once, at its first use (by :meth:`wrench` or :meth:`held_columns`), and reused for
+        every call with this same array until :meth:`release`."""
         self._held_action = action
-        self._held = {
-            k: e.body_wrench(action[:, sl])
-            for k, (e, sl) in enumerate(zip(self.effects, self.slices, strict=True))
-            if action is not None and sl is not None and isinstance(e, LinearActuator)
-        }
+        self._held = None
+        self._held_cols = None
 
     def release(self) -> None:
         """Forget the held actuator wrench (the command may change before the next step)."""
         self._held_action = None
-        self._held = {}
+        self._held = None
+        self._held_cols = None
 
     def wrench(
         self,
@@ -105,7 +204,15 @@ class Dynamics:
         n = x.shape[0]
         force = np.zeros((n, 3))
         torque = np.zeros((n, 3))
-        held = self._held if action is not None and action is self._held_action else None
+        held = None
+        if action is not None and action is self._held_action:
+            if self._held is None:
+                self._held = {
+                    k: e.body_wrench(action[:, sl])
+                    for k, (e, sl) in enumerate(zip(self.effects, self.slices, strict=True))
+                    if sl is not None and isinstance(e, LinearActuator)
+                }
+            held = self._held
         for k, (e, sl) in enumerate(zip(self.effects, self.slices, strict=True)):
             if held is not None and k in held:
                 LinearActuator.add_body_wrench(q, *held[k], force, torque)

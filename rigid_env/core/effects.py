@@ -15,13 +15,15 @@ frame, so ``tau_body = r x f_body``.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.rotation import cross, quat_rotate, quat_rotate_inv
+from rigid_env.core import columns as col
+from rigid_env.core.rotation import cross
 from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
@@ -84,6 +86,43 @@ class ForceEffect:
         """
         raise NotImplementedError
 
+    def add_columns(
+        self,
+        ops: col.Ops,
+        mass: col.Col,
+        v: Sequence[col.Col],
+        q: Sequence[col.Col],
+        w: Sequence[col.Col],
+        force: list[col.Col],
+        torque: list[col.Col],
+    ) -> None:
+        """The same term over columns (see :mod:`rigid_env.core.columns`): add into the lists
+        ``force`` (world) and ``torque`` (body) of three columns, where None stands for zero.
+        The kernels of a batch and of a single body call this; ``accumulate`` is its (N, 3)
+        form."""
+        raise NotImplementedError
+
+    def _accumulate_columns(
+        self, model: BodyModel, v, q, w, force_world: FloatArray, torque_body: FloatArray
+    ) -> None:
+        """``accumulate`` by way of :meth:`add_columns` (one implementation of the physics)."""
+        force: list[col.Col] = [None, None, None]
+        torque: list[col.Col] = [None, None, None]
+        self.add_columns(
+            col.ARRAY,
+            model.mass,
+            [v[:, k] for k in range(3)],
+            [q[:, k] for k in range(4)],
+            [w[:, k] for k in range(3)],
+            force,
+            torque,
+        )
+        for k in range(3):
+            if force[k] is not None:
+                force_world[:, k] += force[k]
+            if torque[k] is not None:
+                torque_body[:, k] += torque[k]
+
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray | None:
         """(N,) potential energy [J] if the term is conservative, else None."""
         return None
@@ -121,7 +160,13 @@ class Gravity(ForceEffect):
         object.__setattr__(self, "g", _vec3(self.g, "gravity.g"))
 
     def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
-        force_world += model.mass[:, None] * self.g
+        self._accumulate_columns(model, v, q, w, force_world, torque_body)
+
+    def add_columns(self, ops, mass, v, q, w, force, torque) -> None:
+        for k in range(3):
+            gk = float(self.g[k])
+            if gk != 0.0:
+                force[k] = mass * gk if force[k] is None else force[k] + mass * gk
 
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
         """``U = -m g . x`` [J]."""
@@ -153,6 +198,7 @@ class QuadraticDrag(ForceEffect):
     k: float = field(init=False, repr=False)
     """``1/2 rho C_D A`` [kg/m]."""
     offset: bool = field(init=False, repr=False)
+    _cop: tuple[float, float, float] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("rho", "cd", "area"):
@@ -163,6 +209,7 @@ class QuadraticDrag(ForceEffect):
         object.__setattr__(self, "center_of_pressure", cop)
         object.__setattr__(self, "k", 0.5 * float(self.rho) * float(self.cd) * float(self.area))
         object.__setattr__(self, "offset", bool(np.any(cop != 0.0)))
+        object.__setattr__(self, "_cop", tuple(float(c) for c in cop))
 
     @property
     def rotational(self) -> bool:  # type: ignore[override]
@@ -170,15 +217,23 @@ class QuadraticDrag(ForceEffect):
         return self.offset
 
     def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
+        self._accumulate_columns(model, v, q, w, force_world, torque_body)
+
+    def add_columns(self, ops, mass, v, q, w, force, torque) -> None:
         if self.offset:
-            v_p = v + quat_rotate(q, cross(w, self.center_of_pressure))
+            r = self._cop
+            vr = col.rotate(q, col.cross(w, r))
+            vp = (v[0] + vr[0], v[1] + vr[1], v[2] + vr[2])
         else:
-            v_p = v
-        speed = np.sqrt(np.sum(v_p * v_p, axis=1, keepdims=True))
-        f = (-self.k) * speed * v_p
-        force_world += f
+            vp = tuple(v)
+        ks = (-self.k) * ops.sqrt(vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2])
+        f = (ks * vp[0], ks * vp[1], ks * vp[2])
+        for k in range(3):
+            force[k] = f[k] if force[k] is None else force[k] + f[k]
         if self.offset:
-            torque_body += cross(self.center_of_pressure, quat_rotate_inv(q, f))
+            tb = col.cross(r, col.rotate_inv(q, f))
+            for k in range(3):
+                torque[k] = tb[k] if torque[k] is None else torque[k] + tb[k]
 
     def terminal_speed(self, mass: float, g: float) -> float:
         """Terminal speed ``sqrt(m g / k) = sqrt(2 m g / (rho C_D A))`` [m/s] of a falling body."""
@@ -251,6 +306,32 @@ class LinearActuator(ForceEffect):
         """Force (N, 3) [N] and torque (N, 3) [N m], both body frame, of a command (N, A)."""
         return apply_map(action, self.force_map), apply_map(action, self.torque_map)
 
+    def wrench_columns(
+        self, u: Sequence[col.Col], force: list[col.Col], torque: list[col.Col]
+    ) -> None:
+        """Add the body-frame force and torque of command columns ``u`` (A of them) into the
+        lists ``force`` and ``torque`` (None = zero), term by nonzero term of the maps in a
+        fixed order (a thruster couple touches one torque component, not three)."""
+        for a, k, c, to_torque in self._terms:
+            acc = torque if to_torque else force
+            t = u[a] * c
+            acc[k] = t if acc[k] is None else acc[k] + t
+
+    @property
+    def _terms(self) -> tuple[tuple[int, int, float, bool], ...]:
+        """``(action column, component, coefficient, is torque)`` of each nonzero map entry."""
+        terms = self.__dict__.get("_terms_cache")
+        if terms is None:
+            terms = tuple(
+                (a, k, float(m[a, k]), is_t)
+                for a in range(self.force_map.shape[0])
+                for k in range(3)
+                for m, is_t in ((self.force_map, False), (self.torque_map, True))
+                if m[a, k] != 0.0
+            )
+            self.__dict__["_terms_cache"] = terms
+        return terms
+
     def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         if action is None:
             return
@@ -267,7 +348,9 @@ class LinearActuator(ForceEffect):
         """Add a body-frame force (rotated to the world) and torque. The command is constant
         over a world step, so :class:`~rigid_env.core.dynamics.Dynamics` computes
         :meth:`body_wrench` once per step and reuses it in every integrator stage."""
-        force_world += quat_rotate(q, force_body)
+        fw = col.rotate([q[:, k] for k in range(4)], [force_body[:, k] for k in range(3)])
+        for k in range(3):
+            force_world[:, k] += fw[k]
         torque_body += torque_body_in
 
 

@@ -93,8 +93,9 @@ class State:
         return self.x.shape[0]
 
     def copy(self) -> State:
-        """Deep copy of the arrays."""
-        return State(self.x.copy(), self.v.copy(), self.q.copy(), self.w.copy())
+        """Deep copy of the arrays (in their memory order: the column kernels keep them
+        column-major)."""
+        return State(*(a.copy(order="K") for a in (self.x, self.v, self.q, self.w)))
 
     @classmethod
     def zeros(cls, n: int) -> State:

@@ -12,6 +12,7 @@ of a vector env reset with ``seed`` replays a single env reset with ``seed + i``
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -26,11 +27,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.columns import rotate
 from rigid_env.core.effects import LinearActuator
-from rigid_env.core.rotation import canonical, quat_rotate, quat_to_sixd
+from rigid_env.core.rotation import canonical, quat_to_sixd
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import kinetic_energy
-from rigid_env.envs.rewards import fuel_rate
+from rigid_env.envs.rewards import fuel_rate, row_sum
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
@@ -82,14 +84,19 @@ class Randomization:
 
 def random_unit_vectors(rng: np.random.Generator, n: int | None = None) -> FloatArray:
     """Directions uniform on the sphere, (3,) or (n, 3)."""
-    v = rng.normal(size=(3,) if n is None else (n, 3))
+    if n is None:
+        v = rng.normal(size=3)
+        x, y, z = v.tolist()
+        return v / math.sqrt(x * x + y * y + z * z)
+    v = rng.normal(size=(n, 3))
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
 def random_quaternion(rng: np.random.Generator) -> FloatArray:
     """Rotation uniform on SO(3) as a unit quaternion (4,) (normalised 4-D Gaussian)."""
     q = rng.normal(size=4)
-    return q / np.linalg.norm(q)
+    w, x, y, z = q.tolist()
+    return q / math.sqrt(w * w + x * x + y * y + z * z)
 
 
 def positive(name: str, value: float, unit: str) -> float:
@@ -167,7 +174,11 @@ class TaskBatch:
         self.action_dim = self.world.action_dim
         self.thrust_scale: FloatArray | None = None  # (N, A) when thrust is randomised
         self.steps = np.zeros(self.n, dtype=np.int64)
+        self._speed_of: object = None
+        self._speed = np.zeros(self.n)
         self.fuel = np.zeros(self.n)
+        self.effort = np.zeros(self.n)
+        """(N,) mean ``|u_k|`` of the last command: the fuel term of the rewards."""
         self.success = np.zeros(self.n, dtype=bool)
         self.last_action = np.zeros((self.n, self.action_dim))
         self.target = np.zeros((self.n, self.target_dim))
@@ -211,7 +222,9 @@ class TaskBatch:
         Raises:
             ValueError: wrong shape, or a NaN/inf entry (never silently simulated).
         """
-        act = np.asarray(action, dtype=np.float64)
+        act = np.asarray(action)
+        if act.dtype not in (np.float32, np.float64):
+            act = act.astype(np.float64)
         if act.shape == (self.action_dim,) and self.n == 1:
             act = act[None, :]
         if act.shape != (self.n, self.action_dim):
@@ -220,23 +233,33 @@ class TaskBatch:
                 f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
                 f"got {act.shape}"
             )
-        if not np.all(np.isfinite(act)):
+        # One sum finds a NaN or inf; only a sum that overflowed needs the element-wise test.
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = act.sum()
+        if not np.isfinite(total) and not np.isfinite(act).all():
             raise ValueError(
                 "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
             )
-        # Huge finite commands saturate like a real thruster: clipped to [-1, 1].
-        return np.clip(act, -1.0, 1.0)
+        # Huge finite commands saturate like a real thruster: clipped to [-1, 1] (clipping is
+        # exact, so clipping float32 into float64 equals converting first).
+        # Column-major: the physics reads the command column by column.
+        return np.clip(act, -1.0, 1.0, out=np.empty(act.shape, order="F"))
 
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
     ) -> None:
         """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index)."""
         s = self.world.state
+        draws = []
         for k, i in enumerate(idx):
-            x, v, q, w, target = self.sample(rngs[k])
-            s.x[i], s.v[i], s.q[i], s.w[i] = x, v, q, w
-            self.target[i] = target
+            draws.append(self.sample(rngs[k]))
             self._randomize(i, rngs[k])
+        if draws:
+            x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
+            s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
+            if self.target_dim:
+                self.target[idx] = target
+        self._speed_of = None  # the state was changed in place
         self.steps[idx] = 0
         self.fuel[idx] = 0.0
         self.success[idx] = False
@@ -285,9 +308,11 @@ class TaskBatch:
             body is frozen at its last finite state and the episode must end).
         """
         command = action if self.thrust_scale is None else action * self.thrust_scale
-        failed = self.world.step(command)
+        failed = self.world.advance(command)
         self.steps += 1
-        self.fuel += fuel_rate(command, self.max_force) * self.dt
+        magnitude = np.abs(command)
+        self.fuel += fuel_rate(magnitude, self.max_force) * self.dt
+        self.effort = row_sum(magnitude) / self.action_dim
         self.last_action = action
         reward, terminated = self.evaluate(command)
         return reward, terminated, failed
@@ -304,25 +329,34 @@ class TaskBatch:
         """
         s = self.world.state
         q, w = (s.q, s.w) if idx is None else (s.q[idx], s.w[idx])
-        rot = canonical(q) if self.rotation_repr == "quaternion" else quat_to_sixd(q)
         if self.randomization.sensor_noise > 0.0:
             noise = np.stack([rng.normal(0.0, self.randomization.sensor_noise, 3) for rng in rngs])
             w = w + noise
-        extra = self.task_observation()
-        parts = [
-            rot,
-            np.clip(w / self.w_scale, -5.0, 5.0),
-            np.tanh(w / 0.1),
-            extra if idx is None else extra[idx],
-        ]
-        obs = np.concatenate(parts, axis=1).astype(np.float32)
-        return np.clip(obs, self.single_observation_space.low, self.single_observation_space.high)
+        obs = np.empty((q.shape[0], self.obs_dim), dtype=np.float32)
+        r = 4 if self.rotation_repr == "quaternion" else 6
+        obs[:, :r] = canonical_fast(q) if r == 4 else quat_to_sixd(q)
+        with np.errstate(over="ignore"):  # a frozen, diverged body: huge, then clipped
+            obs[:, r : r + 3] = np.clip(w / self.w_scale, -5.0, 5.0)
+            # tanh(w / 0.1 rad/s) in float32 (the observation's precision; NumPy's float32
+            # tanh is many times cheaper than its float64 one).
+            np.tanh((w / 0.1).astype(np.float32), out=obs[:, r + 3 : r + 6])
+        if self.task_obs_dim:
+            extra = self.task_observation()
+            bound = self.task_obs_bound
+            obs[:, r + 6 :] = np.clip(extra if idx is None else extra[idx], -bound, bound)
+        # Rotation entries and tanh lie in [-1, 1] by construction (a unit vector's component
+        # may exceed 1 by one rounding in float64, which float32 rounds back to 1).
+        return obs
 
     def angular_speed(self) -> FloatArray:
-        """(N,) |w| [rad/s]."""
-        w = self.world.state.w
-        with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf, not a warning
-            return np.sqrt(np.sum(w * w, axis=1))
+        """(N,) |w| [rad/s] of the current state (computed once per step and reset)."""
+        state = self.world.state
+        if self._speed_of is not state:
+            w = state.w
+            with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf
+                self._speed = np.sqrt(w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2])
+            self._speed_of = state
+        return self._speed
 
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
@@ -336,8 +370,26 @@ class TaskBatch:
             "success": self.success.copy(),
             "is_success": self.success.copy(),  # SB3 EvalCallback logs this key
             "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": quat_rotate(s.q, s.w),
+            "angular_velocity_world": _stack3(
+                rotate([s.q[:, k] for k in range(4)], [s.w[:, k] for k in range(3)])
+            ),
         }
+
+
+def _stack3(cols: Sequence[FloatArray]) -> FloatArray:
+    out = np.empty((cols[0].shape[0], 3))
+    for k in range(3):
+        out[:, k] = cols[k]
+    return out
+
+
+def canonical_fast(q: FloatArray) -> FloatArray:
+    """:func:`~rigid_env.core.rotation.canonical` of (N, 4) ``q``, sign-flipping by the ``w``
+    column alone where ``w != 0`` (every row but a measure-zero few)."""
+    qw = q[:, 0]
+    if not np.all(qw != 0.0):
+        return canonical(q)
+    return q * np.where(qw < 0.0, -1.0, 1.0)[:, None]
 
 
 def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:

@@ -62,7 +62,7 @@ class DetumbleTask(TaskBatch):
             sigmoid="linear",
             value_at_margin=0.0,
         )
-        fuel = np.mean(np.abs(action), axis=1)
+        fuel = self.effort
         reward = -spin_cost - self.fuel_weight * fuel + self.success_bonus * self.success
         return reward, self.success.copy()
 

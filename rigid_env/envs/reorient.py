@@ -77,7 +77,7 @@ class ReorientTask(TaskBatch):
             sigmoid="linear",
             value_at_margin=0.0,
         )
-        reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * np.mean(np.abs(action), axis=1)
+        reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * self.effort
         return reward, np.zeros(self.n, dtype=bool)
 
 

@@ -8,8 +8,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.effects import apply_map
-
 FloatArray = NDArray[np.float64]
 
 
@@ -56,7 +54,18 @@ def tolerance(
     return np.where(inside, 1.0, out)
 
 
-def fuel_rate(action: FloatArray, max_force: FloatArray) -> FloatArray:
-    """Total thrust magnitude ``sum_k |u_k| F_k`` [N] of a command (N, K); times ``dt`` it is the
-    impulse spent (our fuel measure) [N s]."""
-    return apply_map(np.abs(action), max_force[:, None])[:, 0]
+def row_sum(a: FloatArray, weights: FloatArray | None = None) -> FloatArray:
+    """(N,) ``sum_k w_k a[:, k]`` of an (N, K) array, column by column in a fixed order: the
+    same rounding for a row alone as inside any batch (a reduction along a short inner axis may
+    regroup its terms with the batch size, and is slow there as well)."""
+    out = a[:, 0] if weights is None else a[:, 0] * weights[0]
+    out = out.copy() if weights is None else out
+    for k in range(1, a.shape[1]):
+        out += a[:, k] if weights is None else a[:, k] * weights[k]
+    return out
+
+
+def fuel_rate(magnitude: FloatArray, max_force: FloatArray) -> FloatArray:
+    """Total thrust ``sum_k |u_k| F_k`` [N] of a command's magnitudes ``|u|`` (N, K); times
+    ``dt`` it is the impulse spent (our fuel measure) [N s]."""
+    return row_sum(magnitude, max_force)

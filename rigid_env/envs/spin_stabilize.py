@@ -82,9 +82,11 @@ class SpinStabilizeTask(TaskBatch):
         self.streak = np.where(within, self.streak + 1, 0)
         self.success = self.streak >= self.hold_steps
         rate_error = np.abs(self.angular_speed() - self.target_spin)
-        reward = tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0)) * tolerance(
-            rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin
-        ) - self.fuel_weight * np.mean(np.abs(action), axis=1)
+        reward = (
+            tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0))
+            * tolerance(rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin)
+            - self.fuel_weight * self.effort
+        )
         return reward, np.zeros(self.n, dtype=bool)
 
 

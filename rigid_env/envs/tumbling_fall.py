@@ -75,11 +75,7 @@ class TumblingFallTask(TaskBatch):
             sigmoid="linear",
             value_at_margin=0.0,
         )
-        reward = (
-            -spin_cost
-            - self.fuel_weight * np.mean(np.abs(action), axis=1)
-            + self.success_bonus * self.success
-        )
+        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * self.success
         return reward, landed
 
 

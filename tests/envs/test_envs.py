@@ -176,7 +176,9 @@ def test_single_env_reports_numerical_error_as_truncation():
 
 def test_scene_without_gravity_or_drag_never_calls_them(monkeypatch):
     calls = {"gravity": 0, "drag": 0}
-    orig_g, orig_d = Gravity.accumulate, QuadraticDrag.accumulate
+    # Every path into an effect's physics (the (N, 3) ``accumulate`` of the batch integrators
+    # and the column kernels of splitting and of a single body) goes through ``add_columns``.
+    orig_g, orig_d = Gravity.add_columns, QuadraticDrag.add_columns
 
     def count_g(self, *a):
         calls["gravity"] += 1
@@ -186,8 +188,8 @@ def test_scene_without_gravity_or_drag_never_calls_them(monkeypatch):
         calls["drag"] += 1
         return orig_d(self, *a)
 
-    monkeypatch.setattr(Gravity, "accumulate", count_g)
-    monkeypatch.setattr(QuadraticDrag, "accumulate", count_d)
+    monkeypatch.setattr(Gravity, "add_columns", count_g)
+    monkeypatch.setattr(QuadraticDrag, "add_columns", count_d)
     env = gym.make("RigidEnv/Detumble-v0")
     env.reset(seed=0)
     for _ in range(20):
