@@ -64,12 +64,22 @@ def _policy_kwargs(cfg: TrainConfig) -> dict[str, Any]:
 
 
 def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
-    best: tuple[Path, int] | None = None
+    """The newest *complete* checkpoint ``(model zip, steps)``, or None.
+
+    SB3's ``CheckpointCallback`` writes the model, then the replay buffer, then the
+    ``VecNormalize`` statistics; a run killed between those writes leaves a newer model
+    without its companions. A checkpoint counts only when it has every kind of companion file
+    that any checkpoint of the run has."""
+    models: dict[int, Path] = {}
     for p in ckpt_dir.glob("model_*_steps.zip"):
         m = re.search(r"model_(\d+)_steps\.zip$", p.name)
-        if m and (best is None or int(m.group(1)) > best[1]):
-            best = (p, int(m.group(1)))
-    return best
+        if m:
+            models[int(m.group(1))] = p
+    kinds = [k for k in ("vecnormalize", "replay_buffer") if any(ckpt_dir.glob(f"model_{k}_*.pkl"))]
+    for steps in sorted(models, reverse=True):
+        if all((ckpt_dir / f"model_{k}_{steps}_steps.pkl").exists() for k in kinds):
+            return models[steps], steps
+    return None
 
 
 def train(

@@ -213,7 +213,7 @@ def free_rotation(
     constant. ``isotropic`` is a bool, or an (N,) mask for a batch of bodies of their own
     (each row then takes what it takes alone). Returns new ``(q, w)`` lists."""
     if isotropic is True:
-        return _spin_exact(ops, q, w, h)
+        return spin(ops, q, w, h)
     qs = list(q)
     L = [w[0] * inertia[0], w[1] * inertia[1], w[2] * inertia[2]]
     ok = _angles_in_range(ops, L, inv_i, h)
@@ -225,7 +225,7 @@ def free_rotation(
     ws = [L[0] * inv_i[0], L[1] * inv_i[1], L[2] * inv_i[2]]
     if isotropic is False:
         return qs, ws
-    qe, we = _spin_exact(ops, q, w, h)
+    qe, we = spin(ops, q, w, h)
     return (
         [ops.where(isotropic, a, b) for a, b in zip(qe, qs, strict=True)],
         [ops.where(isotropic, a, b) for a, b in zip(we, ws, strict=True)],
@@ -243,10 +243,9 @@ def _angles_in_range(ops: Ops, L: Sequence[Col], inv_i: Sequence[Col], h: float)
     return bool(np.max(L[0] * L[0] + L[1] * L[1] + L[2] * L[2]) <= limit)
 
 
-def _spin_exact(
-    ops: Ops, q: Sequence[Col], w: Sequence[Col], h: float
-) -> tuple[list[Col], list[Col]]:
-    """``q (x) exp(h w / 2)`` with ``w`` constant (exact when ``w x I w = 0``)."""
+def spin(ops: Ops, q: Sequence[Col], w: Sequence[Col], h: float) -> tuple[list[Col], list[Col]]:
+    """``q (x) exp(h w / 2)`` (the exponential map; the exact flow when ``w`` is constant, as
+    for an isotropic body) and ``w`` itself."""
     wx, wy, wz = w
     half = 0.5 * h
     c, _, sinc = ops.half_sincos(half * ops.sqrt(wx * wx + wy * wy + wz * wz))

@@ -111,6 +111,27 @@ class Dynamics:
             flag,
         )
 
+    @cached_property
+    def gyro_columns(self) -> list[Any]:
+        """``k`` with ``-I^-1 (w x I w) = (k0 w1 w2, k1 w2 w0, k2 w0 w1)`` (Euler's equations):
+        ``k0 = (I1 - I2) / I0`` and cyclic, as kernel columns."""
+        _, i, _, inv, _ = self.model_columns
+        return [(i[1] - i[2]) * inv[0], (i[2] - i[0]) * inv[1], (i[0] - i[1]) * inv[2]]
+
+    def column_angular_acceleration(
+        self, w: Sequence[Any], alpha_ext: list[Any] | None
+    ) -> list[Any] | None:
+        """The body-frame angular acceleration over columns: the external part ``alpha_ext``
+        (from :meth:`column_accelerations`) plus the gyroscopic ``-I^-1 (w x I w)`` when the
+        inertia is not isotropic."""
+        if not self.has_gyro:
+            return alpha_ext
+        k = self.gyro_columns
+        g = [k[0] * (w[1] * w[2]), k[1] * (w[2] * w[0]), k[2] * (w[0] * w[1])]
+        if alpha_ext is None:
+            return g
+        return [gk if ak is None else gk + ak for gk, ak in zip(g, alpha_ext, strict=True)]
+
     def held_columns(self, action: FloatArray | None) -> Any:
         """The actuator wrench of ``action`` as kernel columns (computed once per world step
         while held, see :meth:`hold`)."""

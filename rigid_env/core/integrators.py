@@ -161,16 +161,56 @@ def explicit_euler(dyn: Dynamics, s: State, action: FloatArray | None, h: float)
     return _done(s.x + h * s.v, _axpy(s.v, h, a), _rotate(s.q, s.w, h), _axpy(s.w, h, alpha))
 
 
+def symplectic_columns(
+    dyn: Dynamics,
+    ops: columns.Ops,
+    x: list,
+    v: list,
+    q: list,
+    w: list,
+    wrench: tuple[list, list] | None,
+    h: float,
+) -> tuple[list, list, tuple, list]:
+    """One ``symplectic_euler`` step over columns (see :func:`split_columns`)."""
+    a, alpha = dyn.column_accelerations(ops, v, q, w, wrench)
+    alpha = dyn.column_angular_acceleration(w, alpha)
+    v1 = columns.axpy(v, h, a)
+    w1 = columns.axpy(w, h, alpha)
+    x1 = [x[0] + h * v1[0], x[1] + h * v1[1], x[2] + h * v1[2]]
+    q1, _ = columns.spin(ops, q, w1, h)
+    return x1, list(v1), columns.normalize(ops, q1), list(w1)
+
+
 @register("symplectic_euler", 1, "semi-implicit Euler: velocities first, then positions")
 def symplectic_euler(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
 
     v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)
+
+    The step is :func:`symplectic_columns`, the same code a world of one body runs on floats.
     """
-    a, alpha = dyn.accelerations(s.x, s.v, s.q, s.w, action)
-    v1 = _axpy(s.v, h, a)
-    w1 = _axpy(s.w, h, alpha)
-    return _done(s.x + h * v1, v1, _rotate(s.q, w1, h), w1)
+    if not dyn.columns_supported:
+        a, alpha = dyn.accelerations(s.x, s.v, s.q, s.w, action)
+        v1 = _axpy(s.v, h, a)
+        w1 = _axpy(s.w, h, alpha)
+        return _done(s.x + h * v1, v1, _rotate(s.q, w1, h), w1)
+    return _column_step(symplectic_columns, dyn, s, action, h)
+
+
+def _column_step(kernel: Callable, dyn: Dynamics, s: State, action, h: float) -> State:
+    """Run a column kernel on the columns of a batch state; return the new state."""
+    x, v, q, w = kernel(
+        dyn,
+        columns.ARRAY,
+        [s.x[:, k] for k in range(3)],
+        [s.v[:, k] for k in range(3)],
+        [s.q[:, k] for k in range(4)],
+        [s.w[:, k] for k in range(3)],
+        dyn.held_columns(action),
+        h,
+    )
+    n = s.n
+    return State(*(_stack(c, n) for c in (x, v, q, w)))
 
 
 @register("implicit_euler", 1, "backward Euler by Newton iteration; unconditionally stable, damps")
@@ -277,15 +317,64 @@ def midpoint(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> St
     return _done(s.x + h * v_m, _axpy(s.v, h, a), _rotate(s.q, w_m, h), _axpy(s.w, h, alpha))
 
 
+def _qdot_columns(q: Sequence, w: Sequence) -> list:
+    """``1/2 q (x) (0, w)`` over columns."""
+    qw, qx, qy, qz = q
+    wx, wy, wz = w
+    return [
+        -0.5 * (qx * wx + qy * wy + qz * wz),
+        0.5 * (qw * wx + qy * wz - qz * wy),
+        0.5 * (qw * wy - qx * wz + qz * wx),
+        0.5 * (qw * wz + qx * wy - qy * wx),
+    ]
+
+
+def rk4_columns(
+    dyn: Dynamics,
+    ops: columns.Ops,
+    x: list,
+    v: list,
+    q: list,
+    w: list,
+    wrench: tuple[list, list] | None,
+    h: float,
+) -> tuple[list, list, tuple, list]:
+    """One ``rk4`` step over columns (see :func:`split_columns`)."""
+
+    def f(xs: Sequence, vs: Sequence, qs: Sequence, ws: Sequence) -> tuple:
+        a, alpha = dyn.column_accelerations(ops, vs, qs, ws, wrench)
+        return vs, a, _qdot_columns(qs, ws), dyn.column_angular_acceleration(ws, alpha)
+
+    y = (x, v, q, w)
+    k1 = f(*y)
+    k2 = f(*(columns.axpy(yi, 0.5 * h, ki) for yi, ki in zip(y, k1, strict=True)))
+    k3 = f(*(columns.axpy(yi, 0.5 * h, ki) for yi, ki in zip(y, k2, strict=True)))
+    k4 = f(*(columns.axpy(yi, h, ki) for yi, ki in zip(y, k3, strict=True)))
+    c = h / 6.0
+
+    def combine(i: int) -> list:
+        if k1[i] is None:
+            return list(y[i])
+        return [
+            yc if d1 is None else yc + c * (d1 + 2.0 * (d2 + d3) + d4)
+            for yc, d1, d2, d3, d4 in zip(y[i], k1[i], k2[i], k3[i], k4[i], strict=True)
+        ]
+
+    return combine(0), combine(1), columns.normalize(ops, combine(2)), combine(3)
+
+
 @register("rk4", 4, "classical Runge-Kutta, q as a vector in R^4, renormalised")
 def rk4(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w)`` with ``q' = 1/2 q (x) (0, w)``:
 
     k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
     y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|
+
+    The step is :func:`rk4_columns`, the same code a world of one body runs on floats.
     """
+    if dyn.columns_supported:
+        return _column_step(rk4_columns, dyn, s, action, h)
     x, v, q, w = s.x, s.v, s.q, s.w
-    zero = None
 
     def f(xs, vs, qs, ws):
         a, alpha = dyn.accelerations(xs, vs, qs, ws, action)
@@ -301,7 +390,7 @@ def rk4(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> State:
     k4 = f(x + h * k3[0], _axpy(v, h, k3[1]), q + h * k3[2], _axpy(w, h, k3[3]))
 
     def combine(y, i):
-        if k1[i] is zero:
+        if k1[i] is None:
             return y
         return y + (h / 6.0) * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
@@ -475,18 +564,15 @@ def splitting(dyn: Dynamics, s: State, action: FloatArray | None, h: float) -> S
     """
     if not dyn.columns_supported:  # an effect without a column form: the generic Strang step
         return _strang(dyn, s, action, h, free_rotation_split, _kick)
-    x, v, q, w = split_columns(
-        dyn,
-        columns.ARRAY,
-        [s.x[:, k] for k in range(3)],
-        [s.v[:, k] for k in range(3)],
-        [s.q[:, k] for k in range(4)],
-        [s.w[:, k] for k in range(3)],
-        dyn.held_columns(action),
-        h,
-    )
-    n = s.n
-    return State(*(_stack(c, n) for c in (x, v, q, w)))
+    return _column_step(split_columns, dyn, s, action, h)
+
+
+COLUMN_KERNELS: dict[str, Callable] = {
+    "symplectic_euler": symplectic_columns,
+    "rk4": rk4_columns,
+    "splitting": split_columns,
+}
+"""Integrators whose step is a column kernel: a world of one body runs these on floats."""
 
 
 def _stack(cols: Sequence, n: int) -> FloatArray:
