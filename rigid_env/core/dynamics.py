@@ -73,6 +73,8 @@ class Dynamics:
         self.has_torque = any(e.rotational for e in self.effects)
         self.has_gyro = not model.isotropic
         self.velocity_dependent = any(e.velocity_dependent for e in self.effects)
+        self.field_effects = tuple(e for e in self.effects if not isinstance(e, LinearActuator))
+        """The effects other than actuators (gravity, drag: functions of the state)."""
         self._held_action: FloatArray | None = None
         self._held: dict[int, tuple[FloatArray, FloatArray]] | None = None
         self._held_cols: Any = None
@@ -174,23 +176,21 @@ class Dynamics:
         mass, _, inv_m, inv_i, _ = self.model_columns
         force: list[Any] = [None, None, None]
         torque: list[Any] = [None, None, None]
-        for e in self.effects:
-            if not isinstance(e, LinearActuator):
-                e.add_columns(ops, mass, v, q, w, force, torque)
+        for e in self.field_effects:
+            e.add_columns(ops, mass, v, q, w, force, torque)
         if wrench is not None:
             fb, tb = wrench
-            if any(c is not None for c in fb):
+            if fb[0] is not None or fb[1] is not None or fb[2] is not None:
                 fw = columns.rotate(q, [0.0 if c is None else c for c in fb])
                 for k in range(3):
                     force[k] = fw[k] if force[k] is None else force[k] + fw[k]
             for k in range(3):
                 if tb[k] is not None:
                     torque[k] = tb[k] if torque[k] is None else torque[k] + tb[k]
-        a = None
-        if any(c is not None for c in force):
+        a = alpha = None
+        if force[0] is not None or force[1] is not None or force[2] is not None:
             a = [None if c is None else c * inv_m for c in force]
-        alpha = None
-        if any(c is not None for c in torque):
+        if torque[0] is not None or torque[1] is not None or torque[2] is not None:
             alpha = [None if c is None else c * inv_i[k] for k, c in enumerate(torque)]
         return a, alpha
 

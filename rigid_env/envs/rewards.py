@@ -38,6 +38,8 @@ def tolerance(
     if lo > hi:
         raise ValueError(f"bounds: lower {lo} > upper {hi}")
     x = np.asarray(x, dtype=np.float64)
+    if x.shape == (1,) and sigmoid in ("linear", "reciprocal") and margin > 0.0:
+        return np.array([_tolerance_one(float(x[0]), lo, hi, margin, sigmoid, value_at_margin)])
     inside = (x >= lo) & (x <= hi)
     if margin <= 0.0:
         return inside.astype(np.float64)
@@ -52,6 +54,17 @@ def tolerance(
     else:
         raise ValueError(f"sigmoid: unknown {sigmoid!r}; use 'gaussian', 'linear' or 'reciprocal'")
     return np.where(inside, 1.0, out)
+
+
+def _tolerance_one(x: float, lo: float, hi: float, margin: float, sigmoid: str, v: float) -> float:
+    """:func:`tolerance` of one finite value on floats: the same operations in the same order
+    (bit-identical), without NumPy's cost on a one-element array (a single env's step)."""
+    if lo <= x <= hi:
+        return 1.0
+    d = (lo - x if x < lo else x - hi) / margin
+    if sigmoid == "linear":
+        return max(0.0, 1.0 - d * (1.0 - v))
+    return 1.0 / (1.0 + d * (1.0 / v - 1.0))
 
 
 def row_sum(a: FloatArray, weights: FloatArray | None = None) -> FloatArray:
