@@ -81,9 +81,11 @@ class RigidBodySB3VecEnv(VecEnv):
         done = terminated | truncated
         obs = self.task.observe(self._rngs)
         raw = self.task.infos()
+        # One conversion per key (not per env and key): Python scalars from ``tolist``, rows of
+        # the (fresh, per-step) vector arrays as they are.
+        columns = {k: (list(v) if v.ndim > 1 else v.tolist()) for k, v in raw.items()}
         infos: list[dict[str, Any]] = [
-            {k: (v[i].copy() if v.ndim > 1 else v[i].item()) for k, v in raw.items()}
-            for i in range(self.num_envs)
+            dict(zip(columns, row, strict=True)) for row in zip(*columns.values(), strict=True)
         ]
         if done.any():
             idx = np.flatnonzero(done)
