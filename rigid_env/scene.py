@@ -654,7 +654,11 @@ def _read_yaml(path: Path, label: str) -> Any:
             label, "", f"cannot be read ({exc.strerror})", "check the path and its permissions"
         ) from None
     try:
-        return yaml.load(text, Loader=_SceneLoader)  # a SafeLoader subclass: safe
+        loader = _SceneLoader(text)  # a SafeLoader that also rejects duplicate keys
+        try:
+            return loader.get_single_data()
+        finally:
+            loader.dispose()
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}" if mark is not None else ""

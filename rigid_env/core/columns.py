@@ -128,6 +128,23 @@ ARRAY = ArrayOps()
 # --------------------------------------------------------------------------------------------
 
 
+def add(acc: list[Col], k: int, t: Col) -> None:
+    """``acc[k] += t`` where a None entry of ``acc`` stands for zero (a term no effect made)."""
+    acc[k] = t if acc[k] is None else acc[k] + t
+
+
+def norm(ops: Ops, v: Sequence[Col]) -> Col:
+    """``|v|`` of a 3-vector: ``sqrt((v0 v0 + v1 v1) + v2 v2)``."""
+    return ops.sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])
+
+
+def kinetic_energy(mass: Col, inertia: Sequence[Col], v: Sequence[Col], w: Sequence[Col]) -> Col:
+    """``1/2 (m |v|^2 + sum_k I_k w_k^2)`` [J] (principal moments, body-frame ``w``)."""
+    trans = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    rot = inertia[0] * w[0] * w[0] + inertia[1] * w[1] * w[1] + inertia[2] * w[2] * w[2]
+    return 0.5 * (mass * trans + rot)
+
+
 def rotate(q: Sequence[Col], v: Sequence[Col]) -> tuple[Col, Col, Col]:
     """``R(q) v`` for a unit quaternion ``q = (w, x, y, z)``: ``v + w t + u x t``,
     ``t = 2 u x v`` (as :func:`rigid_env.core.rotation.quat_rotate`)."""
@@ -248,7 +265,7 @@ def spin(ops: Ops, q: Sequence[Col], w: Sequence[Col], h: float) -> tuple[list[C
     for an isotropic body) and ``w`` itself."""
     wx, wy, wz = w
     half = 0.5 * h
-    c, _, sinc = ops.half_sincos(half * ops.sqrt(wx * wx + wy * wy + wz * wz))
+    c, _, sinc = ops.half_sincos(half * norm(ops, w))
     f = half * sinc  # exp(h w / 2) = (cos a, (h/2) (sin(a) / a) w), a = h |w| / 2
     return list(quat_mul(q, (c, f * wx, f * wy, f * wz))), list(w)
 

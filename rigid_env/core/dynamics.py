@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from rigid_env.core import columns
 from rigid_env.core.effects import ForceEffect, LinearActuator
-from rigid_env.core.state import ISOTROPY_RTOL, BodyModel
+from rigid_env.core.state import BodyModel, isotropic_rows, isotropy
 
 FloatArray = NDArray[np.float64]
 
@@ -102,15 +102,12 @@ class Dynamics:
                 [float(c) for c in m.inv_inertia[0]],
                 bool(m.isotropic),
             )
-        top = m.inertia.max(axis=1)
-        iso = (top - m.inertia.min(axis=1)) <= ISOTROPY_RTOL * top
-        flag: Any = True if iso.all() else False if not iso.any() else iso
         return (
             m.mass.copy(),
             [m.inertia[:, k].copy() for k in range(3)],
             m.inv_mass[:, 0].copy(),
             [m.inv_inertia[:, k].copy() for k in range(3)],
-            flag,
+            isotropy(isotropic_rows(m.inertia)),
         )
 
     @cached_property
@@ -183,10 +180,10 @@ class Dynamics:
             if fb[0] is not None or fb[1] is not None or fb[2] is not None:
                 fw = columns.rotate(q, [0.0 if c is None else c for c in fb])
                 for k in range(3):
-                    force[k] = fw[k] if force[k] is None else force[k] + fw[k]
+                    columns.add(force, k, fw[k])
             for k in range(3):
                 if tb[k] is not None:
-                    torque[k] = tb[k] if torque[k] is None else torque[k] + tb[k]
+                    columns.add(torque, k, tb[k])
         a = alpha = None
         if force[0] is not None or force[1] is not None or force[2] is not None:
             a = [None if c is None else c * inv_m for c in force]

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
@@ -137,6 +138,12 @@ class StepMap:
         """Modify ``state`` in place."""
         raise NotImplementedError
 
+    def apply_columns(self, v: list[col.Col], w: list[col.Col]) -> tuple[list, list]:
+        """The same map over velocity columns (floats for one body): new ``(v, w)``, with the
+        products :meth:`apply` makes. Maps without this form keep a world off the single-body
+        lane."""
+        raise NotImplementedError
+
 
 # --------------------------------------------------------------------------------------------
 # Environment terms
@@ -166,7 +173,7 @@ class Gravity(ForceEffect):
         for k in range(3):
             gk = float(self.g[k])
             if gk != 0.0:
-                force[k] = mass * gk if force[k] is None else force[k] + mass * gk
+                col.add(force, k, mass * gk)
 
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
         """``U = -m g . x`` [J]."""
@@ -226,14 +233,14 @@ class QuadraticDrag(ForceEffect):
             vp = (v[0] + vr[0], v[1] + vr[1], v[2] + vr[2])
         else:
             vp = tuple(v)
-        ks = (-self.k) * ops.sqrt(vp[0] * vp[0] + vp[1] * vp[1] + vp[2] * vp[2])
+        ks = (-self.k) * col.norm(ops, vp)
         f = (ks * vp[0], ks * vp[1], ks * vp[2])
         for k in range(3):
-            force[k] = f[k] if force[k] is None else force[k] + f[k]
+            col.add(force, k, f[k])
         if self.offset:
             tb = col.cross(r, col.rotate_inv(q, f))
             for k in range(3):
-                torque[k] = tb[k] if torque[k] is None else torque[k] + tb[k]
+                col.add(torque, k, tb[k])
 
     def terminal_speed(self, mass: float, g: float) -> float:
         """Terminal speed ``sqrt(m g / k) = sqrt(2 m g / (rho C_D A))`` [m/s] of a falling body."""
@@ -258,6 +265,9 @@ class LinearDamping(StepMap):
     def apply(self, state: State) -> None:
         state.v *= self.alpha
 
+    def apply_columns(self, v, w):
+        return [c * self.alpha for c in v], w
+
 
 @dataclass(frozen=True)
 class AngularDamping(StepMap):
@@ -277,6 +287,9 @@ class AngularDamping(StepMap):
 
     def apply(self, state: State) -> None:
         state.w *= self.alpha
+
+    def apply_columns(self, v, w):
+        return v, [c * self.alpha for c in w]
 
 
 # --------------------------------------------------------------------------------------------
@@ -313,24 +326,18 @@ class LinearActuator(ForceEffect):
         lists ``force`` and ``torque`` (None = zero), term by nonzero term of the maps in a
         fixed order (a thruster couple touches one torque component, not three)."""
         for a, k, c, to_torque in self._terms:
-            acc = torque if to_torque else force
-            t = u[a] * c
-            acc[k] = t if acc[k] is None else acc[k] + t
+            col.add(torque if to_torque else force, k, u[a] * c)
 
-    @property
+    @cached_property
     def _terms(self) -> tuple[tuple[int, int, float, bool], ...]:
         """``(action column, component, coefficient, is torque)`` of each nonzero map entry."""
-        terms = self.__dict__.get("_terms_cache")
-        if terms is None:
-            terms = tuple(
-                (a, k, float(m[a, k]), is_t)
-                for a in range(self.force_map.shape[0])
-                for k in range(3)
-                for m, is_t in ((self.force_map, False), (self.torque_map, True))
-                if m[a, k] != 0.0
-            )
-            self.__dict__["_terms_cache"] = terms
-        return terms
+        return tuple(
+            (a, k, float(m[a, k]), is_t)
+            for a in range(self.force_map.shape[0])
+            for k in range(3)
+            for m, is_t in ((self.force_map, False), (self.torque_map, True))
+            if m[a, k] != 0.0
+        )
 
     def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
         if action is None:

@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from rigid_env.core import columns
 from rigid_env.core.dynamics import Dynamics, gyroscopic
 from rigid_env.core.rotation import quat_from_rotvec, quat_mul, quat_normalize
-from rigid_env.core.state import ISOTROPY_RTOL, State
+from rigid_env.core.state import State, isotropic_rows, isotropy
 
 FloatArray = NDArray[np.float64]
 Stepper = Callable[[Dynamics, State, "FloatArray | None", float], State]
@@ -137,12 +137,6 @@ def _done(x: FloatArray, v: FloatArray, q: FloatArray, w: FloatArray) -> State:
     return State(x, v, quat_normalize(q), w)
 
 
-def _isotropic_rows(inertia: FloatArray) -> NDArray[np.bool_]:
-    """(N,) True for the bodies whose three moments are equal (BodyModel's rule, per body)."""
-    top = inertia.max(axis=1)
-    return (top - inertia.min(axis=1)) <= ISOTROPY_RTOL * top
-
-
 # --------------------------------------------------------------------------------------------
 # Textbook methods
 # --------------------------------------------------------------------------------------------
@@ -244,7 +238,7 @@ def implicit_euler(
     active = np.ones(s.n, dtype=bool)
     # Bodies without a gyroscopic term (isotropic) in a batch that has one take the update
     # they take alone, so a batch equals its single bodies bit for bit.
-    iso = _isotropic_rows(np.broadcast_to(model.inertia, s.w.shape)) if dyn.has_gyro else None
+    iso = isotropic_rows(np.broadcast_to(model.inertia, s.w.shape)) if dyn.has_gyro else None
     for _ in range(max_iter):
         x1 = s.x + h * v1
         q1 = _rotate(s.q, w1, h)
@@ -464,7 +458,7 @@ def _isotropic_exact(
     """In a batch that mixes isotropic and other bodies, give the isotropic ones the exact map
     ``q exp(h w / 2)``, constant ``w`` they take alone (so a batch equals its single bodies,
     bit for bit); an unmixed batch is returned as it is."""
-    iso = _isotropic_rows(inertia)
+    iso = isotropic_rows(inertia)
     if not iso.any():
         return q1, w1
     return (np.where(iso[:, None], _rotate(q, w, h), q1), np.where(iso[:, None], w, w1))
@@ -483,9 +477,7 @@ def free_rotation_split(
     The kernel is :func:`rigid_env.core.columns.free_rotation`. Returns new ``(q, w)``.
     """
     inertia = np.broadcast_to(inertia, w.shape)
-    iso: object = True if isotropic else _isotropic_rows(inertia)
-    if iso is not True:
-        iso = True if iso.all() else False if not iso.any() else iso  # type: ignore[union-attr]
+    iso = True if isotropic else isotropy(isotropic_rows(inertia))
     qs, ws = columns.free_rotation(
         columns.ARRAY,
         [q[:, k] for k in range(4)],

@@ -19,6 +19,18 @@ FloatArray = NDArray[np.float64]
 ISOTROPY_RTOL = 1.0e-14
 
 
+def isotropic_rows(inertia: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """(N,) True for the bodies whose three principal moments ``inertia`` (N, 3) are equal."""
+    top = inertia.max(axis=1)
+    return (top - inertia.min(axis=1)) <= ISOTROPY_RTOL * top
+
+
+def isotropy(mask: NDArray[np.bool_]) -> bool | NDArray[np.bool_]:
+    """``True`` if every body is isotropic, ``False`` if none is, else the (N,) mask itself
+    (what the column kernels take: a batch that mixes both selects row by row)."""
+    return True if mask.all() else False if not mask.any() else mask
+
+
 @dataclass(frozen=True)
 class BodyModel:
     """Mass properties of a batch of bodies in their principal frames.
@@ -53,10 +65,7 @@ class BodyModel:
         object.__setattr__(self, "inertia", inertia)
         object.__setattr__(self, "inv_mass", (1.0 / mass)[:, None])
         object.__setattr__(self, "inv_inertia", 1.0 / inertia)
-        spread = inertia.max(axis=1) - inertia.min(axis=1)
-        object.__setattr__(
-            self, "isotropic", bool(np.all(spread <= ISOTROPY_RTOL * inertia.max(axis=1)))
-        )
+        object.__setattr__(self, "isotropic", bool(np.all(isotropic_rows(inertia))))
 
     @property
     def n(self) -> int:

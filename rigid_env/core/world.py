@@ -23,7 +23,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigid_env.core import columns
 from rigid_env.core.dynamics import Dynamics
-from rigid_env.core.effects import AngularDamping, ForceEffect, LinearDamping, StepMap
+from rigid_env.core.effects import ForceEffect, StepMap
 from rigid_env.core.integrators import COLUMN_KERNELS, get_integrator
 from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
@@ -156,7 +156,7 @@ class World:
             and self.integrator.name in COLUMN_KERNELS
             and self.max_angular_speed is None
             and self.dynamics.columns_supported
-            and all(type(m) in (LinearDamping, AngularDamping) for m in self.step_maps)
+            and all(type(m).apply_columns is not StepMap.apply_columns for m in self.step_maps)
         )
 
     def reset(self, state: State) -> None:
@@ -220,11 +220,8 @@ class World:
         kernel = COLUMN_KERNELS[self.integrator.name]
         for _ in range(self.substeps):
             x, v, q, w = kernel(dyn, columns.SCALAR, x, v, q, w, wrench, h)
-        for m in self.step_maps:  # the same products as the maps' in-place array forms
-            if isinstance(m, LinearDamping):
-                v = [c * m.alpha for c in v]
-            else:
-                w = [c * m.alpha for c in w]
+        for m in self.step_maps:
+            v, w = m.apply_columns(v, w)
         values = (*x, *v, *q, *w)
         if not math.isfinite(sum(values)) and not all(map(math.isfinite, values)):
             if self.on_error == "raise":
@@ -374,10 +371,12 @@ def check_state(state: State) -> None:
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
     """(N,) ``1/2 m |v|^2 + 1/2 sum_k I_k w_k^2`` [J] (summed by columns: a body's value is the
     same alone or in any batch)."""
-    v, w, i = s.v, s.w, model.inertia
-    trans = v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2]
-    rot = i[:, 0] * w[:, 0] * w[:, 0] + i[:, 1] * w[:, 1] * w[:, 1] + i[:, 2] * w[:, 2] * w[:, 2]
-    return 0.5 * (model.mass * trans + rot)
+    return columns.kinetic_energy(
+        model.mass,
+        [model.inertia[:, k] for k in range(3)],
+        [s.v[:, k] for k in range(3)],
+        [s.w[:, k] for k in range(3)],
+    )
 
 
 def angular_momentum_world(model: BodyModel, s: State) -> FloatArray:

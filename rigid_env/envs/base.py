@@ -27,12 +27,13 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.columns import rotate
+from rigid_env.core.columns import ARRAY, SCALAR, Ops, norm, rotate
+from rigid_env.core.columns import kinetic_energy as kinetic_energy_columns
 from rigid_env.core.effects import LinearActuator
 from rigid_env.core.rotation import canonical, quat_to_sixd
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import kinetic_energy
-from rigid_env.envs.rewards import fuel_rate, row_sum
+from rigid_env.envs.rewards import fuel_rate, weighted_sum
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
@@ -171,7 +172,7 @@ class TaskBatch:
         # Per-component force at |u| = 1 [N], for the fuel measure.
         actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
         self.max_force = np.concatenate([np.linalg.norm(a.force_map, axis=1) for a in actuators])
-        self._max_force = self.max_force.tolist()
+        self._max_force = self.max_force.tolist()  # the fuel sum's weights, as floats
         self.action_dim = self.world.action_dim
         self.thrust_scale: FloatArray | None = None  # (N, A) when thrust is randomised
         self.steps = np.zeros(self.n, dtype=np.int64)
@@ -318,19 +319,10 @@ class TaskBatch:
         command = action if self.thrust_scale is None else action * self.thrust_scale
         failed = self.world.advance(command)
         self.steps += 1
-        if self.n == 1:  # the same sums on floats (row_sum's order), without NumPy's call cost
-            magnitude = [abs(c) for c in command[0].tolist()]
-            rate = magnitude[0] * self._max_force[0]
-            total = magnitude[0]
-            for k in range(1, self.action_dim):
-                rate += magnitude[k] * self._max_force[k]
-                total += magnitude[k]
-            self.fuel[0] += rate * self.dt
-            self.effort = np.array([total / self.action_dim])
-        else:
-            magnitude = np.abs(command)
-            self.fuel += fuel_rate(magnitude, self.max_force) * self.dt
-            self.effort = row_sum(magnitude) / self.action_dim
+        _, u = self._columns(command)
+        magnitude = [abs(c) for c in u]
+        self.fuel += fuel_rate(magnitude, self._max_force) * self.dt
+        self.effort = np.atleast_1d(weighted_sum(magnitude) / self.action_dim)
         self.last_action = action
         reward, terminated = self.evaluate(command)
         return reward, terminated, failed
@@ -366,6 +358,13 @@ class TaskBatch:
         # may exceed 1 by one rounding in float64, which float32 rounds back to 1).
         return obs
 
+    def _columns(self, a: FloatArray) -> tuple[Ops, list[Any]]:
+        """The columns of an (N, k) array with their backend: Python floats for one env (no
+        NumPy call per operation), (N,) arrays for a batch; the same sums either way."""
+        if self.n == 1:
+            return SCALAR, a[0].tolist()
+        return ARRAY, [a[:, k] for k in range(a.shape[1])]
+
     def observe_one(self, rng: np.random.Generator) -> NDArray[np.float32]:
         """(obs_dim,) observation of a task of one body: :meth:`observe` computed on floats,
         the same operations in the same order (bit-identical), at a fraction of the cost."""
@@ -385,24 +384,21 @@ class TaskBatch:
             values += [min(bound, max(-bound, c)) for c in self.task_observation()[0].tolist()]
         obs = np.array(values, dtype=np.float32)
         with np.errstate(over="ignore"):  # a frozen, diverged body: inf in float32, tanh 1
-            np.tanh(np.array([c / 0.1 for c in w], dtype=np.float32), out=obs[7:10])
+            np.tanh(np.array([c / 0.1 for c in w], dtype=np.float32), out=obs[4 + 3 : 4 + 6])
         return obs
 
     def info_one(self) -> dict[str, Any]:
         """:meth:`infos` of a task of one body as Python scalars, computed on floats (the same
         operations in the same order as the batch's)."""
         s = self.world.state
-        v0, v1, v2 = s.v[0].tolist()
-        q = s.q[0].tolist()
-        w0, w1, w2 = w = s.w[0].tolist()
+        q, w = s.q[0].tolist(), s.w[0].tolist()
         m = self.world.model
-        i0, i1, i2 = m.inertia[0].tolist()
-        trans = v0 * v0 + v1 * v1 + v2 * v2
-        rot = i0 * w0 * w0 + i1 * w1 * w1 + i2 * w2 * w2
         success = bool(self.success[0])
         return {
-            "angular_speed": math.sqrt(w0 * w0 + w1 * w1 + w2 * w2),
-            "energy": 0.5 * (float(m.mass[0]) * trans + rot),
+            "angular_speed": float(self.angular_speed()[0]),
+            "energy": kinetic_energy_columns(
+                float(m.mass[0]), m.inertia[0].tolist(), s.v[0].tolist(), w
+            ),
             "fuel": float(self.fuel[0]),
             "success": success,
             "is_success": success,
@@ -414,13 +410,9 @@ class TaskBatch:
         """(N,) |w| [rad/s] of the current state (computed once per step and reset)."""
         state = self.world.state
         if self._speed_of is not state:
-            w = state.w
-            if self.n == 1:  # the same sum on floats
-                w0, w1, w2 = w[0].tolist()
-                self._speed = np.array([math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)])
-            else:
-                with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf
-                    self._speed = np.sqrt(w[:, 0] * w[:, 0] + w[:, 1] * w[:, 1] + w[:, 2] * w[:, 2])
+            ops, w = self._columns(state.w)
+            with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf
+                self._speed = np.atleast_1d(norm(ops, w))
             self._speed_of = state
         return self._speed
 

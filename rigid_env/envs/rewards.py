@@ -5,6 +5,9 @@ Every helper broadcasts over a leading batch axis and returns float64 arrays.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -67,18 +70,22 @@ def _tolerance_one(x: float, lo: float, hi: float, margin: float, sigmoid: str, 
     return 1.0 / (1.0 + d * (1.0 / v - 1.0))
 
 
-def row_sum(a: FloatArray, weights: FloatArray | None = None) -> FloatArray:
-    """(N,) ``sum_k w_k a[:, k]`` of an (N, K) array, column by column in a fixed order: the
-    same rounding for a row alone as inside any batch (a reduction along a short inner axis may
-    regroup its terms with the batch size, and is slow there as well)."""
-    out = a[:, 0] if weights is None else a[:, 0] * weights[0]
-    out = out.copy() if weights is None else out
-    for k in range(1, a.shape[1]):
-        out += a[:, k] if weights is None else a[:, k] * weights[k]
+def weighted_sum(cols: Sequence[Any], weights: Sequence[float] | None = None) -> Any:
+    """``sum_k w_k cols[k]`` term by term in a fixed order, over columns: floats for one env,
+    (N,) arrays for a batch. A row alone rounds as inside any batch (a reduction along a short
+    inner axis may regroup its terms with the batch size, and is slow there as well)."""
+    out = cols[0] if weights is None else cols[0] * weights[0]
+    for k in range(1, len(cols)):
+        out = out + (cols[k] if weights is None else cols[k] * weights[k])
     return out
 
 
-def fuel_rate(magnitude: FloatArray, max_force: FloatArray) -> FloatArray:
-    """Total thrust ``sum_k |u_k| F_k`` [N] of a command's magnitudes ``|u|`` (N, K); times
+def row_sum(a: FloatArray, weights: Sequence[float] | None = None) -> FloatArray:
+    """(N,) :func:`weighted_sum` of the columns of an (N, K) array."""
+    return weighted_sum([a[:, k] for k in range(a.shape[1])], weights)
+
+
+def fuel_rate(magnitude: Sequence[Any], max_force: Sequence[float]) -> Any:
+    """Total thrust ``sum_k |u_k| F_k`` [N] of a command's magnitude columns ``|u_k|``; times
     ``dt`` it is the impulse spent (our fuel measure) [N s]."""
-    return row_sum(magnitude, max_force)
+    return weighted_sum(magnitude, max_force)

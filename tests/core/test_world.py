@@ -71,9 +71,16 @@ def test_batch_equals_loop_of_single_bodies_bitwise(name: str) -> None:
     commands, every kind of effect, two substeps: body i of the batch is, bit for bit, body i
     stepped alone (no step mixes bodies or lets one body's numbers change another's rounding).
     """
-    batch = world_of(BodyModel(MASS, INERTIA), STATE0, name)
+    batch, _ = step_batch_and_singles(STATE0, name)
+    assert np.all(np.isfinite(batch.state.w))
+
+
+def step_batch_and_singles(state: State, name: str) -> tuple[World, list[World]]:
+    """Step the batch and each of its bodies alone with the same commands; assert that body i
+    of the batch is, bit for bit, body i alone. Returns the worlds."""
+    batch = world_of(BodyModel(MASS, INERTIA), state, name)
     singles = [
-        world_of(BodyModel(MASS[i : i + 1], INERTIA[i : i + 1]), STATE0.take([i]), name)
+        world_of(BodyModel(MASS[i : i + 1], INERTIA[i : i + 1]), state.take([i]), name)
         for i in range(N)
     ]
     for u in ACTIONS:
@@ -83,7 +90,7 @@ def test_batch_equals_loop_of_single_bodies_bitwise(name: str) -> None:
     for i, world in enumerate(singles):
         for k in "xvqw":
             assert np.array_equal(getattr(batch.state, k)[i], getattr(world.state, k)[0]), (i, k)
-    assert np.all(np.isfinite(batch.state.w))
+    return batch, singles
 
 
 @pytest.mark.parametrize("name", list(INTEGRATORS))
@@ -396,21 +403,9 @@ def test_single_body_lane_equals_batch_bitwise_at_high_spin() -> None:
     single-body lane); a batch runs it on NumPy columns. At |w| ~ 150 rad/s the half angles of
     the axis rotations leave the series' range, so both take NumPy's cos/sin there: body i of
     the batch is still, bit for bit, body i alone."""
-    w_fast = STATE0.w * 50.0
-    state = State(STATE0.x, STATE0.v, STATE0.q, w_fast)
-    batch = world_of(BodyModel(MASS, INERTIA), state, "splitting")
-    singles = [
-        world_of(BodyModel(MASS[i : i + 1], INERTIA[i : i + 1]), state.take([i]), "splitting")
-        for i in range(N)
-    ]
+    state = State(STATE0.x, STATE0.v, STATE0.q, STATE0.w * 50.0)
+    batch, singles = step_batch_and_singles(state, "splitting")
     assert all(world._one_body for world in singles) and not batch._one_body
-    for u in ACTIONS:
-        batch.step(u)
-        for i, world in enumerate(singles):
-            world.step(u[i])
-    for i, world in enumerate(singles):
-        for k in "xvqw":
-            assert np.array_equal(getattr(batch.state, k)[i], getattr(world.state, k)[0]), (i, k)
 
 
 def test_half_angle_series_matches_libm_to_one_ulp() -> None:
