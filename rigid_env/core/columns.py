@@ -37,10 +37,10 @@ Col = Any  # a float (one body) or a (N,) float64 array (a batch)
 HALF_ANGLE_MAX = 0.25
 # Taylor coefficients of sin(a)/a in powers of a^2 (k = 0..5); cos(a) = sqrt(1 - sin(a)^2)
 # for |a| < pi/2 (three correctly rounded operations instead of a second series).
-_SIN = tuple((-1.0) ** k / math.factorial(2 * k + 1) for k in range(6))
+SIN_SERIES = tuple((-1.0) ** k / math.factorial(2 * k + 1) for k in range(6))
 
 
-def _poly(z: Col, c: Sequence[float]) -> Col:
+def poly(z: Col, c: Sequence[float]) -> Col:
     """``c[0] + z (c[1] + z (c[2] + ...))`` by Horner's rule."""
     acc = c[-1]
     for ck in c[-2::-1]:
@@ -80,7 +80,7 @@ class ScalarOps(Ops):
 
     def half_sincos(self, a: float, in_range: bool = False) -> tuple[float, float, float]:
         if abs(a) <= HALF_ANGLE_MAX:
-            sinc = _poly(a * a, _SIN)
+            sinc = poly(a * a, SIN_SERIES)
             s = a * sinc
             return math.sqrt(1.0 - s * s), s, sinc
         if a != a:
@@ -105,7 +105,7 @@ class ArrayOps(Ops):
     def half_sincos(
         self, a: FloatArray, in_range: bool = False
     ) -> tuple[FloatArray, FloatArray, FloatArray]:
-        sinc = _poly(a * a, _SIN)
+        sinc = poly(a * a, SIN_SERIES)
         s = a * sinc
         if in_range:
             return np.sqrt(1.0 - s * s), s, sinc

@@ -111,6 +111,13 @@ class Dynamics:
         )
 
     @cached_property
+    def model_values(self) -> list[float]:
+        """``[mass, I1, I2, I3, 1/mass, 1/I1, 1/I2, 1/I3]`` of a shared model, as floats (the
+        inputs of a compiled single-body step)."""
+        mass, inertia, inv_m, inv_i, _ = self.model_columns
+        return [mass, *inertia, inv_m, *inv_i]
+
+    @cached_property
     def gyro_columns(self) -> list[Any]:
         """``k`` with ``-I^-1 (w x I w) = (k0 w1 w2, k1 w2 w0, k2 w0 w1)`` (Euler's equations):
         ``k0 = (I1 - I2) / I0`` and cyclic, as kernel columns."""

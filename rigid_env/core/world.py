@@ -14,8 +14,9 @@ body, and the implicit solvers iterate each body to its own tolerance.
 
 from __future__ import annotations
 
+import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Literal
 
 import numpy as np
@@ -27,9 +28,13 @@ from rigid_env.core.effects import ForceEffect, StepMap
 from rigid_env.core.integrators import COLUMN_KERNELS, get_integrator
 from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
+from rigid_env.core.trace import Deopt, compile_one_body
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+
+MAX_UNROLLED_SUBSTEPS = 8
+"""A single body's step is compiled with at most this many substeps written out."""
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -119,13 +124,36 @@ class World:
             raise ValueError(f"model: has {model.n} bodies but the state has {self.state.n}")
         self.failed = np.zeros(self.state.n, dtype=bool)
         self.step_count = 0
+        self._n = self.state.n
+        self._lanes: dict[tuple[bool, bool, bool], Callable | None] = {}
         self._one_body = self._single_body_lane()
 
     # ---------------------------------------------------------------------------------------
     @property
+    def state(self) -> State:
+        """The bodies' state as (N, 3) and (N, 4) arrays.
+
+        A world of one body on the single-body lane keeps its state as 13 floats between
+        steps (:meth:`advance_one`) and makes the arrays at their first read after a step:
+        views of one (1, 13) array, so an edit of them in place edits the state."""
+        s = self._state
+        if s is None:
+            packed = self._packed = np.array([self._values])
+            s = self._state = State(
+                packed[:, 0:3], packed[:, 3:6], packed[:, 6:10], packed[:, 10:13]
+            )
+        return s
+
+    @state.setter
+    def state(self, state: State) -> None:
+        self._state: State | None = state
+        self._values: Sequence[float] = ()
+        self._packed: FloatArray | None = None
+
+    @property
     def n(self) -> int:
         """Number of bodies."""
-        return self.state.n
+        return self._n
 
     @property
     def action_dim(self) -> int:
@@ -144,6 +172,11 @@ class World:
         self.model = model
         self.dynamics = Dynamics(model, self.force_effects)
         self._one_body = self._single_body_lane()
+
+    @property
+    def single_body_lane(self) -> bool:
+        """Whether this world steps on the single-body lane (:meth:`advance_one` applies)."""
+        return self._one_body
 
     def _single_body_lane(self) -> bool:
         """Whether :meth:`step` takes the single-body lane: one body under an integrator
@@ -210,30 +243,90 @@ class World:
         return bad if bad is not None else np.zeros(self.n, dtype=bool)
 
     def _step_one_body(self, command: FloatArray | None) -> BoolArray:
-        """:meth:`advance` for one body on Python floats (see :meth:`_single_body_lane`)."""
-        u = None if command is None else command[0].tolist()
-        dyn = self.dynamics
-        wrench = dyn.wrench_columns(u)
-        s = self.state
-        x, v, q, w = s.x[0].tolist(), s.v[0].tolist(), s.q[0].tolist(), s.w[0].tolist()
-        h = self.h
-        kernel = COLUMN_KERNELS[self.integrator.name]
-        for _ in range(self.substeps):
-            x, v, q, w = kernel(dyn, columns.SCALAR, x, v, q, w, wrench, h)
-        for m in self.step_maps:
-            v, w = m.apply_columns(v, w)
-        values = (*x, *v, *q, *w)
-        if not math.isfinite(sum(values)) and not all(map(math.isfinite, values)):
+        """:meth:`advance` through :meth:`advance_one`."""
+        failed = self.advance_one(None if command is None else command[0].tolist())
+        return np.ones(1, dtype=bool) if failed else np.zeros(1, dtype=bool)
+
+    def advance_one(self, u: list[float] | None) -> bool:
+        """:meth:`advance` of a world of one body on the single-body lane (see
+        :meth:`_single_body_lane`), with the command as ``action_dim`` checked floats (or None);
+        returns whether the body failed (the guard, as :meth:`advance`)."""
+        values = self.one_body_values()
+        lane = self._compiled_lane(u, values)
+        new: Sequence[float] = ()
+        if lane is not None:
+            try:
+                new = lane(u or (), values, self.dynamics.model_values)
+            except (Deopt, ArithmeticError, ValueError):  # a guard, or no float result
+                new = ()
+        if not new:  # the kernel itself: the same operations, through lists and calls
+            new = self._one_body_columns(self.dynamics, columns.SCALAR, u, values)
+        if not math.isfinite(sum(new)) and not all(map(math.isfinite, new)):
             if self.on_error == "raise":
                 raise NumericalInstabilityError(
                     [0], self.step_count + 1, self.integrator.name, self.dt
                 )
-            self.failed[0] = True
             self.step_count += 1
-            return np.ones(1, dtype=bool)
+            self.failed[0] = True
+            return True
         self.step_count += 1
-        self.state = State(np.array([x]), np.array([v]), np.array([q]), np.array([w]))
-        return np.zeros(1, dtype=bool)
+        self._state, self._values = None, new  # arrays only when read (see state)
+        return False
+
+    def one_body_values(self) -> Sequence[float]:
+        """The 13 numbers ``(x, v, q, w)`` of a world of one body, as floats (the same
+        sequence until the state changes: do not edit it)."""
+        s = self._state
+        if s is None:
+            return self._values
+        p = self._packed
+        if p is not None and s.x.base is p and s.v.base is p and s.q.base is p and s.w.base is p:
+            return p[0].tolist()
+        return [*s.x[0].tolist(), *s.v[0].tolist(), *s.q[0].tolist(), *s.w[0].tolist()]
+
+    def _one_body_columns(
+        self, dyn: Dynamics, ops: columns.Ops, u: Sequence | None, values: Sequence
+    ) -> list:
+        """One world step of one body over columns: the actuators' wrench, ``substeps``
+        steps of the integrator's column kernel, the step maps. ``values`` and the result are
+        the state's 13 numbers ``(x, v, q, w)``."""
+        x, v, q, w = values[0:3], values[3:6], values[6:10], values[10:13]
+        wrench = dyn.wrench_columns(u)
+        kernel = COLUMN_KERNELS[self.integrator.name]
+        for _ in range(self.substeps):
+            x, v, q, w = kernel(dyn, ops, x, v, q, w, wrench, self.h)
+        for m in self.step_maps:
+            v, w = m.apply_columns(v, w)
+        return [*x, *v, *q, *w]
+
+    def _compiled_lane(self, u: list[float] | None, values: list[float]) -> Callable | None:
+        """:meth:`_one_body_columns` compiled to straight-line code (:mod:`rigid_env.core.trace`)
+        for this world's effects, integrator and kind of inertia, traced at its first use with
+        these inputs. The mass properties are inputs of the compiled step, so a new model (domain
+        randomisation) reuses it. None where the step cannot be traced (an effect whose column
+        form calls a function on a number) or has too many substeps to write out."""
+        dyn = self.dynamics
+        key = (u is None, dyn.model_columns[4], dyn.has_gyro)
+        if key in self._lanes:
+            return self._lanes[key]
+        lane = None
+        if self.substeps <= MAX_UNROLLED_SUBSTEPS:
+            iso = dyn.model_columns[4]
+
+            def step(ops, u, values, m):
+                traced = copy.copy(dyn)  # the same dynamics with traced mass properties
+                traced.__dict__["model_columns"] = (m[0], m[1:4], m[4], m[5:8], iso)
+                traced.__dict__.pop("gyro_columns", None)
+                return [self._one_body_columns(traced, ops, u or None, values)]
+
+            try:
+                lane = compile_one_body(
+                    step, [("u", u or []), ("s", values), ("m", dyn.model_values)]
+                )
+            except TypeError:  # an operation the trace cannot record
+                lane = None
+        self._lanes[key] = lane
+        return lane
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if action is None or self.action_dim == 0:

@@ -179,8 +179,9 @@ class TaskBatch:
         self._speed_of: object = None
         self._speed = np.zeros(self.n)
         self.fuel = np.zeros(self.n)
-        self.effort = np.zeros(self.n)
-        """(N,) mean ``|u_k|`` of the last command: the fuel term of the rewards."""
+        self.effort: Any = 0.0 if self.n == 1 else np.zeros(self.n)
+        """Mean ``|u_k|`` of the last command, the fuel term of the rewards: a float for one
+        env, (N,) for a batch (as :meth:`speed`)."""
         self.success = np.zeros(self.n, dtype=bool)
         self.last_action = np.zeros((self.n, self.action_dim))
         self.target = np.zeros((self.n, self.target_dim))
@@ -213,8 +214,11 @@ class TaskBatch:
         """(N, task_obs_dim) extra observation components (inside ``+-task_obs_bound``)."""
         return np.zeros((self.n, 0))
 
-    def evaluate(self, action: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
-        """Reward (N,) and ``terminated`` (N,) after a step; updates :attr:`success`."""
+    def evaluate(self, action: Any) -> tuple[Any, Any, Any]:
+        """``(reward, terminated, success)`` after a step: (N,) arrays for a batch; for one
+        env floats and bools where the task computes on :meth:`speed`, :meth:`column` and
+        :attr:`effort` (which are floats then), else (1,) arrays. ``action`` is the command
+        the bodies got (thrust randomisation included)."""
         raise NotImplementedError
 
     # ---- shared machinery ----------------------------------------------------------------
@@ -224,6 +228,33 @@ class TaskBatch:
         Raises:
             ValueError: wrong shape, or a NaN/inf entry (never silently simulated).
         """
+        if self.n == 1:
+            return np.array([self.check_one(action)])
+        act = self._command_array(action)
+        # One sum finds a NaN or inf; only a sum that overflowed needs the element-wise test.
+        with np.errstate(over="ignore", invalid="ignore"):
+            total = act.sum()
+        if not np.isfinite(total) and not np.isfinite(act).all():
+            raise ValueError(_NON_FINITE_ACTION)
+        # Huge finite commands saturate like a real thruster: clipped to [-1, 1] (clipping is
+        # exact, so clipping float32 into float64 equals converting first).
+        # Column-major: the physics reads the command column by column.
+        return np.clip(act, -1.0, 1.0, out=np.empty(act.shape, order="F"))
+
+    def check_one(self, action: ArrayLike) -> list[float]:
+        """:meth:`check_action` of a task of one body, as ``A`` floats (no NumPy call for six
+        numbers; the same clipped values)."""
+        act = np.asarray(action)
+        if act.shape == (self.action_dim,) and act.dtype.char in "fd":
+            values = act.tolist()  # the common case: one float vector
+        else:
+            values = self._command_array(action)[0].tolist()
+        if not all(map(math.isfinite, values)):
+            raise ValueError(_NON_FINITE_ACTION)
+        return [-1.0 if c < -1.0 else 1.0 if c > 1.0 else float(c) for c in values]
+
+    def _command_array(self, action: ArrayLike) -> NDArray[np.floating]:
+        """``action`` as a float (N, A) array, or a one-line error naming the shapes."""
         act = np.asarray(action)
         if act.dtype not in (np.float32, np.float64):
             act = act.astype(np.float64)
@@ -235,24 +266,7 @@ class TaskBatch:
                 f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
                 f"got {act.shape}"
             )
-        if self.n == 1:  # on floats: no NumPy call for six numbers
-            values = act[0].tolist()
-            if not all(map(math.isfinite, values)):
-                raise ValueError(
-                    "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
-                )
-            return np.array([[-1.0 if c < -1.0 else 1.0 if c > 1.0 else c for c in values]])
-        # One sum finds a NaN or inf; only a sum that overflowed needs the element-wise test.
-        with np.errstate(over="ignore", invalid="ignore"):
-            total = act.sum()
-        if not np.isfinite(total) and not np.isfinite(act).all():
-            raise ValueError(
-                "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
-            )
-        # Huge finite commands saturate like a real thruster: clipped to [-1, 1] (clipping is
-        # exact, so clipping float32 into float64 equals converting first).
-        # Column-major: the physics reads the command column by column.
-        return np.clip(act, -1.0, 1.0, out=np.empty(act.shape, order="F"))
+        return act
 
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
@@ -316,16 +330,46 @@ class TaskBatch:
             reward (N,), terminated (N,), failed (N,) (state turned non-finite this step; the
             body is frozen at its last finite state and the episode must end).
         """
+        if self.n == 1:
+            reward, terminated, failed = self.step_one(action[0].tolist())
+            return np.array([reward]), np.array([terminated]), np.array([failed])
         command = action if self.thrust_scale is None else action * self.thrust_scale
         failed = self.world.advance(command)
         self.steps += 1
-        _, u = self._columns(command)
-        magnitude = [abs(c) for c in u]
-        self.fuel += fuel_rate(magnitude, self._max_force) * self.dt
-        self.effort = np.atleast_1d(weighted_sum(magnitude) / self.action_dim)
+        self._account([command[:, k] for k in range(self.action_dim)])
         self.last_action = action
-        reward, terminated = self.evaluate(command)
-        return reward, terminated, failed
+        reward, terminated, success = self.evaluate(command)
+        self.success = np.array(success, dtype=bool)  # its own copy: terminated is edited
+        return reward, np.array(terminated, dtype=bool), failed
+
+    def step_one(self, u: list[float]) -> tuple[float, bool, bool]:
+        """:meth:`step` of a task of one body on floats: ``u`` is the checked command (``A``
+        floats in [-1, 1], :meth:`check_one`); returns ``(reward, terminated, failed)``. The
+        same operations as a batch's row, so the same numbers bit for bit."""
+        command = u
+        if self.thrust_scale is not None:
+            command = [c * s for c, s in zip(u, self.thrust_scale[0].tolist(), strict=True)]
+        world = self.world
+        if world.single_body_lane:
+            failed = world.advance_one(command)
+        else:
+            failed = bool(world.advance(np.array([command]))[0])
+        self.steps[0] += 1
+        self._account(command)
+        self.last_action[0] = u
+        reward, terminated, success = self.evaluate(command)
+        self.success[:] = success
+        return _item(reward), bool(_item(terminated)), failed
+
+    def _account(self, cols: Sequence[Any]) -> None:
+        """Fuel and effort of a command given as columns (floats for one env)."""
+        magnitude = [abs(c) for c in cols]
+        rate = fuel_rate(magnitude, self._max_force) * self.dt
+        if self.n == 1:
+            self.fuel[0] += rate
+        else:
+            self.fuel += rate
+        self.effort = weighted_sum(magnitude) / self.action_dim
 
     def observe(
         self, rngs: Sequence[np.random.Generator], idx: NDArray[np.int64] | None = None
@@ -370,35 +414,36 @@ class TaskBatch:
         the same operations in the same order (bit-identical), at a fraction of the cost."""
         if self.randomization.sensor_noise > 0.0 or self.rotation_repr != "quaternion":
             return self.observe([rng])[0]
-        s = self.world.state
-        q = s.q[0].tolist()
-        w = s.w[0].tolist()
+        values = self.world.one_body_values()
+        q, w = list(values[6:10]), values[10:13]
         if q[0] < 0.0:
             q = [-c for c in q]
         elif q[0] == 0.0:
-            q = canonical(s.q[0]).tolist()
+            q = canonical(self.world.state.q[0]).tolist()
         scale = self.w_scale
-        values = q + [min(5.0, max(-5.0, c / scale)) for c in w] + [0.0, 0.0, 0.0]
+        fine = [c / 0.1 for c in w]  # tanh of these in float32, below
+        values = q + [min(5.0, max(-5.0, c / scale)) for c in w] + fine
         if self.task_obs_dim:
             bound = self.task_obs_bound
             values += [min(bound, max(-bound, c)) for c in self.task_observation()[0].tolist()]
-        obs = np.array(values, dtype=np.float32)
-        with np.errstate(over="ignore"):  # a frozen, diverged body: inf in float32, tanh 1
-            np.tanh(np.array([c / 0.1 for c in w], dtype=np.float32), out=obs[4 + 3 : 4 + 6])
+        if max(map(abs, fine)) < 1.0e38:
+            obs = np.array(values, dtype=np.float32)
+        else:
+            with np.errstate(over="ignore"):  # a frozen, diverged body: inf in float32, tanh 1
+                obs = np.array(values, dtype=np.float32)
+        np.tanh(obs[7:10], out=obs[7:10])
         return obs
 
     def info_one(self) -> dict[str, Any]:
         """:meth:`infos` of a task of one body as Python scalars, computed on floats (the same
         operations in the same order as the batch's)."""
-        s = self.world.state
-        q, w = s.q[0].tolist(), s.w[0].tolist()
-        m = self.world.model
+        values = self.world.one_body_values()
+        q, w = values[6:10], values[10:13]
+        mass, inertia = self.world.dynamics.model_columns[:2]
         success = bool(self.success[0])
         return {
-            "angular_speed": float(self.angular_speed()[0]),
-            "energy": kinetic_energy_columns(
-                float(m.mass[0]), m.inertia[0].tolist(), s.v[0].tolist(), w
-            ),
+            "angular_speed": float(self.speed()),
+            "energy": kinetic_energy_columns(mass, inertia, values[3:6], w),
             "fuel": float(self.fuel[0]),
             "success": success,
             "is_success": success,
@@ -406,15 +451,33 @@ class TaskBatch:
             "angular_velocity_world": np.array(rotate(q, w)),
         }
 
-    def angular_speed(self) -> FloatArray:
-        """(N,) |w| [rad/s] of the current state (computed once per step and reset)."""
+    def speed(self) -> Any:
+        """``|w|`` [rad/s] of the current state: a float for one env, (N,) for a batch
+        (computed once per state)."""
+        # Keyed by the state object (a batch) or the float sequence (one body) it came from.
+        if self.n == 1:
+            values = self.world.one_body_values()
+            if self._speed_of is not values:
+                self._speed = norm(SCALAR, values[10:13])
+                self._speed_of = values
+            return self._speed
         state = self.world.state
         if self._speed_of is not state:
-            ops, w = self._columns(state.w)
             with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf
-                self._speed = np.atleast_1d(norm(ops, w))
+                self._speed = norm(ARRAY, [state.w[:, k] for k in range(3)])
             self._speed_of = state
         return self._speed
+
+    def angular_speed(self) -> FloatArray:
+        """(N,) ``|w|`` [rad/s] of the current state."""
+        return np.atleast_1d(self.speed())
+
+    def state_column(self, name: str, k: int) -> Any:
+        """Component ``k`` of the state's ``x``, ``v``, ``q`` or ``w``: a float for one env,
+        (N,) for a batch."""
+        if self.n == 1:
+            return self.world.one_body_values()[_STATE_OFFSET[name] + k]
+        return getattr(self.world.state, name)[:, k]
 
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
@@ -432,6 +495,16 @@ class TaskBatch:
                 rotate([s.q[:, k] for k in range(4)], [s.w[:, k] for k in range(3)])
             ),
         }
+
+
+_NUMPY_VALUES = (np.ndarray, np.generic)
+_STATE_OFFSET = {"x": 0, "v": 3, "q": 6, "w": 10}
+_NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
+
+
+def _item(x: Any) -> Any:
+    """A float or bool from a float, a bool, or a one-element array."""
+    return x.item() if isinstance(x, _NUMPY_VALUES) else x
 
 
 def _stack3(cols: Sequence[FloatArray]) -> FloatArray:
@@ -491,13 +564,12 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         """One control step of ``dt``; see the task class for reward and episode end."""
         if not self._has_reset:
             raise RuntimeError("Call reset before using step method.")
-        act = self.task.check_action(action)
-        reward, terminated, failed = self.task.step(act)
+        reward, terminated, failed = self.task.step_one(self.task.check_one(action))
         obs = self.task.observe_one(self.np_random)
         info = self.task.info_one()
         if self.render_mode == "human":
             self.render()
-        return obs, float(reward[0]), bool(terminated[0]), bool(failed[0]), info
+        return obs, float(reward), terminated, failed, info
 
     def render(self):
         """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""

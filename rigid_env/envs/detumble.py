@@ -52,8 +52,8 @@ class DetumbleTask(TaskBatch):
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
 
     def evaluate(self, action):
-        speed = self.angular_speed()
-        self.success = speed < self.success_threshold
+        speed = self.speed()
+        success = speed < self.success_threshold
         # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
         spin_cost = 1.0 - tolerance(
             speed,
@@ -62,9 +62,8 @@ class DetumbleTask(TaskBatch):
             sigmoid="linear",
             value_at_margin=0.0,
         )
-        fuel = self.effort
-        reward = -spin_cost - self.fuel_weight * fuel + self.success_bonus * self.success
-        return reward, self.success.copy()
+        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * success
+        return reward, success, success
 
 
 class DetumbleEnv(RigidBodyEnv):

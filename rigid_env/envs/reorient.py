@@ -66,7 +66,7 @@ class ReorientTask(TaskBatch):
     def evaluate(self, action):
         angle = quat_angle_between(self.world.state.q, self.target)
         speed = self.angular_speed()
-        self.success = (angle < self.success_angle) & (speed < self.success_spin)
+        success = (angle < self.success_angle) & (speed < self.success_spin)
         r_angle = tolerance(
             angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear", value_at_margin=0.0
         )
@@ -78,7 +78,7 @@ class ReorientTask(TaskBatch):
             value_at_margin=0.0,
         )
         reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * self.effort
-        return reward, np.zeros(self.n, dtype=bool)
+        return reward, np.zeros(self.n, dtype=bool), success
 
 
 class ReorientEnv(RigidBodyEnv):

@@ -21,7 +21,7 @@ def tolerance(
     sigmoid: str = "gaussian",
     value_at_margin: float = 0.1,
 ) -> FloatArray:
-    """1 where ``x`` lies in ``bounds``, decaying smoothly outside.
+    """1 where ``x`` lies in ``bounds``, decaying smoothly outside (a float for a float).
 
     At distance ``margin`` outside the bounds the value is ``value_at_margin``. Shapes of the
     decay ``s(d)`` for the scaled distance ``d = dist / margin``:
@@ -40,6 +40,10 @@ def tolerance(
     lo, hi = bounds
     if lo > hi:
         raise ValueError(f"bounds: lower {lo} > upper {hi}")
+    if isinstance(x, float):  # one env: a float back, the same value as in a batch
+        if sigmoid in ("linear", "reciprocal") and margin > 0.0:
+            return _tolerance_one(x, lo, hi, margin, sigmoid, value_at_margin)
+        return float(tolerance(np.array([x]), bounds, margin, sigmoid, value_at_margin)[0])
     x = np.asarray(x, dtype=np.float64)
     if x.shape == (1,) and sigmoid in ("linear", "reciprocal") and margin > 0.0:
         return np.array([_tolerance_one(float(x[0]), lo, hi, margin, sigmoid, value_at_margin)])

@@ -80,14 +80,14 @@ class SpinStabilizeTask(TaskBatch):
         angle = self.axis_error()
         within = angle < self.success_angle
         self.streak = np.where(within, self.streak + 1, 0)
-        self.success = self.streak >= self.hold_steps
+        success = self.streak >= self.hold_steps
         rate_error = np.abs(self.angular_speed() - self.target_spin)
         reward = (
             tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0))
             * tolerance(rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin)
             - self.fuel_weight * self.effort
         )
-        return reward, np.zeros(self.n, dtype=bool)
+        return reward, np.zeros(self.n, dtype=bool), success
 
 
 class SpinStabilizeEnv(RigidBodyEnv):

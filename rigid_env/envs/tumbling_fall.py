@@ -65,9 +65,9 @@ class TumblingFallTask(TaskBatch):
         return np.stack([s.x[:, 2] / self.drop_height[1], s.v[:, 2] / 20.0], axis=1)
 
     def evaluate(self, action):
-        speed = self.angular_speed()
-        landed = self.world.state.x[:, 2] <= 0.0
-        self.success = landed & (speed < self.success_threshold)
+        speed = self.speed()
+        landed = self.state_column("x", 2) <= 0.0
+        success = landed & (speed < self.success_threshold)
         spin_cost = 1.0 - tolerance(
             speed,
             (0.0, self.success_threshold),
@@ -75,8 +75,8 @@ class TumblingFallTask(TaskBatch):
             sigmoid="linear",
             value_at_margin=0.0,
         )
-        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * self.success
-        return reward, landed
+        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * success
+        return reward, landed, success
 
 
 class TumblingFallEnv(RigidBodyEnv):

@@ -1,0 +1,260 @@
+"""Compile a column kernel into straight-line Python for one body.
+
+The column kernels (:mod:`rigid_env.core.columns`) run a single body on Python floats, but
+through lists, loops over components, helper calls and ``None`` tests for absent terms: most
+of a one-body step is that bookkeeping, not arithmetic. :func:`compile_one_body` runs the
+kernel once on *traced* numbers instead: each records the operation that made it, so the run
+writes out the step as a flat list of assignments ``t17 = t5 * t9``, with every structural
+decision (which terms exist, which helper runs, the loop over components) already taken.
+That list, compiled, is the step for that one world, several times faster and bit for bit the
+same: the same IEEE operations on the same operands in the same order (``+`` and ``*`` are
+commutative in IEEE arithmetic, so writing ``c * t`` for ``t * c`` changes nothing).
+
+A decision that depends on a *value* (a half angle within the series' range, a positive
+norm) becomes a guard: the compiled step checks that the value falls the way it did during
+the trace and otherwise raises :class:`Deopt`, after which the caller runs the kernel itself
+for that step. The trace carries the real values of the first step for that purpose.
+"""
+
+from __future__ import annotations
+
+import math
+import operator
+import re
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from rigid_env.core import columns
+
+
+class Deopt(Exception):
+    """A guard of a compiled step failed: run the kernel itself for this step."""
+
+
+class Sym:
+    """A traced float: the name of the local that holds it in the compiled step, and its value
+    in the traced run."""
+
+    __slots__ = ("name", "trace", "value")
+
+    def __init__(self, trace: Trace, name: str, value: Any) -> None:
+        self.trace = trace
+        self.name = name
+        self.value = value
+
+    def _binary(self, other: Any, symbol: str, fn: Callable, reflected: bool = False) -> Any:
+        if not isinstance(other, (Sym, float, int)):
+            return NotImplemented
+        a, b = (other, self) if reflected else (self, other)
+        return self.trace.emit(f"{_src(a)} {symbol} {_src(b)}", fn(_val(a), _val(b)))
+
+    def __add__(self, o):
+        return self._binary(o, "+", operator.add)
+
+    def __radd__(self, o):
+        return self._binary(o, "+", operator.add, True)
+
+    def __sub__(self, o):
+        return self._binary(o, "-", operator.sub)
+
+    def __rsub__(self, o):
+        return self._binary(o, "-", operator.sub, True)
+
+    def __mul__(self, o):
+        return self._binary(o, "*", operator.mul)
+
+    def __rmul__(self, o):
+        return self._binary(o, "*", operator.mul, True)
+
+    def __truediv__(self, o):
+        return self._binary(o, "/", operator.truediv)
+
+    def __rtruediv__(self, o):
+        return self._binary(o, "/", operator.truediv, True)
+
+    def __lt__(self, o):
+        return self._binary(o, "<", operator.lt)
+
+    def __le__(self, o):
+        return self._binary(o, "<=", operator.le)
+
+    def __gt__(self, o):
+        return self._binary(o, ">", operator.gt)
+
+    def __ge__(self, o):
+        return self._binary(o, ">=", operator.ge)
+
+    def __eq__(self, o):  # type: ignore[override]
+        return self._binary(o, "==", operator.eq)
+
+    def __ne__(self, o):  # type: ignore[override]
+        return self._binary(o, "!=", operator.ne)
+
+    def __neg__(self):
+        return self.trace.emit(f"-{self.name}", -self.value)
+
+    def __abs__(self):
+        return self.trace.emit(f"abs({self.name})", abs(self.value))
+
+    def __bool__(self) -> bool:
+        """A branch on a traced value: take the traced run's way and guard it."""
+        taken = bool(self.value)
+        self.trace.guard(self.name if taken else f"not {self.name}")
+        return taken
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _src(a: Any) -> str:
+    """Source text of an operand: a local's name, or a constant that reads back exactly."""
+    if isinstance(a, Sym):
+        return a.name
+    f = float(a)
+    if math.isfinite(f):
+        return repr(f)
+    return "_NAN" if f != f else ("_INF" if f > 0 else "-_INF")
+
+
+def _val(a: Any) -> Any:
+    return a.value if isinstance(a, Sym) else a
+
+
+class Trace:
+    """The assignments and guards recorded so far. An expression already computed (on the
+    same operands) is not computed again: IEEE arithmetic is deterministic, so reusing it
+    changes no number."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self._count = 0
+        self._known: dict[str, Sym] = {}
+
+    def emit(self, expr: str, value: Any) -> Sym:
+        known = self._known.get(expr)
+        if known is not None:
+            return known
+        name = f"t{self._count}"
+        self._count += 1
+        self.lines.append(f"{name} = {expr}")
+        sym = Sym(self, name, value)
+        self._known[expr] = sym
+        return sym
+
+    def guard(self, condition: str) -> None:
+        self.lines.append(f"if not ({condition}): raise Deopt")
+
+    def branch(self, start: int, condition: str, otherwise: str) -> None:
+        """Put the lines from ``start`` on under ``if condition:`` with ``otherwise`` as the
+        ``else`` branch; their values are then unknown after the ``if`` (not reused)."""
+        block = self.lines[start:]
+        defined = {line.split(" = ", 1)[0] for line in block}
+        self._known = {e: s for e, s in self._known.items() if s.name not in defined}
+        self.lines[start:] = [
+            f"if {condition}:",
+            *(f"    {line}" for line in block),
+            "else:",
+            f"    {otherwise}",
+        ]
+
+    def inputs(self, prefix: str, values: Sequence[float]) -> list[Sym]:
+        syms = [Sym(self, f"{prefix}{k}", v) for k, v in enumerate(values)]
+        if syms:
+            self.lines.append(f"{', '.join(s.name for s in syms)}, = {prefix}")
+        return syms
+
+    def live_lines(self, result: str) -> list[str]:
+        """The lines that ``result`` (an expression) needs: top-level assignments nothing
+        reads are dropped; guards and branches are kept."""
+        live = set(_NAMES.findall(result))
+        kept = []
+        for line in reversed(self.lines):
+            target, sep, expr = line.partition(" = ")
+            if sep and not line.startswith(" ") and _NAMES.fullmatch(target):
+                if target not in live:
+                    continue
+                live.update(_NAMES.findall(expr))
+            else:
+                live.update(_NAMES.findall(line))
+            kept.append(line)
+        return kept[::-1]
+
+
+_NAMES = re.compile(r"\b[a-z]\d+\b")
+
+
+class TraceOps(columns.Ops):
+    """The :class:`~rigid_env.core.columns.Ops` of a traced run: the scalar backend's
+    functions, written out as operations on traced numbers."""
+
+    scalar = True
+
+    def sqrt(self, a: Any) -> Any:
+        if not isinstance(a, Sym):
+            return columns.SCALAR.sqrt(a)
+        value = columns.SCALAR.sqrt(a.value)
+        return a.trace.emit(f"(_sqrt({a.name}) if {a.name} >= 0.0 else _NAN)", value)
+
+    def where(self, cond: Any, a: Any, b: Any) -> Any:
+        return a if cond else b
+
+    def half_sincos(self, a: Any, in_range: bool = False) -> tuple[Any, Any, Any]:
+        if not isinstance(a, Sym):
+            return columns.SCALAR.half_sincos(a)
+        # The scalar backend's two branches, both written out: the series, and beyond its
+        # range the backend's own function (NumPy's cos and sin).
+        trace = a.trace
+        start = len(trace.lines)
+        sinc = columns.poly(a * a, columns.SIN_SERIES)
+        s = a * sinc
+        c = trace.emit(f"_sqrt({(1.0 - s * s).name})", 0.0)
+        trace.branch(
+            start,
+            f"abs({a.name}) <= {columns.HALF_ANGLE_MAX!r}",
+            f"{c.name}, {s.name}, {sinc.name} = _half_sincos({a.name})",
+        )
+        c.value, s.value, sinc.value = columns.SCALAR.half_sincos(a.value)
+        return c, s, sinc
+
+
+TRACE = TraceOps()
+_GLOBALS = {
+    "_sqrt": math.sqrt,
+    "_half_sincos": columns.SCALAR.half_sincos,
+    "_NAN": math.nan,
+    "_INF": math.inf,
+    "Deopt": Deopt,
+}
+
+
+def compile_one_body(
+    step: Callable[..., Sequence[Sequence[Any]]],
+    groups: Sequence[tuple[str, Sequence[float]]],
+    name: str = "one_body_step",
+) -> Callable[..., tuple[float, ...]]:
+    """Trace ``step(ops, *groups)`` once and compile it.
+
+    Args:
+        step: called as ``step(TRACE, *lists)`` with one list of traced numbers per group;
+            returns a sequence of output lists (floats or traced numbers).
+        groups: ``(name, values)`` of each input list; ``values`` are the traced run's inputs
+            (a list of floats of the same length is what the compiled step takes).
+        name: the compiled function's name (shown in profiles and tracebacks).
+
+    Returns:
+        A function of the input lists (positional, in the order of ``groups``) returning the
+        outputs as one flat tuple of floats; it raises :class:`Deopt` where the traced run's
+        value-dependent branches would go the other way, and whatever Python raises for an
+        operation without a float result (a division by zero).
+    """
+    trace = Trace()
+    args = [trace.inputs(prefix, values) for prefix, values in groups]
+    outputs = step(TRACE, *args)
+    result = f"({', '.join(_src(c) for out in outputs for c in out)},)"
+    body = "\n    ".join([*trace.live_lines(result), f"return {result}"])
+    params = ", ".join(prefix for prefix, _ in groups)
+    source = f"def {name}({params}):\n    {body}\n"
+    namespace = dict(_GLOBALS)
+    exec(compile(source, f"<{name}>", "exec"), namespace)
+    fn = namespace[name]
+    fn.source = source  # type: ignore[attr-defined]
+    return fn
