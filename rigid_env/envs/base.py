@@ -210,9 +210,18 @@ class TaskBatch:
         """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
         raise NotImplementedError
 
+    def task_columns(self) -> list[Any]:
+        """The ``task_obs_dim`` extra observation components as columns: floats for one env,
+        (N,) arrays for a batch (clipped into ``+-task_obs_bound`` by the observation)."""
+        return []
+
     def task_observation(self) -> FloatArray:
-        """(N, task_obs_dim) extra observation components (inside ``+-task_obs_bound``)."""
-        return np.zeros((self.n, 0))
+        """(N, task_obs_dim) extra observation components (:meth:`task_columns`)."""
+        cols = self.task_columns()
+        out = np.empty((self.n, len(cols)))
+        for k, c in enumerate(cols):
+            out[:, k] = c
+        return out
 
     def evaluate(self, action: Any) -> tuple[Any, Any, Any]:
         """``(reward, terminated, success)`` after a step: (N,) arrays for a batch; for one
@@ -425,7 +434,7 @@ class TaskBatch:
         values = q + [min(5.0, max(-5.0, c / scale)) for c in w] + fine
         if self.task_obs_dim:
             bound = self.task_obs_bound
-            values += [min(bound, max(-bound, c)) for c in self.task_observation()[0].tolist()]
+            values += [min(bound, max(-bound, float(c))) for c in self.task_columns()]
         if max(map(abs, fine)) < 1.0e38:
             obs = np.array(values, dtype=np.float32)
         else:
@@ -472,12 +481,18 @@ class TaskBatch:
         """(N,) ``|w|`` [rad/s] of the current state."""
         return np.atleast_1d(self.speed())
 
-    def state_column(self, name: str, k: int) -> Any:
-        """Component ``k`` of the state's ``x``, ``v``, ``q`` or ``w``: a float for one env,
-        (N,) for a batch."""
+    def state_columns(self, name: str) -> list[Any]:
+        """The components of the state's ``x``, ``v``, ``q`` or ``w``: floats for one env,
+        (N,) arrays for a batch."""
         if self.n == 1:
-            return self.world.one_body_values()[_STATE_OFFSET[name] + k]
-        return getattr(self.world.state, name)[:, k]
+            start = _STATE_OFFSET[name]
+            return list(self.world.one_body_values()[start : start + (4 if name == "q" else 3)])
+        a = getattr(self.world.state, name)
+        return [a[:, k] for k in range(a.shape[1])]
+
+    def target_columns(self) -> list[Any]:
+        """The components of :attr:`target`, as :meth:`state_columns`."""
+        return self._columns(self.target)[1]
 
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
@@ -521,6 +536,18 @@ def canonical_fast(q: FloatArray) -> FloatArray:
     if not np.all(qw != 0.0):
         return canonical(q)
     return q * np.where(qw < 0.0, -1.0, 1.0)[:, None]
+
+
+def canonical_columns(q: Sequence[Any]) -> list[Any]:
+    """:func:`~rigid_env.core.rotation.canonical` over quaternion columns (floats for one
+    env, (N,) arrays for a batch): the sign by the first non-zero of ``w, x, y, z``."""
+    w, x, y, z = q
+    if isinstance(w, np.ndarray):
+        lead = np.where(w != 0.0, w, np.where(x != 0.0, x, np.where(y != 0.0, y, z)))
+        flip = lead < 0.0
+        return [np.where(flip, -c, c) for c in q]
+    lead = w if w != 0.0 else x if x != 0.0 else y if y != 0.0 else z
+    return [-c for c in q] if lead < 0.0 else list(q)
 
 
 def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:

@@ -6,11 +6,13 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.rotation import canonical, quat_angle_between, quat_conj, quat_mul
+from rigid_env.core import columns
+from rigid_env.core.rotation import canonical
 from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    canonical_columns,
     positive,
     random_quaternion,
     random_tumble,
@@ -58,14 +60,21 @@ class ReorientTask(TaskBatch):
 
     def error_quaternion(self) -> np.ndarray:
         """(N, 4) rotation from the current to the target orientation, body frame, w >= 0."""
-        return canonical(quat_mul(quat_conj(self.world.state.q), self.target))
+        return self.task_observation()
 
-    def task_observation(self):
-        return self.error_quaternion()
+    def _error(self) -> tuple[Any, ...]:
+        """``conj(q) (x) target`` by components (floats for one env)."""
+        w, x, y, z = self.state_columns("q")
+        return columns.quat_mul((w, -x, -y, -z), self.target_columns())
+
+    def task_columns(self):
+        return canonical_columns(self._error())
 
     def evaluate(self, action):
-        angle = quat_angle_between(self.world.state.q, self.target)
-        speed = self.angular_speed()
+        d = self._error()
+        # The angle of the rotation d: 2 atan2(|vec d|, |scalar d|) (quat_angle_between).
+        angle = 2.0 * np.arctan2(np.sqrt(d[1] * d[1] + d[2] * d[2] + d[3] * d[3]), abs(d[0]))
+        speed = self.speed()
         success = (angle < self.success_angle) & (speed < self.success_spin)
         r_angle = tolerance(
             angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear", value_at_margin=0.0

@@ -69,19 +69,21 @@ class SpinStabilizeTask(TaskBatch):
 
     def axis_error(self) -> np.ndarray:
         """(N,) angle [rad] between w and body +y (pi when spinning backwards)."""
-        w = self.world.state.w
-        return np.arctan2(np.hypot(w[:, 0], w[:, 2]), w[:, 1])
+        return np.atleast_1d(self._axis_error())
 
-    def task_observation(self):
-        rate_error = (self.angular_speed() - self.target_spin) / self.target_spin
-        return np.clip(rate_error, -1.0, 1.0)[:, None]
+    def _axis_error(self) -> Any:
+        wx, wy, wz = self.state_columns("w")
+        return np.arctan2(np.hypot(wx, wz), wy)
+
+    def task_columns(self):
+        return [(self.speed() - self.target_spin) / self.target_spin]
 
     def evaluate(self, action):
-        angle = self.axis_error()
+        angle = self._axis_error()
         within = angle < self.success_angle
         self.streak = np.where(within, self.streak + 1, 0)
         success = self.streak >= self.hold_steps
-        rate_error = np.abs(self.angular_speed() - self.target_spin)
+        rate_error = abs(self.speed() - self.target_spin)
         reward = (
             tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0))
             * tolerance(rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin)

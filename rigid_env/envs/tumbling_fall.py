@@ -60,13 +60,15 @@ class TumblingFallTask(TaskBatch):
         x = np.array([0.0, 0.0, rng.uniform(*self.drop_height)])
         return x, np.zeros(3), q, w, np.zeros(0)
 
-    def task_observation(self):
-        s = self.world.state
-        return np.stack([s.x[:, 2] / self.drop_height[1], s.v[:, 2] / 20.0], axis=1)
+    def task_columns(self):
+        return [
+            self.state_columns("x")[2] / self.drop_height[1],
+            self.state_columns("v")[2] / 20.0,
+        ]
 
     def evaluate(self, action):
         speed = self.speed()
-        landed = self.state_column("x", 2) <= 0.0
+        landed = self.state_columns("x")[2] <= 0.0
         success = landed & (speed < self.success_threshold)
         spin_cost = 1.0 - tolerance(
             speed,
