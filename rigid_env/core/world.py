@@ -17,7 +17,7 @@ from __future__ import annotations
 import copy
 import math
 from collections.abc import Callable, Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,6 +33,9 @@ from rigid_env.core.trace import Deopt, compile_one_body
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 
+ROW_LANE_MAX = 24
+"""Largest batch of bodies sharing one model that the single-body lane steps body by body
+(on a two-core machine a batch costs the same either way at about 30 bodies)."""
 MAX_UNROLLED_SUBSTEPS = 8
 """A single body's step is compiled with at most this many substeps written out."""
 
@@ -126,7 +129,7 @@ class World:
         self.step_count = 0
         self._n = self.state.n
         self._lanes: dict[tuple[bool, bool, bool], Callable | None] = {}
-        self._one_body = self._single_body_lane()
+        self._set_lanes()
 
     # ---------------------------------------------------------------------------------------
     @property
@@ -171,26 +174,30 @@ class World:
             raise ValueError(f"model: has {model.n} bodies but the world has {self.n}")
         self.model = model
         self.dynamics = Dynamics(model, self.force_effects)
-        self._one_body = self._single_body_lane()
+        self._set_lanes()
 
     @property
     def single_body_lane(self) -> bool:
         """Whether this world steps on the single-body lane (:meth:`advance_one` applies)."""
         return self._one_body
 
-    def _single_body_lane(self) -> bool:
-        """Whether :meth:`step` takes the single-body lane: one body under an integrator
-        with a column kernel (``symplectic_euler``, ``rk4``, ``splitting``) and effects that
-        have a column form. The lane runs the very kernel a batch runs, on Python floats
-        instead of (1,) arrays, so it gives the same numbers bit for bit without NumPy's
-        per-call cost on tiny arrays (a step is about ten times faster)."""
-        return (
-            self.n == 1
-            and self.integrator.name in COLUMN_KERNELS
+    def _set_lanes(self) -> None:
+        """Decide whether :meth:`step` takes the single-body lane: bodies stepped one by one
+        on Python floats by the integrator's column kernel (``symplectic_euler``, ``rk4``,
+        ``splitting``) compiled to straight-line code (:mod:`rigid_env.core.trace`), instead of
+        on (N,) arrays. The lane runs the very operations a batch runs, so it gives the same
+        numbers bit for bit, without NumPy's per-call cost on tiny arrays: a world of one
+        body takes it, and so does a small batch of bodies that share one model (up to
+        :data:`ROW_LANE_MAX` bodies, where a step of the batch costs about the same either
+        way). It needs effects and step maps with a column form and no angular speed limit."""
+        lane = (
+            self.integrator.name in COLUMN_KERNELS
             and self.max_angular_speed is None
             and self.dynamics.columns_supported
             and all(type(m).apply_columns is not StepMap.apply_columns for m in self.step_maps)
         )
+        self._one_body = lane and self.n == 1
+        self._row_lane = lane and 1 < self.n <= ROW_LANE_MAX and self.model.n == 1
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -228,6 +235,8 @@ class World:
         that validate their actions call this)."""
         if self._one_body:
             return self._step_one_body(command)
+        if self._row_lane:
+            return self._step_rows(command)
         act = command
         before = self.state
         with np.errstate(over="ignore", invalid="ignore"):
@@ -249,18 +258,9 @@ class World:
 
     def advance_one(self, u: list[float] | None) -> bool:
         """:meth:`advance` of a world of one body on the single-body lane (see
-        :meth:`_single_body_lane`), with the command as ``action_dim`` checked floats (or None);
+        :meth:`_set_lanes`), with the command as ``action_dim`` checked floats (or None);
         returns whether the body failed (the guard, as :meth:`advance`)."""
-        values = self.one_body_values()
-        lane = self._compiled_lane(u, values)
-        new: Sequence[float] = ()
-        if lane is not None:
-            try:
-                new = lane(u or (), values, self.dynamics.model_values)
-            except (Deopt, ArithmeticError, ValueError):  # a guard, or no float result
-                new = ()
-        if not new:  # the kernel itself: the same operations, through lists and calls
-            new = self._one_body_columns(self.dynamics, columns.SCALAR, u, values)
+        new = self._lane_step(u, self.one_body_values())
         if not math.isfinite(sum(new)) and not all(map(math.isfinite, new)):
             if self.on_error == "raise":
                 raise NumericalInstabilityError(
@@ -272,6 +272,46 @@ class World:
         self.step_count += 1
         self._state, self._values = None, new  # arrays only when read (see state)
         return False
+
+    def _step_rows(self, command: FloatArray | None) -> BoolArray:
+        """:meth:`advance` of a small batch on the single-body lane, body by body."""
+        s = self.state
+        rows = [
+            a + b + c + d
+            for a, b, c, d in zip(
+                s.x.tolist(), s.v.tolist(), s.q.tolist(), s.w.tolist(), strict=True
+            )
+        ]
+        n = len(rows)
+        if command is None:
+            commands: list[Any] = [None] * n
+        else:
+            commands = command.tolist() if command.shape[0] == n else command.tolist() * n
+        new = [self._lane_step(u, r) for u, r in zip(commands, rows, strict=True)]
+        bad = [i for i, r in enumerate(new) if not math.isfinite(sum(r))]
+        bad = [i for i in bad if not all(map(math.isfinite, new[i]))]
+        if bad and self.on_error == "raise":
+            raise NumericalInstabilityError(bad, self.step_count + 1, self.integrator.name, self.dt)
+        for i in bad:
+            new[i] = rows[i]  # frozen at its last finite state
+        mask = np.zeros(n, dtype=bool)
+        mask[bad] = True
+        self.failed |= mask
+        packed = np.array(new)
+        self.state = State(packed[:, 0:3], packed[:, 3:6], packed[:, 6:10], packed[:, 10:13])
+        self.step_count += 1
+        return mask
+
+    def _lane_step(self, u: Sequence[float] | None, values: Sequence[float]) -> Sequence[float]:
+        """One body's step on the lane: the compiled step, or the kernel itself on floats
+        where the compiled step's guards send it back (or it could not be compiled)."""
+        lane = self._compiled_lane(u, values)
+        if lane is not None:
+            try:
+                return lane(u or (), values, self.dynamics.model_values)
+            except (Deopt, ArithmeticError, ValueError):  # a guard, or no float result
+                pass
+        return self._one_body_columns(self.dynamics, columns.SCALAR, u, values)
 
     def one_body_values(self) -> Sequence[float]:
         """The 13 numbers ``(x, v, q, w)`` of a world of one body, as floats (the same
