@@ -153,6 +153,12 @@ class World:
         self._values: Sequence[float] = ()
         self._packed: FloatArray | None = None
 
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the compiled steps (they are compiled again at first use)."""
+        state = self.__dict__.copy()
+        state["_lanes"] = {}
+        return state
+
     @property
     def n(self) -> int:
         """Number of bodies."""

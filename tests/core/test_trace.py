@@ -111,3 +111,15 @@ def test_small_batch_on_the_lane_equals_the_array_path_bitwise(name: str) -> Non
     for k in "xvqw":
         assert np.array_equal(getattr(lane.state, k), getattr(arrays.state, k)), k
     assert np.array_equal(lane.failed, arrays.failed)
+
+
+def test_a_world_with_a_compiled_step_pickles() -> None:
+    import pickle
+
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), effects(), "splitting", 0.01)
+    u = ACTIONS[0, 0].tolist()
+    world.advance_one(u)
+    copy = pickle.loads(pickle.dumps(world))
+    world.advance_one(u)
+    copy.advance_one(u)
+    assert list(copy.one_body_values()) == list(world.one_body_values())
