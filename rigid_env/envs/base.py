@@ -183,7 +183,8 @@ class TaskBatch:
         """Mean ``|u_k|`` of the last command, the fuel term of the rewards: a float for one
         env, (N,) for a batch (as :meth:`speed`)."""
         self.success = np.zeros(self.n, dtype=bool)
-        self.last_action = np.zeros((self.n, self.action_dim))
+        self._last_action = np.zeros((self.n, self.action_dim))
+        self._last_one: list[float] | None = None  # a single env's last command, not yet stored
         self.target = np.zeros((self.n, self.target_dim))
         self.w_scale = self.angular_velocity_scale()
         rot_dim = 4 if rotation_repr == "quaternion" else 6
@@ -365,10 +366,26 @@ class TaskBatch:
             failed = bool(world.advance(np.array([command]))[0])
         self.steps[0] += 1
         self._account(command)
-        self.last_action[0] = u
+        self._last_one = u
         reward, terminated, success = self.evaluate(command)
-        self.success[:] = success
+        if type(success) is bool:
+            self.success[0] = success
+        else:
+            self.success[:] = success
         return _item(reward), bool(_item(terminated)), failed
+
+    @property
+    def last_action(self) -> FloatArray:
+        """(N, A) the last command each env was sent (before thrust randomisation)."""
+        if self._last_one is not None:
+            self._last_action[0] = self._last_one
+            self._last_one = None
+        return self._last_action
+
+    @last_action.setter
+    def last_action(self, action: FloatArray) -> None:
+        self._last_action = action
+        self._last_one = None
 
     def _account(self, cols: Sequence[Any]) -> None:
         """Fuel and effort of a command given as columns (floats for one env)."""
@@ -423,24 +440,35 @@ class TaskBatch:
         the same operations in the same order (bit-identical), at a fraction of the cost."""
         if self.randomization.sensor_noise > 0.0 or self.rotation_repr != "quaternion":
             return self.observe([rng])[0]
-        values = self.world.one_body_values()
-        q, w = list(values[6:10]), values[10:13]
-        if q[0] < 0.0:
-            q = [-c for c in q]
-        elif q[0] == 0.0:
-            q = canonical(self.world.state.q[0]).tolist()
+        qw, qx, qy, qz, wx, wy, wz = self.world.one_body_values()[6:13]
+        if qw < 0.0:
+            qw, qx, qy, qz = -qw, -qx, -qy, -qz
+        elif qw == 0.0:
+            qw, qx, qy, qz = canonical(self.world.state.q[0]).tolist()
         scale = self.w_scale
-        fine = [c / 0.1 for c in w]  # tanh of these in float32, below
-        values = q + [min(5.0, max(-5.0, c / scale)) for c in w] + fine
+        fx, fy, fz = wx / 0.1, wy / 0.1, wz / 0.1  # tanh of these in float32, below
+        values = [
+            qw,
+            qx,
+            qy,
+            qz,
+            min(5.0, max(-5.0, wx / scale)),
+            min(5.0, max(-5.0, wy / scale)),
+            min(5.0, max(-5.0, wz / scale)),
+            fx,
+            fy,
+            fz,
+        ]
         if self.task_obs_dim:
             bound = self.task_obs_bound
             values += [min(bound, max(-bound, float(c))) for c in self.task_columns()]
-        if max(map(abs, fine)) < 1.0e38:
+        if abs(fx) < 1.0e38 and abs(fy) < 1.0e38 and abs(fz) < 1.0e38:
             obs = np.array(values, dtype=np.float32)
         else:
             with np.errstate(over="ignore"):  # a frozen, diverged body: inf in float32, tanh 1
                 obs = np.array(values, dtype=np.float32)
-        np.tanh(obs[7:10], out=obs[7:10])
+        fine = obs[7:10]
+        np.tanh(fine, out=fine)
         return obs
 
     def info_one(self) -> dict[str, Any]:
