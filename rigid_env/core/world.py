@@ -129,6 +129,7 @@ class World:
         self.step_count = 0
         self._n = self.state.n
         self._lanes: dict[tuple[bool, bool, bool], Callable | None] = {}
+        self._last_lane: tuple[Any, bool, Callable | None] = (None, False, None)
         self._set_lanes()
 
     # ---------------------------------------------------------------------------------------
@@ -157,6 +158,7 @@ class World:
         """Pickled without the compiled steps (they are compiled again at first use)."""
         state = self.__dict__.copy()
         state["_lanes"] = {}
+        state["_last_lane"] = (None, False, None)
         return state
 
     @property
@@ -352,8 +354,12 @@ class World:
         randomisation) reuses it. None where the step cannot be traced (an effect whose column
         form calls a function on a number) or has too many substeps to write out."""
         dyn = self.dynamics
+        last = self._last_lane
+        if last[0] is dyn and last[1] is (u is None):
+            return last[2]
         key = (u is None, dyn.model_columns[4], dyn.has_gyro)
         if key in self._lanes:
+            self._last_lane = (dyn, u is None, self._lanes[key])
             return self._lanes[key]
         lane = None
         if self.substeps <= MAX_UNROLLED_SUBSTEPS:
@@ -372,6 +378,7 @@ class World:
             except TypeError:  # an operation the trace cannot record
                 lane = None
         self._lanes[key] = lane
+        self._last_lane = (dyn, u is None, lane)
         return lane
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:

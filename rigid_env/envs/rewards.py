@@ -78,9 +78,14 @@ def weighted_sum(cols: Sequence[Any], weights: Sequence[float] | None = None) ->
     """``sum_k w_k cols[k]`` term by term in a fixed order, over columns: floats for one env,
     (N,) arrays for a batch. A row alone rounds as inside any batch (a reduction along a short
     inner axis may regroup its terms with the batch size, and is slow there as well)."""
-    out = cols[0] if weights is None else cols[0] * weights[0]
-    for k in range(1, len(cols)):
-        out = out + (cols[k] if weights is None else cols[k] * weights[k])
+    if weights is None:
+        out = cols[0]
+        for c in cols[1:]:
+            out = out + c
+        return out
+    out = cols[0] * weights[0]
+    for c, w in zip(cols[1:], weights[1:], strict=True):
+        out = out + c * w
     return out
 
 
