@@ -66,27 +66,30 @@ def test_same_seed_same_episode_bit_for_bit(env_id):
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_vector_env_equals_single_envs(env_id):
-    """Sub-env i of make_vec reset with seed s replays a single env reset with seed s + i."""
-    n, steps, seed = 4, 40, 100
+@pytest.mark.parametrize("n", [4, 30])
+def test_vector_env_equals_single_envs(env_id, n):
+    """Sub-env i of make_vec reset with seed s replays a single env reset with seed s + i
+    (4 envs: the world steps them on the single-body lane; 30: on NumPy arrays), up to the
+    end of its first episode."""
+    steps, seed = 40, 100
     rng = np.random.default_rng(1)
     actions = rng.uniform(-1, 1, size=(steps, n, 6)).astype(np.float32)
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
     assert isinstance(venv.unwrapped, RigidBodyVectorEnv)
     obs, _ = venv.reset(seed=seed)
-    vec_obs = [obs]
-    vec_rew = []
+    vec_obs, vec_rew, vec_done = [obs], [], []
     for t in range(steps):
         obs, r, term, trunc, _ = venv.step(actions[t])
-        assert not (term | trunc).any(), "pick a horizon inside every episode"
         vec_obs.append(obs)
         vec_rew.append(r)
-    vec_obs = np.array(vec_obs)
-    vec_rew = np.array(vec_rew)
+        vec_done.append(term | trunc)
+    vec_obs, vec_rew, vec_done = np.array(vec_obs), np.array(vec_rew), np.array(vec_done)
     for i in range(n):
-        single_obs, single_rew, _ = rollout_single(env_id, seed + i, actions[:, i])
-        assert np.array_equal(vec_obs[:, i], single_obs), f"env {i} observations differ"
-        assert np.array_equal(vec_rew[:, i], single_rew), f"env {i} rewards differ"
+        single_obs, single_rew, flags = rollout_single(env_id, seed + i, actions[:, i])
+        k = len(single_rew)  # steps of its first episode (all of them if it did not end)
+        assert list(vec_done[:k, i]) == [term or trunc for term, trunc in flags]
+        assert np.array_equal(vec_obs[: k + 1, i], single_obs), f"env {i} observations differ"
+        assert np.array_equal(vec_rew[:k, i], single_rew), f"env {i} rewards differ"
 
 
 def test_vector_spaces_and_autoreset_next_step():
