@@ -14,6 +14,9 @@ from numpy.typing import ArrayLike, NDArray
 FloatArray = NDArray[np.float64]
 
 
+_SIGMOIDS = ("gaussian", "linear", "reciprocal")
+
+
 def tolerance(
     x: ArrayLike,
     bounds: tuple[float, float] = (0.0, 0.0),
@@ -41,11 +44,11 @@ def tolerance(
     if lo > hi:
         raise ValueError(f"bounds: lower {lo} > upper {hi}")
     if isinstance(x, float):  # one env: a float back, the same value as in a batch
-        if sigmoid in ("linear", "reciprocal") and margin > 0.0:
+        if sigmoid in _SIGMOIDS and margin > 0.0:
             return _tolerance_one(x, lo, hi, margin, sigmoid, value_at_margin)
         return float(tolerance(np.array([x]), bounds, margin, sigmoid, value_at_margin)[0])
     x = np.asarray(x, dtype=np.float64)
-    if x.shape == (1,) and sigmoid in ("linear", "reciprocal") and margin > 0.0:
+    if x.shape == (1,) and sigmoid in _SIGMOIDS and margin > 0.0:
         return np.array([_tolerance_one(float(x[0]), lo, hi, margin, sigmoid, value_at_margin)])
     inside = (x >= lo) & (x <= hi)
     if margin <= 0.0:
@@ -71,6 +74,8 @@ def _tolerance_one(x: float, lo: float, hi: float, margin: float, sigmoid: str, 
     d = (lo - x if x < lo else x - hi) / margin
     if sigmoid == "linear":
         return max(0.0, 1.0 - d * (1.0 - v))
+    if sigmoid == "gaussian":  # NumPy's exp and log on one number, as on an array
+        return float(np.exp(-(d * d) * np.log(1.0 / v)))
     return 1.0 / (1.0 + d * (1.0 / v - 1.0))
 
 

@@ -37,6 +37,9 @@ def test_one_value_equals_its_row_of_a_batch_bitwise(sigmoid: str) -> None:
     batch = tolerance(x, **kw)
     alone = np.array([tolerance(x[i : i + 1], **kw)[0] for i in range(x.size)])
     assert np.array_equal(batch, alone)
+    floats = [tolerance(float(c), **kw) for c in x.tolist()]
+    assert all(type(f) is float for f in floats)
+    assert np.array_equal(batch, np.array(floats))
 
 
 def test_row_sum_and_fuel_rate() -> None:
