@@ -171,6 +171,21 @@ def cross(a: Sequence[Col], b: Sequence[Col]) -> tuple[Col, Col, Col]:
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
+def canonical(ops: Ops, q: Sequence[Col]) -> list[Col]:
+    """The representative of ``+-q`` with ``w >= 0``, the sign decided by the first non-zero
+    component in the order ``w, x, y, z`` (as :func:`rigid_env.core.rotation.canonical`)."""
+    w, x, y, z = q
+    lead = ops.where(w != 0.0, w, ops.where(x != 0.0, x, ops.where(y != 0.0, y, z)))
+    flip = lead < 0.0
+    return [ops.where(flip, -c, c) for c in q]
+
+
+def rotation_angle(ops: Ops, q: Sequence[Col]) -> Col:
+    """Angle [rad] in [0, pi] of the rotation ``q``: ``2 atan2(|vec q|, |scalar q|)``, stable
+    near 0 and pi where ``2 acos`` is not."""
+    return 2.0 * np.arctan2(norm(ops, q[1:]), abs(q[0]))
+
+
 def normalize(ops: Ops, q: Sequence[Col]) -> tuple[Col, Col, Col, Col]:
     """``q / |q|`` (a unit quaternion drifts from 1 only by rounding: no rescaling needed;
     a zero or non-finite ``q`` gives NaN, for the world's guard)."""

@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core import columns
+
 FloatArray = NDArray[np.float64]
 
 # Below this angle [rad] the series of sin(a)/a and friends are used. The first dropped term
@@ -142,13 +144,7 @@ def canonical(q: ArrayLike) -> FloatArray:
         q: (..., 4) quaternion (w, x, y, z).
     """
     q = _as_float(q)
-    # Sign decided by the first non-zero component in the order w, x, y, z.
-    lead = np.where(
-        q[..., 0] != 0.0,
-        q[..., 0],
-        np.where(q[..., 1] != 0.0, q[..., 1], np.where(q[..., 2] != 0.0, q[..., 2], q[..., 3])),
-    )
-    return np.where((lead < 0.0)[..., None], -q, q)
+    return np.stack(columns.canonical(columns.ARRAY, [q[..., k] for k in range(4)]), axis=-1)
 
 
 def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
@@ -280,8 +276,7 @@ def quat_angle_between(p: ArrayLike, q: ArrayLike) -> FloatArray:
     """Angle [rad] in [0, pi] of the rotation taking ``p`` to ``q``: ``2 acos |<p, q>|`` computed
     stably as ``2 atan2(|vec(p* q)|, |scalar(p* q)|)``."""
     d = quat_mul(quat_conj(p), q)
-    s = np.sqrt(np.sum(d[..., 1:] ** 2, axis=-1))
-    return 2.0 * np.arctan2(s, np.abs(d[..., 0]))
+    return columns.rotation_angle(columns.ARRAY, [d[..., k] for k in range(4)])
 
 
 def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:

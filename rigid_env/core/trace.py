@@ -31,6 +31,19 @@ class Deopt(Exception):
     """A guard of a compiled step failed: run the kernel itself for this step."""
 
 
+def _recorded(symbol: str, fn: Callable, reflected: bool = False) -> Callable:
+    """The method of :class:`Sym` for a binary operator: the operation recorded as a line of
+    the compiled step, its value computed on the traced run's values."""
+
+    def method(self: Sym, other: Any) -> Any:
+        if not isinstance(other, (Sym, float, int)):
+            return NotImplemented
+        a, b = (other, self) if reflected else (self, other)
+        return self.trace.emit(f"{_src(a)} {symbol} {_src(b)}", fn(_val(a), _val(b)))
+
+    return method
+
+
 class Sym:
     """A traced float: the name of the local that holds it in the compiled step, and its value
     in the traced run."""
@@ -42,53 +55,21 @@ class Sym:
         self.name = name
         self.value = value
 
-    def _binary(self, other: Any, symbol: str, fn: Callable, reflected: bool = False) -> Any:
-        if not isinstance(other, (Sym, float, int)):
-            return NotImplemented
-        a, b = (other, self) if reflected else (self, other)
-        return self.trace.emit(f"{_src(a)} {symbol} {_src(b)}", fn(_val(a), _val(b)))
-
-    def __add__(self, o):
-        return self._binary(o, "+", operator.add)
-
-    def __radd__(self, o):
-        return self._binary(o, "+", operator.add, True)
-
-    def __sub__(self, o):
-        return self._binary(o, "-", operator.sub)
-
-    def __rsub__(self, o):
-        return self._binary(o, "-", operator.sub, True)
-
-    def __mul__(self, o):
-        return self._binary(o, "*", operator.mul)
-
-    def __rmul__(self, o):
-        return self._binary(o, "*", operator.mul, True)
-
-    def __truediv__(self, o):
-        return self._binary(o, "/", operator.truediv)
-
-    def __rtruediv__(self, o):
-        return self._binary(o, "/", operator.truediv, True)
-
-    def __lt__(self, o):
-        return self._binary(o, "<", operator.lt)
-
-    def __le__(self, o):
-        return self._binary(o, "<=", operator.le)
-
-    def __gt__(self, o):
-        return self._binary(o, ">", operator.gt)
-
-    def __ge__(self, o):
-        return self._binary(o, ">=", operator.ge)
-
-    def __eq__(self, o):  # type: ignore[override]
-        return self._binary(o, "==", operator.eq)
-
-    def __ne__(self, o):  # type: ignore[override]
-        return self._binary(o, "!=", operator.ne)
+    # The arithmetic and comparisons of a float, each recorded as one line.
+    __add__ = _recorded("+", operator.add)
+    __radd__ = _recorded("+", operator.add, reflected=True)
+    __sub__ = _recorded("-", operator.sub)
+    __rsub__ = _recorded("-", operator.sub, reflected=True)
+    __mul__ = _recorded("*", operator.mul)
+    __rmul__ = _recorded("*", operator.mul, reflected=True)
+    __truediv__ = _recorded("/", operator.truediv)
+    __rtruediv__ = _recorded("/", operator.truediv, reflected=True)
+    __lt__ = _recorded("<", operator.lt)
+    __le__ = _recorded("<=", operator.le)
+    __gt__ = _recorded(">", operator.gt)
+    __ge__ = _recorded(">=", operator.ge)
+    __eq__ = _recorded("==", operator.eq)  # type: ignore[assignment]
+    __ne__ = _recorded("!=", operator.ne)  # type: ignore[assignment]
 
     def __neg__(self):
         return self.trace.emit(f"-{self.name}", -self.value)

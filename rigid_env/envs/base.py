@@ -153,6 +153,8 @@ class TaskBatch:
                 f"rotation_repr: must be 'quaternion' or 'sixd', got {rotation_repr!r}"
             )
         self.n = int(num_envs)
+        self.ops: Ops = SCALAR if self.n == 1 else ARRAY
+        """Backend of the per-env columns: Python floats for one env, (N,) arrays for a batch."""
         self.scene: Scene = load_scene(
             scene if scene is not None else default_scene_path(self.scene_name)
         )
@@ -226,8 +228,8 @@ class TaskBatch:
 
     def evaluate(self, action: Any) -> tuple[Any, Any, Any]:
         """``(reward, terminated, success)`` after a step: (N,) arrays for a batch; for one
-        env floats and bools where the task computes on :meth:`speed`, :meth:`column` and
-        :attr:`effort` (which are floats then), else (1,) arrays. ``action`` is the command
+        env floats and bools where the task computes on :meth:`speed`, :meth:`state_columns`
+        and :attr:`effort` (which are floats then), else (1,) arrays. ``action`` is the command
         the bodies got (thrust randomisation included)."""
         raise NotImplementedError
 
@@ -432,8 +434,8 @@ class TaskBatch:
         """The columns of an (N, k) array with their backend: Python floats for one env (no
         NumPy call per operation), (N,) arrays for a batch; the same sums either way."""
         if self.n == 1:
-            return SCALAR, a[0].tolist()
-        return ARRAY, [a[:, k] for k in range(a.shape[1])]
+            return self.ops, a[0].tolist()
+        return self.ops, [a[:, k] for k in range(a.shape[1])]
 
     def observe_one(self, rng: np.random.Generator) -> NDArray[np.float32]:
         """(obs_dim,) observation of a task of one body: :meth:`observe` computed on floats,
@@ -564,18 +566,6 @@ def canonical_fast(q: FloatArray) -> FloatArray:
     if not np.all(qw != 0.0):
         return canonical(q)
     return q * np.where(qw < 0.0, -1.0, 1.0)[:, None]
-
-
-def canonical_columns(q: Sequence[Any]) -> list[Any]:
-    """:func:`~rigid_env.core.rotation.canonical` over quaternion columns (floats for one
-    env, (N,) arrays for a batch): the sign by the first non-zero of ``w, x, y, z``."""
-    w, x, y, z = q
-    if isinstance(w, np.ndarray):
-        lead = np.where(w != 0.0, w, np.where(x != 0.0, x, np.where(y != 0.0, y, z)))
-        flip = lead < 0.0
-        return [np.where(flip, -c, c) for c in q]
-    lead = w if w != 0.0 else x if x != 0.0 else y if y != 0.0 else z
-    return [-c for c in q] if lead < 0.0 else list(q)
 
 
 def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:

@@ -12,7 +12,6 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
-    canonical_columns,
     positive,
     random_quaternion,
     random_tumble,
@@ -68,12 +67,10 @@ class ReorientTask(TaskBatch):
         return columns.quat_mul((w, -x, -y, -z), self.target_columns())
 
     def task_columns(self):
-        return canonical_columns(self._error())
+        return columns.canonical(self.ops, self._error())
 
     def evaluate(self, action):
-        d = self._error()
-        # The angle of the rotation d: 2 atan2(|vec d|, |scalar d|) (quat_angle_between).
-        angle = 2.0 * np.arctan2(np.sqrt(d[1] * d[1] + d[2] * d[2] + d[3] * d[3]), abs(d[0]))
+        angle = columns.rotation_angle(self.ops, self._error())
         speed = self.speed()
         success = (angle < self.success_angle) & (speed < self.success_spin)
         r_angle = tolerance(
