@@ -111,12 +111,21 @@ class ArrayOps(Ops):
             return np.sqrt(1.0 - s * s), s, sinc
         with np.errstate(invalid="ignore"):  # rows beyond the series' range are redone below
             c = np.sqrt(1.0 - s * s)
-            big = np.abs(a) > HALF_ANGLE_MAX  # False for NaN: the series keeps it NaN
-            if big.any():
-                ab = a[big]
-                cb, sb = np.cos(ab), np.sin(ab)
-                c[big], s[big], sinc[big] = cb, sb, sb / ab
+        fix_large_half_angles(a, c, s, sinc)
         return c, s, sinc
+
+
+def fix_large_half_angles(a: FloatArray, c: FloatArray, s: FloatArray, sinc: FloatArray) -> None:
+    """Where ``|a| > HALF_ANGLE_MAX``, replace the series' ``(cos a, sin a, sin(a) / a)`` in
+    ``c, s, sinc`` (in place) by NumPy's ``cos`` and ``sin``: the rare rows beyond the
+    series' range, each as it would be alone (a NaN angle is not beyond: the series keeps
+    it NaN)."""
+    if not np.max(np.abs(a)) > HALF_ANGLE_MAX:  # one test for the common case
+        return
+    big = np.abs(a) > HALF_ANGLE_MAX
+    ab = a[big]
+    cb, sb = np.cos(ab), np.sin(ab)
+    c[big], s[big], sinc[big] = cb, sb, sb / ab
 
 
 SCALAR = ScalarOps()

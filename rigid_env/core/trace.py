@@ -1,4 +1,4 @@
-"""Compile a column kernel into straight-line Python for one body.
+"""Compile a column kernel into straight-line Python: for one body, and for a batch.
 
 The column kernels (:mod:`rigid_env.core.columns`) run a single body on Python floats, but
 through lists, loops over components, helper calls and ``None`` tests for absent terms: most
@@ -14,6 +14,13 @@ A decision that depends on a *value* (a half angle within the series' range, a p
 norm) becomes a guard: the compiled step checks that the value falls the way it did during
 the trace and otherwise raises :class:`Deopt`, after which the caller runs the kernel itself
 for that step. The trace carries the real values of the first step for that purpose.
+
+:func:`compile_batch` traces the same kernel for a batch, whose columns are (N,) arrays: each
+operation on a column becomes one NumPy ufunc call writing into a preallocated buffer, and a
+buffer is reused as soon as the value it holds is dead. A step then needs a few dozen
+buffers that stay in the cache instead of a fresh (N,) array for each of its hundreds of
+operations, and no Python bookkeeping between them; the same ufuncs on the same operands in
+the same order, so the same numbers bit for bit as the kernel on arrays.
 """
 
 from __future__ import annotations
@@ -23,6 +30,8 @@ import operator
 import re
 from collections.abc import Callable, Sequence
 from typing import Any
+
+import numpy as np
 
 from rigid_env.core import columns
 
@@ -137,6 +146,19 @@ class Trace:
             f"    {otherwise}",
         ]
 
+    def redefine(self, statement: str, syms: Sequence[Sym], values: Sequence[Any]) -> None:
+        """A statement that changes ``syms`` in place (to ``values``): an expression computed
+        before it, of them or giving them, is not reused after it."""
+        self.lines.append(statement)
+        names = {s.name for s in syms}
+        self._known = {
+            e: s
+            for e, s in self._known.items()
+            if s.name not in names and names.isdisjoint(_NAMES.findall(e))
+        }
+        for sym, value in zip(syms, values, strict=True):
+            sym.value = value
+
     def inputs(self, prefix: str, values: Sequence[float]) -> list[Sym]:
         syms = [Sym(self, f"{prefix}{k}", v) for k, v in enumerate(values)]
         if syms:
@@ -161,6 +183,42 @@ class Trace:
 
 
 _NAMES = re.compile(r"\b[a-z]\d+\b")
+_TEMPS = re.compile(r"\bt\d+\b")
+_DEFINES = re.compile(r"^\s*((?:t\d+, )*t\d+) = ")
+
+
+def _registers(lines: list[str]) -> list[str]:
+    """Rename the temporaries ``t0, t1, ...`` to as few locals ``r0, r1, ...`` as their
+    lifetimes allow: a local is reused once the value it holds has been read for the last
+    time (the line that reads it last may write it). A step has hundreds of values but only
+    a few dozen alive at once; few locals make a small frame, and each float freed at once
+    is the next one's memory (about a fifth off a one-body step).
+
+    ``lines`` is straight-line code, with the branches of :meth:`Trace.branch`: a value used
+    in a branch (or after it) is alive until its last line, so no branch can lose it."""
+    last: dict[str, int] = {}
+    for k, line in enumerate(lines):
+        for name in _TEMPS.findall(line):
+            last[name] = k
+    register: dict[str, str] = {}
+    free: list[str] = []
+    count = 0
+    out = []
+    for k, line in enumerate(lines):
+        match = _DEFINES.match(line)
+        defined = _TEMPS.findall(match[1]) if match else []
+        for name in set(_TEMPS.findall(line)) - set(defined):
+            if last[name] == k and name in register:
+                free.append(register[name])
+        for name in defined:
+            if name in register:  # the other side of a branch
+                continue
+            if free:
+                register[name] = free.pop()
+            else:
+                register[name], count = f"r{count}", count + 1
+        out.append(_TEMPS.sub(lambda m: register.get(m[0], m[0]), line))
+    return out
 
 
 class TraceOps(columns.Ops):
@@ -231,11 +289,171 @@ def compile_one_body(
     args = [trace.inputs(prefix, values) for prefix, values in groups]
     outputs = step(TRACE, *args)
     result = f"({', '.join(_src(c) for out in outputs for c in out)},)"
-    body = "\n    ".join([*trace.live_lines(result), f"return {result}"])
+    body = "\n    ".join(_registers([*trace.live_lines(result), f"return {result}"]))
     params = ", ".join(prefix for prefix, _ in groups)
     source = f"def {name}({params}):\n    {body}\n"
     namespace = dict(_GLOBALS)
     exec(compile(source, f"<{name}>", "exec"), namespace)
     fn = namespace[name]
     fn.source = source  # type: ignore[attr-defined]
+    return fn
+
+
+# --------------------------------------------------------------------------------------------
+# A batch: the kernel on (N,) columns, one ufunc call per operation into reused buffers
+# --------------------------------------------------------------------------------------------
+
+
+class ArrayTraceOps(columns.Ops):
+    """The :class:`~rigid_env.core.columns.Ops` of a traced batch: the array backend's
+    functions written out, its treatment of the few half angles beyond the series' range
+    included (:func:`~rigid_env.core.columns.fix_large_half_angles`, called on the buffers)."""
+
+    scalar = False
+
+    def sqrt(self, a: Any) -> Any:
+        if not isinstance(a, Sym):
+            return columns.ARRAY.sqrt(a)
+        with np.errstate(invalid="ignore"):
+            value = np.sqrt(a.value)
+        return a.trace.emit(f"_sqrt({a.name})", value)
+
+    def where(self, cond: Any, a: Any, b: Any) -> Any:
+        raise TypeError("where: a choice per body is not traced for a batch")
+
+    def half_sincos(self, a: Any, in_range: bool = False) -> tuple[Any, Any, Any]:
+        if not isinstance(a, Sym):
+            return columns.ARRAY.half_sincos(a, in_range)
+        sinc = columns.poly(a * a, columns.SIN_SERIES)
+        s = a * sinc
+        c = self.sqrt(1.0 - s * s)
+        if not in_range:
+            fixed = [c.value.copy(), s.value.copy(), sinc.value.copy()]
+            columns.fix_large_half_angles(a.value, *fixed)
+            a.trace.redefine(
+                f"_fix_large({a.name}, {c.name}, {s.name}, {sinc.name})", [c, s, sinc], fixed
+            )
+        return c, s, sinc
+
+
+ARRAY_TRACE = ArrayTraceOps()
+
+
+_UFUNCS = {"+": "_add", "-": "_sub", "*": "_mul", "/": "_div"}
+_BINARY = re.compile(r"^(\S+) ([-+*/]) (\S+)$")
+_UNARY = re.compile(r"^(-|abs\(|_sqrt\()([a-z]\d+)\)?$")
+_UNARY_UFUNCS = {"-": "_neg", "abs(": "_abs", "_sqrt(": "_sqrt"}
+_BATCH_GLOBALS = {
+    "_add": np.add,
+    "_sub": np.subtract,
+    "_mul": np.multiply,
+    "_div": np.divide,
+    "_neg": np.negative,
+    "_abs": np.absolute,
+    "_sqrt": np.sqrt,
+    "_copyto": np.copyto,
+    "_fix_large": columns.fix_large_half_angles,
+    "_NAN": math.nan,
+    "_INF": math.inf,
+    "Deopt": Deopt,
+}
+
+
+def _buffered(lines: list[str], arrays: set[str], outputs: list[str]) -> tuple[list[str], int]:
+    """Rewrite traced assignments on columns as ufunc calls into buffers ``b0, b1, ...``.
+
+    ``arrays`` names the inputs that are (N,) columns; a value computed from one is a column
+    too, the rest (the model's floats and constants) stay Python floats. A buffer is taken
+    back when the last line that reads its value has read it, so a line may write over its
+    own operand (element-wise ufuncs allow it). Returns the lines and the number of buffers.
+
+    Raises:
+        TypeError: a line that is not one operation on columns (nothing else is compiled).
+    """
+    last: dict[str, int] = {}
+    for k, line in enumerate(lines):
+        for name in _NAMES.findall(line.partition(" = ")[2] or line):
+            last[name] = k
+    end = len(lines)
+    for name in outputs:
+        last[name] = end
+    buffer_of: dict[str, str] = {}
+    free: list[str] = []
+    count = 0
+    out = []
+    for k, line in enumerate(lines):
+        target, sep, expr = line.partition(" = ")
+        if not sep or not _NAMES.fullmatch(target):  # a guard (or the inputs' unpacking)
+            out.append(line)
+            continue
+        operands = _NAMES.findall(expr)
+        if not any(name in arrays for name in operands):
+            out.append(line)  # floats only
+            continue
+        arrays.add(target)
+        for name in set(operands):
+            if last[name] == k and name in buffer_of:
+                free.append(buffer_of.pop(name))
+        if free:
+            buf = free.pop()
+        else:
+            buf, count = f"b{count}", count + 1
+        buffer_of[target] = buf
+        binary = _BINARY.match(expr)
+        unary = _UNARY.match(expr)
+        if binary:
+            call = f"{_UFUNCS[binary[2]]}({binary[1]}, {binary[3]}, {buf})"
+        elif unary and (unary[1] == "-" or expr.endswith(")")):
+            call = f"{_UNARY_UFUNCS[unary[1]]}({unary[2]}, {buf})"
+        else:
+            raise TypeError(f"not an operation on columns: {expr}")
+        out.append(f"{target} = {call}")
+    return out, count
+
+
+def compile_batch(
+    step: Callable[..., Sequence[Sequence[Any]]],
+    groups: Sequence[tuple[str, Sequence[Any], bool]],
+    name: str = "batch_step",
+) -> Callable[..., None]:
+    """Trace ``step(ARRAY_TRACE, *lists)`` once on a batch and compile it to ufunc calls into
+    reused buffers.
+
+    Args:
+        step: called as ``step(ARRAY_TRACE, *lists)`` with one list of traced values per
+            group; returns a sequence of output lists.
+        groups: ``(name, values, columns)`` of each input list: ``values`` the traced run's
+            inputs, ``columns`` whether they are (N,) arrays (else floats, e.g. a shared
+            model's mass properties).
+
+    Returns:
+        A function ``f(*lists, out, buffers)``: ``lists`` as ``groups``; ``out`` the
+        destination of each output component in order, (N,) arrays it fills; ``buffers``
+        a sequence of at least ``f.buffers`` float64 arrays of length N (scratch). It raises
+        :class:`Deopt` where a guard fails (before anything is written to ``out``).
+
+    Raises:
+        TypeError: the step does something other than arithmetic and the functions of
+            :class:`ArrayTraceOps` on its columns (it is not compiled).
+    """
+    trace = Trace()
+    args = [trace.inputs(prefix, values) for prefix, values, _ in groups]
+    outputs = [c for out in step(ARRAY_TRACE, *args) for c in out]
+    srcs = [_src(c) for c in outputs]
+    lines = trace.live_lines(f"({', '.join(srcs)},)")
+    arrays = {f"{prefix}{k}" for prefix, values, cols in groups if cols for k in range(len(values))}
+    body, count = _buffered(lines, arrays, [s for s in srcs if _NAMES.fullmatch(s)])
+    unpack = [f"{', '.join(f'b{k}' for k in range(count))}, = buffers"] if count else []
+    copies = [f"_copyto(out[{k}], {src})" for k, src in enumerate(srcs)]
+    params = ", ".join(prefix for prefix, _, _ in groups)
+    source = (
+        f"def {name}({params}, out, buffers):\n    "
+        + "\n    ".join([*unpack, *body, *copies])
+        + "\n"
+    )
+    namespace = dict(_BATCH_GLOBALS)
+    exec(compile(source, f"<{name}>", "exec"), namespace)
+    fn = namespace[name]
+    fn.source = source  # type: ignore[attr-defined]
+    fn.buffers = count  # type: ignore[attr-defined]
     return fn

@@ -1,6 +1,7 @@
-"""The compiled single-body step (rigid_env.core.trace): the same numbers as the kernel it was
-traced from, bit for bit, on every path; guards that send a step back to the kernel; the
-compiled code computes each value once and nothing the result does not need."""
+"""The compiled steps (rigid_env.core.trace), of one body and of a batch: the same numbers as the
+kernel they were traced from, bit for bit, on every path; guards that send a step back to the
+kernel; the compiled code computes each value once and nothing the result does not need; a
+batch's step reuses its buffers."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import pytest
 
 from rigid_env.core import BodyModel, State, World, columns
 from rigid_env.core.integrators import COLUMN_KERNELS
-from rigid_env.core.trace import Deopt, compile_one_body
+from rigid_env.core.trace import Deopt, compile_batch, compile_one_body
 from tests.core.test_world import ACTIONS, INERTIA, MASS, STATE0, effects
 
 
@@ -123,3 +124,96 @@ def test_a_world_with_a_compiled_step_pickles() -> None:
     world.advance_one(u)
     copy.advance_one(u)
     assert list(copy.one_body_values()) == list(world.one_body_values())
+
+    batch = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), effects(), "splitting", 0.01, n=30)
+    u30 = np.tile(ACTIONS[0, :1], (30, 1))
+    batch.advance(u30)
+    copy = pickle.loads(pickle.dumps(batch))
+    batch.advance(u30)
+    copy.advance(u30)
+    assert copy._batches and np.array_equal(copy.state.w, batch.state.w)
+
+
+# ---- a batch -------------------------------------------------------------------------------
+
+BATCH = 40  # above ROW_LANE_MAX: the batch lane
+
+
+def batch_state(fast: int) -> State:
+    """40 bodies from STATE0's rows, perturbed; the first ``fast`` spin at 60 times the rate,
+    where the half angles of the step leave the series' range."""
+    rng = np.random.default_rng(3)
+    rows = np.arange(BATCH) % STATE0.n
+    s = STATE0.take(rows)
+    w = s.w * rng.uniform(0.5, 1.5, (BATCH, 1))
+    w[:fast] *= 60.0
+    return State(s.x + rng.uniform(-1, 1, (BATCH, 3)), s.v, s.q, w)
+
+
+def batch_actions() -> np.ndarray:
+    return np.random.default_rng(4).uniform(-1, 1, (6, BATCH, 2))
+
+
+@pytest.mark.parametrize("name", list(COLUMN_KERNELS))
+@pytest.mark.parametrize("shared", [True, False])
+def test_batch_lane_equals_the_kernel_bitwise(name: str, shared: bool) -> None:
+    """Every kind of effect, two substeps, a shared model or one per body: each step of the
+    compiled batch gives, bit for bit, what the kernel on arrays gives (states and failures).
+    Some bodies spin so fast that their half angles leave the series' range, so the compiled
+    step's treatment of those rows runs (and an expression of the values it replaced must
+    not be reused after it)."""
+    rng = np.random.default_rng(5)
+    if shared:
+        model = BodyModel(MASS[:1], INERTIA[:1])
+    else:  # asymmetric bodies, each of its own
+        model = BodyModel(rng.uniform(0.5, 3.0, BATCH), rng.uniform(0.5, 3.0, (BATCH, 3)))
+    state = batch_state(fast=12)
+    lane = World(model, effects(), name, 0.02, 2, state=state, on_error="freeze")
+    kernel = World(model, effects(), name, 0.02, 2, state=state, on_error="freeze")
+    kernel._batch_lane = False
+    assert lane._batch_lane and not lane._row_lane
+    for u in batch_actions():
+        assert np.array_equal(lane.advance(u), kernel.advance(u))
+        for k in "xvqw":
+            assert np.array_equal(getattr(lane.state, k), getattr(kernel.state, k)), k
+    assert np.array_equal(lane.failed, kernel.failed)
+    (step,) = lane._batches.values()
+    assert step is not None
+    # rk4 moves q by its derivative; the other two turn it by half angles
+    assert ("_fix_large" in step.source) is (name != "rk4")
+
+
+def test_batch_lane_declines_a_choice_per_body() -> None:
+    """A batch mixing isotropic bodies with others takes a different free rotation per body
+    (a choice the compiled batch cannot make): no compiled step, the kernel steps it."""
+    model = BodyModel(MASS[:1].repeat(BATCH), INERTIA[[2, 0]].repeat(BATCH // 2, axis=0))
+    world = World(model, effects(), "splitting", 0.02, state=batch_state(fast=0))
+    kernel = World(model, effects(), "splitting", 0.02, state=batch_state(fast=0))
+    kernel._batch_lane = False
+    u = batch_actions()[0]
+    assert world._batch_lane and world._compiled_batch(u, world.state) is None
+    world.advance(u)
+    kernel.advance(u)
+    assert np.array_equal(world.state.q, kernel.state.q)
+
+
+def test_compiled_batch_reuses_buffers_and_computes_each_value_once() -> None:
+    """Columns become ufunc calls into buffers, a buffer reused once its value is dead (even
+    by the line that reads it last); floats stay floats; each value computed once."""
+
+    def step(ops, x, m):
+        a, b = x
+        (k,) = m
+        p = a * b
+        return [[(p + p) * (k * 2.0) - a * b, ops.sqrt(a * b + 1.0) + a]]
+
+    rng = np.random.default_rng(0)
+    a, b = rng.uniform(0.0, 2.0, 50), rng.uniform(0.0, 2.0, 50)
+    fn = compile_batch(step, [("x", [a, b], True), ("m", [3.0], False)])
+    out = [np.empty(50), np.empty(50)]
+    fn([a, b], [0.5], out, np.empty((fn.buffers, 50)))
+    k2 = 0.5 * 2.0
+    assert np.array_equal(out[0], (a * b + a * b) * k2 - a * b)
+    assert np.array_equal(out[1], np.sqrt(a * b + 1.0) + a)
+    assert fn.source.count("_mul(") == 2  # a * b once; (...) * k2 on columns, k * 2.0 on floats
+    assert fn.buffers <= 3 < fn.source.count(", b")  # fewer buffers than column operations
