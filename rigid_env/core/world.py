@@ -346,9 +346,10 @@ class World:
     def _one_body_columns(
         self, dyn: Dynamics, ops: columns.Ops, u: Sequence | None, values: Sequence
     ) -> list:
-        """One world step of one body over columns: the actuators' wrench, ``substeps``
-        steps of the integrator's column kernel, the step maps. ``values`` and the result are
-        the state's 13 numbers ``(x, v, q, w)``."""
+        """One world step over columns (a body's floats, or a batch's (N,) columns when the
+        batch lane traces it): the actuators' wrench, ``substeps`` steps of the integrator's
+        column kernel, the step maps. ``values`` and the result are the state's 13 components
+        ``(x, v, q, w)``."""
         x, v, q, w = values[0:3], values[3:6], values[6:10], values[10:13]
         wrench = dyn.wrench_columns(u)
         kernel = COLUMN_KERNELS[self.integrator.name]

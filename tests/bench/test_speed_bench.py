@@ -103,6 +103,23 @@ def test_markdown_has_header_sections_and_targets(smoke_out: Path) -> None:
     assert "Traceback" not in text
 
 
+def test_warm_up_leaves_a_slow_first_call_out_of_the_calls_per_repeat() -> None:
+    """A first call that pays a one-time cost (a compiled step) must not make the warm-up
+    think every call is slow: the repeats would then be one or two calls long, dominated by
+    the cold start after the other cases."""
+    import time
+
+    first = [True]
+
+    def fn() -> None:
+        if first[0]:
+            first[0] = False
+            time.sleep(0.05)
+
+    timings = speed.measure([speed.Case("a", fn, work=1.0)], min_time=0.01, repeats=1)
+    assert timings["a"].calls > 10
+
+
 def test_measure_interleaves_repeats_and_resets_before_each() -> None:
     log: list[str] = []
     cases = [
@@ -183,3 +200,17 @@ def test_cpu_clock_reports_thread_cpu_time() -> None:
     (t,) = speed.measure([case], min_time=0.0, repeats=2, warmup=False, clock="cpu").values()
     assert t.clock == "cpu" and t.seconds == t.cpu_per_call
     assert t.median == pytest.approx(float(np.median(t.cpu_per_call)))
+
+
+def test_ppo_target_is_read_at_the_baselines_n_envs() -> None:
+    """The PPO target is read at the n_envs our Detumble PPO baseline trains with, and that
+    size is measured in every configuration but the smoke run's."""
+    from agents.config import load_config
+
+    repo = Path(__file__).resolve().parents[2]
+    baseline = load_config(repo / "configs" / "agents" / "ppo_detumble.yaml")
+    for cfg in (speed.FULL, speed.QUICK):
+        assert cfg.ppo_target_n_envs == baseline.n_envs
+        assert cfg.ppo_target_n_envs in cfg.ppo_n_envs
+    with pytest.raises(ValueError, match="ppo_target_n_envs"):
+        speed.Config(**{**speed.QUICK.__dict__, "ppo_target_n_envs": 4})
