@@ -196,7 +196,6 @@ QUICK = replace(
     sync_sizes=(64,),
     ppo_timesteps=4096,
     ppo_repeats=1,
-    ppo_warmup=False,
 )
 SMOKE = replace(
     FULL,
