@@ -414,22 +414,29 @@ class TaskBatch:
         if self.randomization.sensor_noise > 0.0:
             noise = np.stack([rng.normal(0.0, self.randomization.sensor_noise, 3) for rng in rngs])
             w = w + noise
-        obs = np.empty((q.shape[0], self.obs_dim), dtype=np.float32)
+        # Built component by component (one contiguous float32 row each: about twice as fast
+        # as writing strided column blocks), then laid out as (n, obs_dim).
+        rows = np.empty((self.obs_dim, q.shape[0]), dtype=np.float32)
         r = 4 if self.rotation_repr == "quaternion" else 6
-        obs[:, :r] = canonical_fast(q) if r == 4 else quat_to_sixd(q)
+        if r == 4:
+            _canonical_rows(q, rows[:4])
+        else:
+            rows[:6] = quat_to_sixd(q).T
         with np.errstate(over="ignore"):  # a frozen, diverged body: huge, then clipped
-            obs[:, r : r + 3] = np.clip(w / self.w_scale, -5.0, 5.0)
-            # tanh(w / 0.1 rad/s) in float32 (the observation's precision; NumPy's float32
-            # tanh is many times cheaper than its float64 one), on contiguous columns (w's
-            # memory order kept: a strided tanh costs three times as much).
-            obs[:, r + 3 : r + 6] = np.tanh((w / 0.1).astype(np.float32, order="K"))
+            for k in range(3):
+                wk = w[:, k]
+                np.clip(wk / self.w_scale, -5.0, 5.0, out=rows[r + k], casting="same_kind")
+                # tanh(w / 0.1 rad/s) in float32 (the observation's precision; NumPy's float32
+                # tanh is many times cheaper than its float64 one).
+                np.tanh((wk / 0.1).astype(np.float32), out=rows[r + 3 + k])
         if self.task_obs_dim:
             extra = self.task_observation()
             bound = self.task_obs_bound
-            obs[:, r + 6 :] = np.clip(extra if idx is None else extra[idx], -bound, bound)
+            extra = extra if idx is None else extra[idx]
+            np.clip(extra.T, -bound, bound, out=rows[r + 6 :], casting="same_kind")
         # Rotation entries and tanh lie in [-1, 1] by construction (a unit vector's component
         # may exceed 1 by one rounding in float64, which float32 rounds back to 1).
-        return obs
+        return np.ascontiguousarray(rows.T)
 
     def _columns(self, a: FloatArray) -> tuple[Ops, list[Any]]:
         """The columns of an (N, k) array with their backend: Python floats for one env (no
@@ -560,13 +567,17 @@ def _stack3(cols: Sequence[FloatArray]) -> FloatArray:
     return out
 
 
-def canonical_fast(q: FloatArray) -> FloatArray:
-    """:func:`~rigid_env.core.rotation.canonical` of (N, 4) ``q``, sign-flipping by the ``w``
-    column alone where ``w != 0`` (every row but a measure-zero few)."""
+def _canonical_rows(q: FloatArray, out: NDArray[np.float32]) -> None:
+    """:func:`~rigid_env.core.rotation.canonical` of (N, 4) ``q`` into the rows of ``out``
+    (4, N), sign-flipping by the ``w`` column alone where ``w != 0`` (every row but a
+    measure-zero few)."""
     qw = q[:, 0]
     if not np.all(qw != 0.0):
-        return canonical(q)
-    return q * np.where(qw < 0.0, -1.0, 1.0)[:, None]
+        out[:] = canonical(q).T
+        return
+    sign = np.where(qw < 0.0, -1.0, 1.0)
+    for k in range(4):
+        np.multiply(q[:, k], sign, out=out[k], casting="same_kind")
 
 
 def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:
