@@ -443,7 +443,7 @@ def compile_batch(
     lines = trace.live_lines(f"({', '.join(srcs)},)")
     arrays = {f"{prefix}{k}" for prefix, values, cols in groups if cols for k in range(len(values))}
     body, count = _buffered(lines, arrays, [s for s in srcs if _NAMES.fullmatch(s)])
-    unpack = [f"{', '.join(f'b{k}' for k in range(count))}, = buffers"] if count else []
+    unpack = [f"{', '.join(f'b{k}' for k in range(count))}, = buffers[:{count}]"] if count else []
     copies = [f"_copyto(out[{k}], {src})" for k, src in enumerate(srcs)]
     params = ", ".join(prefix for prefix, _, _ in groups)
     source = (

@@ -183,6 +183,22 @@ def test_batch_lane_equals_the_kernel_bitwise(name: str, shared: bool) -> None:
     assert ("_fix_large" in step.source) is (name != "rk4")
 
 
+def test_batch_lane_takes_a_shared_command_and_none() -> None:
+    """A command for all bodies at once (1, A), no command, and a command per body, one after
+    the other: each is compiled (and the buffers of the largest kept for all), each gives the
+    kernel's numbers bit for bit."""
+    model = BodyModel(MASS[:1], INERTIA[:1])
+    lane = World(model, effects(), "splitting", 0.02, 2, state=batch_state(fast=5))
+    kernel = World(model, effects(), "splitting", 0.02, 2, state=batch_state(fast=5))
+    kernel._batch_lane = False
+    for u in (np.array([[0.3, -0.2]]), None, batch_actions()[0], None, np.array([0.5, 0.1])):
+        lane.step(u)
+        kernel.step(u)
+        for k in "xvqw":
+            assert np.array_equal(getattr(lane.state, k), getattr(kernel.state, k)), k
+    assert len(lane._batches) == 2 and None not in lane._batches.values()
+
+
 def test_batch_lane_declines_a_choice_per_body() -> None:
     """A batch mixing isotropic bodies with others takes a different free rotation per body
     (a choice the compiled batch cannot make): no compiled step, the kernel steps it."""
