@@ -65,16 +65,13 @@ def test_same_seed_same_episode_bit_for_bit(env_id):
     assert not np.array_equal(obs_a[0], obs_c[0])  # another seed, another start
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
-@pytest.mark.parametrize("n", [4, 30])
-def test_vector_env_equals_single_envs(env_id, n):
-    """Sub-env i of make_vec reset with seed s replays a single env reset with seed s + i
-    (4 envs: the world steps them on the single-body lane; 30: on NumPy arrays), up to the
-    end of its first episode."""
+def assert_vector_env_equals_single_envs(env_id: str, n: int, **kwargs) -> None:
+    """Sub-env i of make_vec reset with seed s replays a single env reset with seed s + i, up
+    to the end of its first episode (observations, rewards, episode ends)."""
     steps, seed = 40, 100
     rng = np.random.default_rng(1)
     actions = rng.uniform(-1, 1, size=(steps, n, 6)).astype(np.float32)
-    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     assert isinstance(venv.unwrapped, RigidBodyVectorEnv)
     obs, _ = venv.reset(seed=seed)
     vec_obs, vec_rew, vec_done = [obs], [], []
@@ -85,11 +82,27 @@ def test_vector_env_equals_single_envs(env_id, n):
         vec_done.append(term | trunc)
     vec_obs, vec_rew, vec_done = np.array(vec_obs), np.array(vec_rew), np.array(vec_done)
     for i in range(n):
-        single_obs, single_rew, flags = rollout_single(env_id, seed + i, actions[:, i])
+        single_obs, single_rew, flags = rollout_single(env_id, seed + i, actions[:, i], **kwargs)
         k = len(single_rew)  # steps of its first episode (all of them if it did not end)
         assert list(vec_done[:k, i]) == [term or trunc for term, trunc in flags]
         assert np.array_equal(vec_obs[: k + 1, i], single_obs), f"env {i} observations differ"
         assert np.array_equal(vec_rew[:k, i], single_rew), f"env {i} rewards differ"
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("n", [4, 30])
+def test_vector_env_equals_single_envs(env_id, n):
+    """4 envs: the world steps them body by body on the single-body lane; 30: the batch lane
+    (the kernel compiled over arrays). Either way each equals its single env bit for bit."""
+    assert_vector_env_equals_single_envs(env_id, n)
+
+
+@pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/Reorient-v0"])
+def test_vector_env_equals_single_envs_with_randomization_and_sixd(env_id):
+    """Mass properties per body (the batch lane then takes them as columns), randomised
+    thrust, sensor noise and the 6-D rotation: still each sub-env equals its single env."""
+    rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.2, "sensor_noise": 0.01}
+    assert_vector_env_equals_single_envs(env_id, 30, randomization=rand, rotation_repr="sixd")
 
 
 def test_vector_spaces_and_autoreset_next_step():
