@@ -684,6 +684,27 @@ SYNC_CASE = "Detumble SyncVectorEnv"
 CARTPOLE_CASE = "CartPoleVectorEnv"
 
 
+def _env_step_rows(
+    res: Results, section: str, n: int, timings: dict[str, Timing], peer: str
+) -> None:
+    """Env-steps per second of every case at ``n`` envs, with its ratio over ``peer``'s."""
+    base = timings[peer].rate
+    for name, t in timings.items():
+        res.rows.append(
+            _row(
+                section,
+                name,
+                n,
+                "env_steps_per_s",
+                "1/s",
+                t,
+                t.rate,
+                peer=peer,
+                ratio=t.rate / base,
+            )
+        )
+
+
 def _vec_case(name: str, env_id: str, n: int, mode: str, seed: int = 0, pool: int = 8) -> Case:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -716,21 +737,7 @@ def bench_vec(cfg: Config, res: Results) -> None:
         timings = measure(cases, min_time=cfg.min_time, repeats=cfg.repeats, clock=cfg.clock)
         if SYNC_CASE in timings:
             sync_rate[n] = timings[SYNC_CASE].rate
-        cart = timings[CARTPOLE_CASE].rate
-        for name, t in timings.items():
-            res.rows.append(
-                _row(
-                    "vec",
-                    name,
-                    n,
-                    "env_steps_per_s",
-                    "1/s",
-                    t,
-                    t.rate,
-                    peer=CARTPOLE_CASE,
-                    ratio=t.rate / cart,
-                )
-            )
+        _env_step_rows(res, "vec", n, timings, CARTPOLE_CASE)
         del cases
         gc.collect()
         _log(f"  vec N={n}: done")
@@ -955,21 +962,7 @@ def bench_ppo(cfg: Config, res: Results) -> None:
             finally:
                 for venv in venvs.values():
                     venv.close()
-            dummy = timings[PPO_DUMMY].rate
-            for name, t in timings.items():
-                res.rows.append(
-                    _row(
-                        "ppo",
-                        name,
-                        n_envs,
-                        "env_steps_per_s",
-                        "1/s",
-                        t,
-                        t.rate,
-                        peer=PPO_DUMMY,
-                        ratio=t.rate / dummy,
-                    )
-                )
+            _env_step_rows(res, "ppo", n_envs, timings, PPO_DUMMY)
     finally:
         torch.set_num_threads(threads)
     sizes = ", ".join(map(str, cfg.ppo_n_envs))

@@ -291,8 +291,13 @@ def compile_one_body(
     result = f"({', '.join(_src(c) for out in outputs for c in out)},)"
     body = "\n    ".join(_registers([*trace.live_lines(result), f"return {result}"]))
     params = ", ".join(prefix for prefix, _ in groups)
-    source = f"def {name}({params}):\n    {body}\n"
-    namespace = dict(_GLOBALS)
+    return _define(f"def {name}({params}):\n    {body}\n", name, _GLOBALS)
+
+
+def _define(source: str, name: str, globals_: dict[str, Any]) -> Callable[..., Any]:
+    """The function ``name`` that ``source`` defines over ``globals_``, with its source kept
+    as ``.source`` (for reading and for tests)."""
+    namespace = dict(globals_)
     exec(compile(source, f"<{name}>", "exec"), namespace)
     fn = namespace[name]
     fn.source = source  # type: ignore[attr-defined]
@@ -451,9 +456,6 @@ def compile_batch(
         + "\n    ".join([*unpack, *body, *copies])
         + "\n"
     )
-    namespace = dict(_BATCH_GLOBALS)
-    exec(compile(source, f"<{name}>", "exec"), namespace)
-    fn = namespace[name]
-    fn.source = source  # type: ignore[attr-defined]
+    fn = _define(source, name, _BATCH_GLOBALS)
     fn.buffers = count  # type: ignore[attr-defined]
     return fn

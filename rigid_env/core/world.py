@@ -375,23 +375,31 @@ class World:
             return self._lanes[key]
         lane = None
         if self.substeps <= MAX_UNROLLED_SUBSTEPS:
-            iso = dyn.model_columns[4]
-
-            def step(ops, u, values, m):
-                traced = copy.copy(dyn)  # the same dynamics with traced mass properties
-                traced.__dict__["model_columns"] = (m[0], m[1:4], m[4], m[5:8], iso)
-                traced.__dict__.pop("gyro_columns", None)
-                return [self._one_body_columns(traced, ops, u or None, values)]
-
             try:
                 lane = compile_one_body(
-                    step, [("u", u or []), ("s", values), ("m", dyn.model_values)]
+                    self._traced_step(),
+                    [("u", u or []), ("s", values), ("m", dyn.model_values)],
                 )
             except TypeError:  # an operation the trace cannot record
                 lane = None
         self._lanes[key] = lane
         self._last_lane = (dyn, u is None, lane)
         return lane
+
+    def _traced_step(self) -> Callable:
+        """:meth:`_one_body_columns` as the compilers trace it, ``step(ops, u, values, m)``:
+        this world's dynamics with the mass properties ``m`` (:meth:`_model_inputs`' order)
+        as inputs, so that a new model reuses the compiled step."""
+        dyn = self.dynamics
+        iso = dyn.model_columns[4]
+
+        def step(ops, u, values, m):
+            traced = copy.copy(dyn)  # the same dynamics with traced mass properties
+            traced.__dict__["model_columns"] = (m[0], m[1:4], m[4], m[5:8], iso)
+            traced.__dict__.pop("gyro_columns", None)
+            return [self._one_body_columns(traced, ops, u or None, values)]
+
+        return step
 
     def _step_batch(self, s: State, command: FloatArray | None) -> State | None:
         """:meth:`_one_body_columns` of the whole batch through its compiled form (the batch
@@ -431,16 +439,10 @@ class World:
         if key in self._batches:
             return self._batches[key]
         u, values = _batch_columns(command, s)
-
-        def step(ops, u, values, m):
-            traced = copy.copy(dyn)  # the same dynamics with traced mass properties
-            traced.__dict__["model_columns"] = (m[0], m[1:4], m[4], m[5:8], iso)
-            traced.__dict__.pop("gyro_columns", None)
-            return [self._one_body_columns(traced, ops, u or None, values)]
-
         try:
             batch = compile_batch(
-                step, [("u", u, True), ("s", values, True), ("m", self._model_inputs(), not shared)]
+                self._traced_step(),
+                [("u", u, True), ("s", values, True), ("m", self._model_inputs(), not shared)],
             )
         except (TypeError, ValueError):  # an operation on a column the trace cannot record
             batch = None
