@@ -16,7 +16,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.dynamics import gyroscopic
 from rigid_env.core.effects import LinearActuator, QuadraticDrag
 from rigid_env.core.rotation import (
     cross,
@@ -123,7 +122,7 @@ class PDController:
         if self.kind == "SpinStabilize":
             w_target = np.zeros_like(w)
             w_target[:, 1] = task.target_spin
-            tau = gyroscopic(w, inertia) - self.k_d * inertia * (w - w_target)
+            tau = cross(w, inertia * w) - self.k_d * inertia * (w - w_target)
         elif self.kind == "Reorient":
             q_err = obs[:, self.rot_dim + 6 : self.rot_dim + 10]
             tau = inertia * (self.k_p * quat_to_rotvec(q_err) - self.k_d * w)

@@ -58,7 +58,6 @@ from rigid_env.bench.reference import (
     ivp_reference,
     reference_trajectory,
 )
-from rigid_env.core.dynamics import Dynamics
 from rigid_env.core.effects import ForceEffect
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import quat_angle_between
@@ -278,7 +277,7 @@ def run_case(
     }
     if forces and sweep.check_reference:
         tight = ivp_reference(
-            Dynamics(model, forces),
+            World(model, forces),
             s0,
             t,
             act1[0] if act1 is not None else None,

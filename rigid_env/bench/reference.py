@@ -13,7 +13,7 @@ Two kinds, chosen by what acts on the body:
   ``solve_ivp`` (DOP853, ``rtol = atol = 1e-13``) on both branches. Position is
   ``x0 + v0 t``.
 * **With forces**: ``scipy.integrate.solve_ivp`` (DOP853, ``rtol = atol = 1e-12``) on the full
-  state ``(x, v, q, w)`` (13 numbers) with :meth:`rigid_env.core.dynamics.Dynamics.accelerations`
+  state ``(x, v, q, w)`` (13 numbers) with :meth:`rigid_env.core.world.World.accelerations`
   as the right-hand side and ``q' = 1/2 q (x) (0, w)``; the solver is restarted at every output
   time, so no dense-output interpolant enters the reference.
 
@@ -31,11 +31,11 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import special
 from scipy.integrate import solve_ivp
 
-from rigid_env.core.dynamics import Dynamics
 from rigid_env.core.effects import ForceEffect, StepMap
-from rigid_env.core.integrators import free_rotation_exact
+from rigid_env.core.exact import free_rotation_exact
 from rigid_env.core.rotation import quat_mul, quat_normalize, quat_rotate
 from rigid_env.core.state import BodyModel, State
+from rigid_env.core.world import World
 
 FloatArray = NDArray[np.float64]
 
@@ -194,7 +194,7 @@ def torque_free_reference(inertia: ArrayLike, s0: State, t: ArrayLike) -> Trajec
 
 
 def ivp_reference(
-    dynamics: Dynamics,
+    dynamics: World,
     s0: State,
     t: ArrayLike,
     action: ArrayLike | None = None,
@@ -206,12 +206,12 @@ def ivp_reference(
 
         x' = v,  v' = F / m,  q' = 1/2 q (x) (0, w),  w' = I^-1 (tau - w x I w)
 
-    with ``(v', w')`` from :meth:`Dynamics.accelerations` (the forces read ``q / |q|``). The
+    with ``(v', w')`` from :meth:`World.accelerations` (the forces read ``q / |q|``). The
     solver is restarted at each time in ``t`` (the state carried over exactly), so every
     output is an integration end point, not an interpolant.
 
     Args:
-        dynamics: the model and force effects. s0: initial state, N = 1.
+        dynamics: a world of the model and force effects. s0: initial state, N = 1.
         t: (T,) increasing output times [s], ``t[0] >= 0`` (the start is ``t = 0``).
         action: (A,) or (1, A) constant command for the actuators, or None.
         rtol, atol: solver tolerances.
@@ -230,11 +230,9 @@ def ivp_reference(
         a, alpha = dynamics.accelerations(x, v, quat_normalize(q), w, act)
         out = np.zeros(13)
         out[0:3] = v[0]
-        if a is not None:
-            out[3:6] = a[0]
+        out[3:6] = a[0]
         out[6:10] = 0.5 * quat_mul(q[0], np.concatenate([[0.0], w[0]]))
-        if alpha is not None:
-            out[10:13] = alpha[0]
+        out[10:13] = alpha[0]
         return out
 
     y = np.concatenate([s0.x[0], s0.v[0], s0.q[0], s0.w[0]])
@@ -269,7 +267,7 @@ def euler_ivp(
     s0 = State(
         zeros, zeros, np.array([[1.0, 0.0, 0.0, 0.0]]), np.asarray(w0, dtype=np.float64)[None, :]
     )
-    return ivp_reference(Dynamics(model, []), s0, t, rtol=rtol, atol=atol).w
+    return ivp_reference(World(model), s0, t, rtol=rtol, atol=atol).w
 
 
 # --------------------------------------------------------------------------------------------
@@ -306,7 +304,7 @@ def reference_trajectory(
         raise ValueError(f"reference: give the initial state of one body, got N = {s0.n}")
     if not forces:
         return torque_free_reference(model.inertia[0], s0, t)
-    return ivp_reference(Dynamics(model, forces), s0, t, action)
+    return ivp_reference(World(model, forces), s0, t, action)
 
 
 def angular_momentum_world(model: BodyModel, traj: Trajectory) -> FloatArray:

@@ -1,4 +1,5 @@
-"""NumPy rigid-body core: rotations, mass properties, effects, integrators and the world.
+"""Rigid-body core: NumPy arrays as data, per-body kernels compiled with Numba (rotations,
+mass properties, effects, integrators and the world).
 
 Imports nothing from gymnasium, SB3 or torch.
 """

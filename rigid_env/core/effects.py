@@ -1,6 +1,8 @@
-"""Force and torque terms, each a small frozen object.
+"""Effects: small frozen, validated parameter specs of the terms a scene can list.
 
-A world composes only the effects its scene lists: there is no "gravity = 0" path. Two kinds:
+A world composes only the effects its scene lists: each spec writes its flag and numbers into
+the world's parameters (:func:`pack`), and the compiled per-body kernels
+(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those. Two kinds:
 
 * :class:`ForceEffect` terms add to the force on the centre of mass (world frame) and the
   torque about it (body frame) at any state an integrator asks about. Actuators are force
@@ -17,15 +19,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from functools import cached_property
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import columns as col
+from rigid_env.core import kernels as K
 from rigid_env.core.rotation import cross
-from rigid_env.core.state import BodyModel, State
+from rigid_env.core.state import BodyModel
 
 FloatArray = NDArray[np.float64]
 
@@ -39,25 +40,11 @@ def _vec3(value: ArrayLike, name: str) -> FloatArray:
     return arr
 
 
-def apply_map(u: FloatArray, m: FloatArray) -> FloatArray:
-    """``u (N, A) @ m (A, 3)`` accumulated column by column in a fixed order.
-
-    BLAS chooses its kernel by matrix size, so ``(u @ m)[i]`` can differ in the last bit
-    between a batch and the same row alone; this loop over the ``A`` (a handful of) columns is
-    bit-identical for any ``N``, which keeps a vector env equal to its single envs.
-    """
-    out = u[:, 0:1] * m[0]
-    for a in range(1, m.shape[0]):
-        out += u[:, a : a + 1] * m[a]
-    return out
-
-
 class ForceEffect:
     """A term that adds force (world frame, on the centre of mass) and/or torque (body frame).
 
-    Subclasses set the class flags so that a world can skip work that cannot matter:
     ``translational`` (adds force), ``rotational`` (adds torque), ``velocity_dependent``
-    (depends on ``v`` or ``w``: integrators that freeze velocities in a sub-step must resample).
+    (depends on ``v`` or ``w``: integrators that freeze velocities in a sub-step resample).
     """
 
     name: ClassVar[str]
@@ -66,63 +53,9 @@ class ForceEffect:
     velocity_dependent: bool = False
     action_dim: int = 0
 
-    def accumulate(
-        self,
-        model: BodyModel,
-        x: FloatArray,
-        v: FloatArray,
-        q: FloatArray,
-        w: FloatArray,
-        action: FloatArray | None,
-        force_world: FloatArray,
-        torque_body: FloatArray,
-    ) -> None:
-        """Add this term into ``force_world`` (N, 3) [N] and ``torque_body`` (N, 3) [N m].
-
-        Args:
-            model: mass properties.
-            x: (N, 3) position, world [m]. v: (N, 3) velocity, world [m/s].
-            q: (N, 4) orientation body -> world. w: (N, 3) angular velocity, body [rad/s].
-            action: (N, action_dim) this effect's slice of the command, or None.
-        """
+    def write(self, p: FloatArray) -> None:
+        """Set this term's flag and numbers in the world's parameters ``p``."""
         raise NotImplementedError
-
-    def add_columns(
-        self,
-        ops: col.Ops,
-        mass: col.Col,
-        v: Sequence[col.Col],
-        q: Sequence[col.Col],
-        w: Sequence[col.Col],
-        force: list[col.Col],
-        torque: list[col.Col],
-    ) -> None:
-        """The same term over columns (see :mod:`rigid_env.core.columns`): add into the lists
-        ``force`` (world) and ``torque`` (body) of three columns, where None stands for zero.
-        The kernels of a batch and of a single body call this; ``accumulate`` is its (N, 3)
-        form."""
-        raise NotImplementedError
-
-    def _accumulate_columns(
-        self, model: BodyModel, v, q, w, force_world: FloatArray, torque_body: FloatArray
-    ) -> None:
-        """``accumulate`` by way of :meth:`add_columns` (one implementation of the physics)."""
-        force: list[col.Col] = [None, None, None]
-        torque: list[col.Col] = [None, None, None]
-        self.add_columns(
-            col.ARRAY,
-            model.mass,
-            [v[:, k] for k in range(3)],
-            [q[:, k] for k in range(4)],
-            [w[:, k] for k in range(3)],
-            force,
-            torque,
-        )
-        for k in range(3):
-            if force[k] is not None:
-                force_world[:, k] += force[k]
-            if torque[k] is not None:
-                torque_body[:, k] += torque[k]
 
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray | None:
         """(N,) potential energy [J] if the term is conservative, else None."""
@@ -134,14 +67,8 @@ class StepMap:
 
     name: ClassVar[str]
 
-    def apply(self, state: State) -> None:
-        """Modify ``state`` in place."""
-        raise NotImplementedError
-
-    def apply_columns(self, v: list[col.Col], w: list[col.Col]) -> tuple[list, list]:
-        """The same map over velocity columns (floats for one body): new ``(v, w)``, with the
-        products :meth:`apply` makes. Maps without this form keep a world off the single-body
-        lane."""
+    def write(self, p: FloatArray) -> None:
+        """Set this map's flag and factor in the world's parameters ``p``."""
         raise NotImplementedError
 
 
@@ -166,18 +93,14 @@ class Gravity(ForceEffect):
     def __post_init__(self) -> None:
         object.__setattr__(self, "g", _vec3(self.g, "gravity.g"))
 
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
-        self._accumulate_columns(model, v, q, w, force_world, torque_body)
-
-    def add_columns(self, ops, mass, v, q, w, force, torque) -> None:
-        for k in range(3):
-            gk = float(self.g[k])
-            if gk != 0.0:
-                col.add(force, k, mass * gk)
+    def write(self, p: FloatArray) -> None:
+        p[K.GRAVITY] = 1.0
+        p[K.G : K.G + 3] = self.g
 
     def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
         """``U = -m g . x`` [J]."""
-        return -model.mass * apply_map(x, self.g[:, None])[:, 0]
+        g = self.g
+        return -model.mass * (x[:, 0] * g[0] + x[:, 1] * g[1] + x[:, 2] * g[2])
 
 
 @dataclass(frozen=True)
@@ -202,10 +125,6 @@ class QuadraticDrag(ForceEffect):
     center_of_pressure: FloatArray = field(default_factory=lambda: np.zeros(3))
     name: ClassVar[str] = "quadratic_drag"
     velocity_dependent: ClassVar[bool] = True
-    k: float = field(init=False, repr=False)
-    """``1/2 rho C_D A`` [kg/m]."""
-    offset: bool = field(init=False, repr=False)
-    _cop: tuple[float, float, float] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         for name in ("rho", "cd", "area"):
@@ -214,37 +133,36 @@ class QuadraticDrag(ForceEffect):
                 raise ValueError(f"quadratic_drag.{name}: must be finite and >= 0, got {val}")
         cop = _vec3(self.center_of_pressure, "quadratic_drag.center_of_pressure")
         object.__setattr__(self, "center_of_pressure", cop)
-        object.__setattr__(self, "k", 0.5 * float(self.rho) * float(self.cd) * float(self.area))
-        object.__setattr__(self, "offset", bool(np.any(cop != 0.0)))
-        object.__setattr__(self, "_cop", tuple(float(c) for c in cop))
+
+    @property
+    def k(self) -> float:
+        """``1/2 rho C_D A`` [kg/m]."""
+        return 0.5 * float(self.rho) * float(self.cd) * float(self.area)
+
+    @property
+    def offset(self) -> bool:
+        """Whether the centre of pressure is off the centre of mass (then drag makes torque)."""
+        return bool(np.any(self.center_of_pressure != 0.0))
 
     @property
     def rotational(self) -> bool:  # type: ignore[override]
         """Makes torque only when the centre of pressure is off the centre of mass."""
         return self.offset
 
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
-        self._accumulate_columns(model, v, q, w, force_world, torque_body)
-
-    def add_columns(self, ops, mass, v, q, w, force, torque) -> None:
-        if self.offset:
-            r = self._cop
-            vr = col.rotate(q, col.cross(w, r))
-            vp = (v[0] + vr[0], v[1] + vr[1], v[2] + vr[2])
-        else:
-            vp = tuple(v)
-        ks = (-self.k) * col.norm(ops, vp)
-        f = (ks * vp[0], ks * vp[1], ks * vp[2])
-        for k in range(3):
-            col.add(force, k, f[k])
-        if self.offset:
-            tb = col.cross(r, col.rotate_inv(q, f))
-            for k in range(3):
-                col.add(torque, k, tb[k])
+    def write(self, p: FloatArray) -> None:
+        p[K.DRAG] = 1.0
+        p[K.DRAG_K] = self.k
+        p[K.DRAG_OFFSET] = 1.0 if self.offset else 0.0
+        p[K.COP : K.COP + 3] = self.center_of_pressure
 
     def terminal_speed(self, mass: float, g: float) -> float:
         """Terminal speed ``sqrt(m g / k) = sqrt(2 m g / (rho C_D A))`` [m/s] of a falling body."""
         return float(np.sqrt(mass * g / self.k))
+
+
+def _check_alpha(name: str, alpha: float) -> None:
+    if not (np.isfinite(alpha) and 0.0 < alpha <= 1.0):
+        raise ValueError(f"{name}.alpha: must lie in (0, 1], got {alpha}")
 
 
 @dataclass(frozen=True)
@@ -259,20 +177,17 @@ class LinearDamping(StepMap):
     name: ClassVar[str] = "linear_damping"
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
-            raise ValueError(f"linear_damping.alpha: must lie in (0, 1], got {self.alpha}")
+        _check_alpha(self.name, self.alpha)
 
-    def apply(self, state: State) -> None:
-        state.v *= self.alpha
-
-    def apply_columns(self, v, w):
-        return [c * self.alpha for c in v], w
+    def write(self, p: FloatArray) -> None:
+        p[K.LINEAR_DAMPING] = 1.0
+        p[K.LINEAR_ALPHA] = self.alpha
 
 
 @dataclass(frozen=True)
 class AngularDamping(StepMap):
-    """The seed's ``w <- alpha w`` once per world step (body frame; same as world frame since
-    the map is a scalar).
+    """The seed's ``w <- alpha w`` once per world step (body frame; the same in the world
+    frame since the map is a scalar).
 
     Attributes:
         alpha: factor in (0, 1] [-].
@@ -282,14 +197,11 @@ class AngularDamping(StepMap):
     name: ClassVar[str] = "angular_damping"
 
     def __post_init__(self) -> None:
-        if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
-            raise ValueError(f"angular_damping.alpha: must lie in (0, 1], got {self.alpha}")
+        _check_alpha(self.name, self.alpha)
 
-    def apply(self, state: State) -> None:
-        state.w *= self.alpha
-
-    def apply_columns(self, v, w):
-        return v, [c * self.alpha for c in w]
+    def write(self, p: FloatArray) -> None:
+        p[K.ANGULAR_DAMPING] = 1.0
+        p[K.ANGULAR_ALPHA] = self.alpha
 
 
 # --------------------------------------------------------------------------------------------
@@ -298,12 +210,11 @@ class AngularDamping(StepMap):
 
 
 class LinearActuator(ForceEffect):
-    """Body-frame forces at body points, linear in a command ``u`` (N, A) in [-1, 1].
+    """Body-frame forces at body points, linear in a command ``u`` (A,) in [-1, 1].
 
-    Every actuator here is a fixed linear map of the command: the body-frame force is
-    ``f_body = u @ force_map`` and the body-frame torque ``tau_body = u @ torque_map`` where row
-    ``a`` of ``torque_map`` is ``r_a x force_map[a]`` (force at point ``r_a``). So one actuator
-    step costs two small matrix products and one rotation, whatever the layout.
+    The body-frame force is ``f_body = u @ force_map`` and the body-frame torque
+    ``tau_body = u @ torque_map``, row ``a`` of ``torque_map`` being ``r_a x force_map[a]``
+    (force at point ``r_a``): one actuator step is a short weighted sum whatever the layout.
     """
 
     name: ClassVar[str] = "actuator"
@@ -315,50 +226,8 @@ class LinearActuator(ForceEffect):
         """Number of command components."""
         return self.force_map.shape[0]
 
-    def body_wrench(self, action: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """Force (N, 3) [N] and torque (N, 3) [N m], both body frame, of a command (N, A)."""
-        return apply_map(action, self.force_map), apply_map(action, self.torque_map)
-
-    def wrench_columns(
-        self, u: Sequence[col.Col], force: list[col.Col], torque: list[col.Col]
-    ) -> None:
-        """Add the body-frame force and torque of command columns ``u`` (A of them) into the
-        lists ``force`` and ``torque`` (None = zero), term by nonzero term of the maps in a
-        fixed order (a thruster couple touches one torque component, not three)."""
-        for a, k, c, to_torque in self._terms:
-            col.add(torque if to_torque else force, k, u[a] * c)
-
-    @cached_property
-    def _terms(self) -> tuple[tuple[int, int, float, bool], ...]:
-        """``(action column, component, coefficient, is torque)`` of each nonzero map entry."""
-        return tuple(
-            (a, k, float(m[a, k]), is_t)
-            for a in range(self.force_map.shape[0])
-            for k in range(3)
-            for m, is_t in ((self.force_map, False), (self.torque_map, True))
-            if m[a, k] != 0.0
-        )
-
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
-        if action is None:
-            return
-        self.add_body_wrench(q, *self.body_wrench(action), force_world, torque_body)
-
-    @staticmethod
-    def add_body_wrench(
-        q: FloatArray,
-        force_body: FloatArray,
-        torque_body_in: FloatArray,
-        force_world: FloatArray,
-        torque_body: FloatArray,
-    ) -> None:
-        """Add a body-frame force (rotated to the world) and torque. The command is constant
-        over a world step, so :class:`~rigid_env.core.dynamics.Dynamics` computes
-        :meth:`body_wrench` once per step and reuses it in every integrator stage."""
-        fw = col.rotate([q[:, k] for k in range(4)], [force_body[:, k] for k in range(3)])
-        for k in range(3):
-            force_world[:, k] += fw[k]
-        torque_body += torque_body_in
+    def write(self, p: FloatArray) -> None:
+        """Actuators are written by :func:`pack`, all of them into one table of maps."""
 
 
 @dataclass(frozen=True)
@@ -434,3 +303,34 @@ class PointForces(LinearActuator):
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "force_map", fmap)
         object.__setattr__(self, "torque_map", tmap)
+
+
+def pack(
+    effects: Sequence[ForceEffect | StepMap],
+    h: float,
+    substeps: int,
+    max_angular_speed: float | None = None,
+    stable_angle: float | None = None,
+) -> FloatArray:
+    """The world's parameters (:mod:`rigid_env.core.kernels`): the step ``h`` and ``substeps``,
+    each effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad]
+    (None: no limit) and the actuators' maps, one row ``(force (3,), torque (3,))`` per command
+    component in scene order."""
+    actuators = [e for e in effects if isinstance(e, LinearActuator)]
+    rows = [np.hstack([a.force_map, a.torque_map]) for a in actuators]
+    maps = np.vstack(rows) if rows else np.zeros((0, 6))
+    p = np.zeros(K.HEADER + maps.size)
+    p[K.H] = h
+    p[K.SUBSTEPS] = substeps
+    for e in effects:
+        e.write(p)
+    if max_angular_speed is not None:
+        p[K.MAX_SPEED] = 1.0
+        p[K.MAX_SPEED_VALUE] = max_angular_speed
+    if stable_angle is not None:
+        p[K.STABLE_SPEED] = stable_angle / h
+    p[K.ACTIONS] = maps.shape[0]
+    p[K.MAPS :] = maps.ravel()
+    p[K.ACTUATOR_FORCE] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
+    p[K.ANY_FORCE] = 1.0 if any(isinstance(e, ForceEffect) for e in effects) else 0.0
+    return p

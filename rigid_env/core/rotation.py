@@ -25,7 +25,6 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import columns
 
 FloatArray = NDArray[np.float64]
 
@@ -144,7 +143,9 @@ def canonical(q: ArrayLike) -> FloatArray:
         q: (..., 4) quaternion (w, x, y, z).
     """
     q = _as_float(q)
-    return np.stack(columns.canonical(columns.ARRAY, [q[..., k] for k in range(4)]), axis=-1)
+    w, x, y, z = (q[..., k] for k in range(4))
+    lead = np.where(w != 0.0, w, np.where(x != 0.0, x, np.where(y != 0.0, y, z)))
+    return np.where((lead < 0.0)[..., None], -q, q)
 
 
 def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
@@ -276,7 +277,8 @@ def quat_angle_between(p: ArrayLike, q: ArrayLike) -> FloatArray:
     """Angle [rad] in [0, pi] of the rotation taking ``p`` to ``q``: ``2 acos |<p, q>|`` computed
     stably as ``2 atan2(|vec(p* q)|, |scalar(p* q)|)``."""
     d = quat_mul(quat_conj(p), q)
-    return columns.rotation_angle(columns.ARRAY, [d[..., k] for k in range(4)])
+    vec = np.sqrt(d[..., 1] * d[..., 1] + d[..., 2] * d[..., 2] + d[..., 3] * d[..., 3])
+    return 2.0 * np.arctan2(vec, np.abs(d[..., 0]))
 
 
 def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:

@@ -25,12 +25,6 @@ def isotropic_rows(inertia: NDArray[np.float64]) -> NDArray[np.bool_]:
     return (top - inertia.min(axis=1)) <= ISOTROPY_RTOL * top
 
 
-def isotropy(mask: NDArray[np.bool_]) -> bool | NDArray[np.bool_]:
-    """``True`` if every body is isotropic, ``False`` if none is, else the (N,) mask itself
-    (what the column kernels take: a batch that mixes both selects row by row)."""
-    return True if mask.all() else False if not mask.any() else mask
-
-
 @dataclass(frozen=True)
 class BodyModel:
     """Mass properties of a batch of bodies in their principal frames.
@@ -72,6 +66,19 @@ class BodyModel:
         """Batch length of the model arrays (1 when shared by all bodies)."""
         return max(self.mass.shape[0], self.inertia.shape[0])
 
+    def rows(self) -> FloatArray:
+        """(N | 1, MODEL_WIDTH) model rows for the compiled kernels
+        (:mod:`rigid_env.core.kernels`): mass, principal moments, their reciprocals and an
+        isotropy flag (no gyroscopic term), one row per body or one shared."""
+        n = self.n
+        out = np.empty((n, 9))
+        out[:, 0] = np.broadcast_to(self.mass, (n,))
+        out[:, 1:4] = np.broadcast_to(self.inertia, (n, 3))
+        out[:, 4] = np.broadcast_to(self.inv_mass[:, 0], (n,))
+        out[:, 5:8] = np.broadcast_to(self.inv_inertia, (n, 3))
+        out[:, 8] = np.broadcast_to(isotropic_rows(self.inertia), (n,))
+        return out
+
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
         """One body's mass [kg] and principal moments (3,) [kg m^2], shared by the whole batch."""
@@ -102,9 +109,8 @@ class State:
         return self.x.shape[0]
 
     def copy(self) -> State:
-        """Deep copy of the arrays (in their memory order: the column kernels keep them
-        column-major)."""
-        return State(*(a.copy(order="K") for a in (self.x, self.v, self.q, self.w)))
+        """Deep copy of the arrays."""
+        return State(*(a.copy() for a in (self.x, self.v, self.q, self.w)))
 
     @classmethod
     def zeros(cls, n: int) -> State:
@@ -123,6 +129,17 @@ class State:
             if a.shape != (n, d):
                 raise ValueError(f"state.{name}: expected shape ({n}, {d}), got {a.shape}")
         return cls(*arrs)
+
+    def assign(self, other: State) -> None:
+        """Copy ``other``'s arrays into this state's arrays (in place, same shapes)."""
+        for name, width in (("x", 3), ("v", 3), ("q", 4), ("w", 3)):
+            src = np.asarray(getattr(other, name), dtype=np.float64)
+            dst = getattr(self, name)
+            if src.shape != dst.shape:
+                raise ValueError(
+                    f"state.{name}: expected shape {dst.shape} (N, {width}), got {src.shape}"
+                )
+            dst[...] = src
 
     def take(self, index: ArrayLike) -> State:
         """The bodies at ``index`` as a new state."""

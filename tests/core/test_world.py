@@ -3,6 +3,10 @@ the non-finite guard, effect composition, the angular speed limit and energy boo
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from numpy.typing import NDArray
@@ -11,7 +15,6 @@ from rigid_env.core import (
     INTEGRATORS,
     AngularDamping,
     BodyModel,
-    ForceEffect,
     Gravity,
     LinearDamping,
     NumericalInstabilityError,
@@ -20,6 +23,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
+from rigid_env.core import kernels as K
 
 FloatArray = NDArray[np.float64]
 
@@ -199,34 +203,28 @@ def test_raise_names_body_step_and_integrator() -> None:
     assert np.all(np.isfinite(world.state.w))
 
 
-class InjectInf(ForceEffect):
-    """Test effect: adds an infinite force to one body when armed (a stand-in for any bug or
-    overflow in a force model)."""
-
-    name = "inject_inf"
-    translational = True
-    rotational = False
-
-    def __init__(self, body: int) -> None:
-        self.body = body
-        self.armed = False
-
-    def accumulate(self, model, x, v, q, w, action, force_world, torque_body) -> None:
-        if self.armed:
-            force_world[self.body] += np.inf
+def overflowing_thrusters() -> Thrusters:
+    """Two thrusters along body x at 1.7e308 N each: both at full command sum to an infinite
+    force (a stand-in for any overflow in a force model)."""
+    return Thrusters(
+        points=[[0.0, 0.0, 0.0]] * 2, directions=[[1.0, 0.0, 0.0]] * 2, max_force=[1.7e308] * 2
+    )
 
 
 @pytest.mark.parametrize("name", list(INTEGRATORS))
 def test_injected_inf_is_caught_for_every_integrator(name: str) -> None:
-    effect = InjectInf(body=2)
-    world = World(BodyModel(MASS, INERTIA), (effect,), name, 0.01, state=STATE0)
+    world = World(BodyModel(MASS, INERTIA), (overflowing_thrusters(),), name, 0.01, state=STATE0)
     for _ in range(3):
         world.step()
-    effect.armed = True
+    armed = np.zeros((N, 2))
+    armed[2] = 1.0
+    before = world.state.copy()
     with pytest.raises(NumericalInstabilityError, match="body 2") as info:
-        world.step()
+        world.step(armed)
     assert info.value.step == 4
     assert info.value.integrator == name
+    for k in "xvqw":  # the failed step left every body as it was
+        assert np.array_equal(getattr(world.state, k), getattr(before, k))
 
 
 def test_freeze_flags_only_the_bad_body_and_others_go_on_bitwise() -> None:
@@ -241,7 +239,7 @@ def test_freeze_flags_only_the_bad_body_and_others_go_on_bitwise() -> None:
         if bad.any() and failed_at is None:
             failed_at = k + 1
             last_finite = before.take([1])
-        assert np.array_equal(bad, [False, failed_at is not None, False])
+        assert np.array_equal(bad, [False, failed_at == k + 1, False])  # then frozen
         for k_ in "xvqw":
             assert np.array_equal(getattr(world.state, k_)[[0, 2]], getattr(without.state, k_))
     assert failed_at is not None  # the scenario does blow up (at step 10)
@@ -260,30 +258,54 @@ def test_freeze_flags_only_the_bad_body_and_others_go_on_bitwise() -> None:
 # --------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", list(INTEGRATORS))
-def test_unlisted_effect_is_never_called(name: str, monkeypatch: pytest.MonkeyPatch) -> None:
-    calls = {"n": 0}
-    # Every path into the physics of an effect (``accumulate`` of the (N, 3) integrators, the
-    # column kernels of splitting and of a single body) goes through ``add_columns``.
-    original = Gravity.add_columns
+def test_unlisted_effect_has_no_flag_and_listed_one_does() -> None:
+    """The compiled kernels evaluate an effect only where its flag is set: a world that does
+    not list gravity or drag carries zero flags for them (the line-by-line proof that the
+    kernel never evaluates them is ``test_unlisted_effects_never_run_without_jit``)."""
+    bare = World(BodyModel(MASS, INERTIA), (LinearDamping(0.99),), "rk4", 0.01, state=STATE0)
+    for flag in (K.GRAVITY, K.DRAG, K.ANGULAR_DAMPING, K.MAX_SPEED, K.ANY_FORCE):
+        assert bare.params[flag] == 0.0
+    assert bare.params[K.LINEAR_DAMPING] == 1.0
+    listed = World(BodyModel(MASS, INERTIA), (Gravity(), QuadraticDrag()), "rk4", 0.01, n=N)
+    assert listed.params[K.GRAVITY] == listed.params[K.DRAG] == listed.params[K.ANY_FORCE] == 1.0
 
-    def counting(self, *args, **kwargs):
-        calls["n"] += 1
-        return original(self, *args, **kwargs)
 
-    monkeypatch.setattr(Gravity, "add_columns", counting)
-    # A gravity object exists (as in a scene library) but this world does not list it.
-    _unused = Gravity()
-    for listed in ((), (LinearDamping(0.99), AngularDamping(0.99))):
-        world = World(BodyModel(MASS, INERTIA), listed, name, 0.01, state=STATE0)
-        assert world.dynamics.wrench(STATE0.x, STATE0.v, STATE0.q, STATE0.w, None) == (None, None)
-        for _ in range(3):
-            world.step()
-    assert calls["n"] == 0
-    # Control: listed, it is called (so the counter does count).
-    world = World(BodyModel(MASS, INERTIA), (Gravity(),), name, 0.01, state=STATE0)
+UNLISTED_PROBE = """
+import sys
+import numpy as np
+from rigid_env.core import BodyModel, Gravity, QuadraticDrag, World, kernels
+lines, code = set(), kernels.accelerations.__code__
+def trace(frame, event, arg):
+    if frame.f_code is code:
+        lines.add(frame.f_lineno - code.co_firstlineno)
+        return trace
+    return None
+def run(effects):
+    lines.clear()
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), effects, "rk4", 0.01)
+    world.state.w[0] = [1.0, 2.0, 3.0]
+    sys.settrace(trace)
     world.step()
-    assert calls["n"] > 0
+    sys.settrace(None)
+    return set(lines)
+bare, full = run(()), run((Gravity(), QuadraticDrag(center_of_pressure=[0.0, 0.0, 0.1])))
+print(sorted(full - bare))
+"""
+
+
+def test_unlisted_effects_never_run_without_jit() -> None:
+    """With ``NUMBA_DISABLE_JIT=1`` the same kernels run as Python, and a line tracer shows
+    which lines of :func:`rigid_env.core.kernels.accelerations` ran: a world with no effects
+    runs none of the gravity or drag lines that a world listing them runs (so they cost
+    nothing but the skipped branch), and the rk4 step itself works without the compiler."""
+    env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", UNLISTED_PROBE], env=env, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    only_with_effects = eval(out.stdout.strip().splitlines()[-1])
+    # gravity's three force lines, drag's velocity, norm, force and offset-torque lines
+    assert len(only_with_effects) >= 10, only_with_effects
 
 
 def test_torque_free_world_leaves_translation_alone() -> None:
@@ -398,29 +420,8 @@ def test_world_rejects_bad_configuration() -> None:
         World(BodyModel(MASS[:2], INERTIA[:2]), (), "rk4", 0.01, state=STATE0)
 
 
-def test_single_body_lane_equals_batch_bitwise_at_high_spin() -> None:
-    """A world of one body under ``splitting`` runs the column kernel on Python floats (the
-    single-body lane); a batch runs it on NumPy columns. At |w| ~ 150 rad/s the half angles of
-    the axis rotations leave the series' range, so both take NumPy's cos/sin there: body i of
-    the batch is still, bit for bit, body i alone."""
+def test_batch_equals_single_bodies_bitwise_at_high_spin() -> None:
+    """At |w| ~ 150 rad/s (large half angles in the axis rotations) body i of the batch is
+    still, bit for bit, body i alone."""
     state = State(STATE0.x, STATE0.v, STATE0.q, STATE0.w * 50.0)
-    batch, singles = step_batch_and_singles(state, "splitting")
-    assert all(world._one_body for world in singles) and not batch._one_body
-
-
-def test_half_angle_series_matches_libm_to_one_ulp() -> None:
-    """The series for cos/sin of the half angles is within one rounding unit of NumPy's
-    cos/sin over its whole range, and the float and array backends agree bit for bit, also
-    beyond the range (where both use NumPy's functions)."""
-    from rigid_env.core import columns
-
-    a = np.linspace(-columns.HALF_ANGLE_MAX, columns.HALF_ANGLE_MAX, 100_001)
-    c, s, _ = columns.ARRAY.half_sincos(a)
-    assert np.all(np.abs(c - np.cos(a)) <= np.spacing(np.cos(a)))
-    assert np.all(np.abs(s - np.sin(a)) <= np.spacing(np.abs(np.sin(a))) + 1e-300)
-    mixed = np.array([0.0, 1e-9, -0.2, 0.25, 0.2500001, -1.0, 3.0, 40.0])
-    arr = columns.ARRAY.half_sincos(mixed.copy())
-    for i, x in enumerate(mixed.tolist()):
-        one = columns.SCALAR.half_sincos(x)
-        assert [float(v[i]) for v in arr] == list(one), x
-    assert columns.SCALAR.half_sincos(0.0)[2] == 1.0
+    step_batch_and_singles(state, "splitting")

@@ -1,0 +1,259 @@
+"""Per-body maths of the compiled step, written once for one body and compiled with Numba.
+
+Every function here takes and returns plain numbers and small tuples (a 3-vector is
+``(x, y, z)``, a quaternion ``(w, x, y, z)``), so Numba keeps them in registers; a world's
+step is one compiled loop over its ``N`` bodies calling them (see
+:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs the very same functions as
+plain Python, the debugging story.
+
+Two small float64 arrays carry everything an integrator reads besides the state:
+
+* a **model row** ``m`` (:data:`MODEL_WIDTH` numbers, one row per body or one shared): mass,
+  principal moments, their reciprocals and whether the body is isotropic;
+* the **parameters** ``p`` of the world (:func:`rigid_env.core.effects.pack`): the time step,
+  the active effects (a flag and its numbers each; an effect the scene does not list is a 0
+  flag, skipped by one branch) and the actuators' linear maps.
+
+Frames: forces on the centre of mass are world frame, torques and angular velocities body
+frame (principal axes), so the inertia is the constant diagonal ``I``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+kernel = njit(cache=True, nogil=True, error_model="numpy")
+"""The decorator of every compiled function: cached on disk, the GIL released, IEEE
+arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception)."""
+
+# ---- a model row -----------------------------------------------------------------------------
+MASS, I0, I1, I2, INV_MASS, INV_I0, INV_I1, INV_I2, ISOTROPIC = range(9)
+MODEL_WIDTH = 9
+
+# ---- the world's parameters ------------------------------------------------------------------
+H = 0  # integrator step dt / substeps [s]
+SUBSTEPS = 1
+GRAVITY = 2  # flag, then g (3,) world [m/s^2]
+G = 3
+DRAG = 6  # flag, then k = rho cd A / 2 [kg/m], offset flag, centre of pressure (3,) body [m]
+DRAG_K = 7
+DRAG_OFFSET = 8
+COP = 9
+LINEAR_DAMPING = 12  # flag, then alpha
+LINEAR_ALPHA = 13
+ANGULAR_DAMPING = 14  # flag, then alpha
+ANGULAR_ALPHA = 15
+MAX_SPEED = 16  # flag, then the limit on |w| [rad/s]
+MAX_SPEED_VALUE = 17
+ACTUATOR_FORCE = 18  # flag: some actuator pushes the centre of mass (not only couples)
+ANY_FORCE = 19  # flag: some effect or actuator acts (else the kicks of a splitting are skipped)
+STABLE_SPEED = 20  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
+ACTIONS = 21  # number A of command components
+MAPS = 22  # then A rows of (force (3,), torque (3,)) body frame at |u| = 1
+HEADER = 22
+
+
+# ---- vectors and quaternions -----------------------------------------------------------------
+@kernel
+def cross(a, b):
+    """``a x b``."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@kernel
+def norm(a):
+    """``|a|`` of a 3-vector."""
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@kernel
+def axpy(y, h, d):
+    """``y + h d`` of 3-vectors."""
+    return (y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2])
+
+
+@kernel
+def quat_mul(p, q):
+    """Hamilton product ``p (x) q`` of quaternions ``(w, x, y, z)``."""
+    pw, px, py, pz = p
+    qw, qx, qy, qz = q
+    return (
+        pw * qw - px * qx - py * qy - pz * qz,
+        pw * qx + px * qw + py * qz - pz * qy,
+        pw * qy - px * qz + py * qw + pz * qx,
+        pw * qz + px * qy - py * qx + pz * qw,
+    )
+
+
+@kernel
+def rotate(q, v):
+    """``R(q) v`` for a unit quaternion: ``v + w t + u x t`` with ``t = 2 u x v``."""
+    w, x, y, z = q
+    tx = 2.0 * (y * v[2] - z * v[1])
+    ty = 2.0 * (z * v[0] - x * v[2])
+    tz = 2.0 * (x * v[1] - y * v[0])
+    return (
+        v[0] + w * tx + (y * tz - z * ty),
+        v[1] + w * ty + (z * tx - x * tz),
+        v[2] + w * tz + (x * ty - y * tx),
+    )
+
+
+@kernel
+def rotate_inv(q, v):
+    """``R(q)^T v``."""
+    return rotate((q[0], -q[1], -q[2], -q[3]), v)
+
+
+@kernel
+def normalize(q):
+    """``q / |q|``; a zero or non-finite ``q`` gives NaN (for the world's guard)."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    if not n > 0.0:
+        return (math.nan, math.nan, math.nan, math.nan)
+    inv = 1.0 / n
+    return (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
+
+
+@kernel
+def spin(q, w, h):
+    """``q (x) exp(h w / 2)``: the body turned by the body-frame angle vector ``h w`` (the exact
+    flow for constant ``w``). ``exp(h w / 2) = (cos a, (h/2) (sin a / a) w)``, ``a = h |w| / 2``;
+    below ``a = 1e-4`` ``sin a / a = 1 - a^2 / 6`` to a relative ``a^4 / 120 < 1e-18``."""
+    half = 0.5 * h
+    a = half * norm(w)
+    sinc = 1.0 - a * a / 6.0 if a < 1.0e-4 else math.sin(a) / a
+    f = half * sinc
+    return quat_mul(q, (math.cos(a), f * w[0], f * w[1], f * w[2]))
+
+
+@kernel
+def qdot(q, w):
+    """``q' = 1/2 q (x) (0, w)`` for a body-frame ``w``."""
+    qw, qx, qy, qz = q
+    return (
+        -0.5 * (qx * w[0] + qy * w[1] + qz * w[2]),
+        0.5 * (qw * w[0] + qy * w[2] - qz * w[1]),
+        0.5 * (qw * w[1] - qx * w[2] + qz * w[0]),
+        0.5 * (qw * w[2] + qx * w[1] - qy * w[0]),
+    )
+
+
+# ---- Euler's equations -----------------------------------------------------------------------
+@kernel
+def gyroscopic(w, m):
+    """``w x (I w)`` [N m] for the principal moments of model row ``m``."""
+    return (
+        w[1] * w[2] * (m[I2] - m[I1]),
+        w[2] * w[0] * (m[I0] - m[I2]),
+        w[0] * w[1] * (m[I1] - m[I0]),
+    )
+
+
+@kernel
+def gyro_jacobian(w, m):
+    """``d(w x I w)/dw = skew(w) I - skew(I w)``, row-major 9-tuple."""
+    i0, i1, i2 = m[I0], m[I1], m[I2]
+    l0, l1, l2 = i0 * w[0], i1 * w[1], i2 * w[2]
+    return (
+        0.0,
+        -w[2] * i1 + l2,
+        w[1] * i2 - l1,
+        w[2] * i0 - l2,
+        0.0,
+        -w[0] * i2 + l0,
+        -w[1] * i0 + l1,
+        w[0] * i1 - l0,
+        0.0,
+    )
+
+
+@kernel
+def solve3(a, b):
+    """``x`` with ``a x = b`` for a row-major 3x3 ``a`` (9-tuple), by the adjugate."""
+    c00 = a[4] * a[8] - a[5] * a[7]
+    c01 = a[5] * a[6] - a[3] * a[8]
+    c02 = a[3] * a[7] - a[4] * a[6]
+    c10 = a[2] * a[7] - a[1] * a[8]
+    c11 = a[0] * a[8] - a[2] * a[6]
+    c12 = a[1] * a[6] - a[0] * a[7]
+    c20 = a[1] * a[5] - a[2] * a[4]
+    c21 = a[2] * a[3] - a[0] * a[5]
+    c22 = a[0] * a[4] - a[1] * a[3]
+    det = a[0] * c00 + a[1] * c01 + a[2] * c02
+    return (
+        (c00 * b[0] + c10 * b[1] + c20 * b[2]) / det,
+        (c01 * b[0] + c11 * b[1] + c21 * b[2]) / det,
+        (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det,
+    )
+
+
+@kernel
+def wrench(p, u):
+    """Body-frame force and torque of the actuators for one body's command ``u`` (A,): each
+    actuator is linear in its command, ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a
+    (r_a x F_a)`` (rows of :data:`MAPS`), summed in a fixed order."""
+    fx = fy = fz = tx = ty = tz = 0.0
+    for a in range(u.shape[0]):
+        k = MAPS + 6 * a
+        c = u[a]
+        fx += c * p[k]
+        fy += c * p[k + 1]
+        fz += c * p[k + 2]
+        tx += c * p[k + 3]
+        ty += c * p[k + 4]
+        tz += c * p[k + 5]
+    return (fx, fy, fz), (tx, ty, tz)
+
+
+@kernel
+def accelerations(v, q, w, fb, tb, m, p, gyro):
+    """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
+    [rad/s^2] of one body, from the actuators' body wrench ``(fb, tb)`` and the active effects:
+
+    * gravity ``F = m g``;
+    * quadratic drag ``F = -k |v_p| v_p`` at the centre of pressure ``r`` (body frame), whose
+      velocity is ``v_p = v + R (w x r)``; off the centre of mass it adds ``tau = r x R^T F``;
+    * with ``gyro``, Euler's ``I w' = tau - w x I w`` (skipped for an isotropic body, where the
+      term vanishes).
+    """
+    fx = fy = fz = 0.0
+    if p[ACTUATOR_FORCE] != 0.0:
+        fx, fy, fz = rotate(q, fb)
+    tx, ty, tz = tb
+    if p[GRAVITY] != 0.0:
+        fx += m[MASS] * p[G]
+        fy += m[MASS] * p[G + 1]
+        fz += m[MASS] * p[G + 2]
+    if p[DRAG] != 0.0:
+        vp = v
+        cop = (p[COP], p[COP + 1], p[COP + 2])
+        if p[DRAG_OFFSET] != 0.0:
+            vp = axpy(v, 1.0, rotate(q, cross(w, cop)))
+        ks = -p[DRAG_K] * norm(vp)
+        drag = (ks * vp[0], ks * vp[1], ks * vp[2])
+        fx += drag[0]
+        fy += drag[1]
+        fz += drag[2]
+        if p[DRAG_OFFSET] != 0.0:
+            tau = cross(cop, rotate_inv(q, drag))
+            tx += tau[0]
+            ty += tau[1]
+            tz += tau[2]
+    if gyro and m[ISOTROPIC] == 0.0:
+        g = gyroscopic(w, m)
+        tx -= g[0]
+        ty -= g[1]
+        tz -= g[2]
+    inv_m = m[INV_MASS]
+    return (fx * inv_m, fy * inv_m, fz * inv_m), (tx * m[INV_I0], ty * m[INV_I1], tz * m[INV_I2])
+
+
+@kernel
+def kinetic_energy(v, w, m):
+    """``1/2 (m |v|^2 + sum_k I_k w_k^2)`` [J]."""
+    trans = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    rot = m[I0] * w[0] * w[0] + m[I1] * w[1] * w[1] + m[I2] * w[2] * w[2]
+    return 0.5 * (m[MASS] * trans + rot)
