@@ -9,7 +9,7 @@ SB3's semantics, as its ``DummyVecEnv`` over single envs gives them:
   ``infos[i]["terminal_observation"]``, and ``infos[i]["TimeLimit.truncated"]`` says whether the
   episode was cut by the time limit (or a numerical failure) rather than ended by the task.
 
-All sub-envs step in one NumPy call; only the few envs that finished are reset one by one
+All sub-envs step in one compiled call; only the few envs that finished are reset one by one
 (each from its own generator, which is what makes it match ``DummyVecEnv`` bit for bit).
 """
 
@@ -67,19 +67,20 @@ class RigidBodySB3VecEnv(VecEnv):
         self._reset_seeds()
         self._reset_options()
         self.task.reset_envs(np.arange(self.num_envs), self._rngs)
-        return self.task.observe(self._rngs)
+        return self.task.observe()
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions = actions
 
     def step_wait(self) -> VecEnvStepReturn:
-        act = self.task.check_action(np.asarray(self._actions).reshape(self.num_envs, -1))
-        reward, terminated, failed = self.task.step(act)
+        self.task.check_action(np.asarray(self._actions).reshape(self.num_envs, -1))
+        reward, terminated, failed = self.task.step(self._rngs)
+        reward = reward.astype(np.float32)
         truncated = failed.copy()
         if self.max_episode_steps is not None:
             truncated |= self.task.steps >= self.max_episode_steps
         done = terminated | truncated
-        obs = self.task.observe(self._rngs)
+        obs = self.task.observe()
         raw = self.task.infos()
         # One conversion per key (not per env and key): Python scalars from ``tolist``, rows of
         # the (fresh, per-step) vector arrays as they are.
@@ -94,8 +95,8 @@ class RigidBodySB3VecEnv(VecEnv):
                 infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
             rngs = [self._rngs[i] for i in idx]
             self.task.reset_envs(idx, rngs)
-            obs[idx] = self.task.observe(rngs, idx)
-        return obs, reward.astype(np.float32), done, infos
+            obs[idx] = self.task.observe(idx)
+        return obs, reward, done, infos
 
     def close(self) -> None:
         pass

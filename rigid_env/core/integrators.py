@@ -607,7 +607,8 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             explicit_euler, _explicit_euler,
         ),
         IntegratorInfo(
-            "implicit_euler", 1, "backward Euler by Newton iteration; unconditionally stable, damps",
+            "implicit_euler", 1,
+            "backward Euler by Newton iteration; unconditionally stable, damps",
             implicit_euler, _implicit_euler,
         ),
         IntegratorInfo(

@@ -20,9 +20,33 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 
 from __future__ import annotations
 
+import hashlib
 import math
+import os
+from pathlib import Path
 
+import numba
 from numba import njit
+
+
+def _use_cache_for_this_source() -> None:
+    """Keep compiled kernels under a folder named by a hash of the kernel sources
+    (``rigid_env/core`` and ``rigid_env/envs``): Numba checks only the time stamp of the file
+    that defines a cached function, not of the files whose functions it inlined, so an edit of
+    this file would otherwise leave stale code in the caches of the integrators. The folder is
+    ``$XDG_CACHE_HOME/rigid_env/numba/<hash>`` (``~/.cache`` by default; safe to delete);
+    ``NUMBA_CACHE_DIR``, where set, is used as it is."""
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    package = Path(__file__).resolve().parents[1]
+    digest = hashlib.sha256()
+    for path in sorted([*package.glob("core/*.py"), *package.glob("envs/*.py")]):
+        digest.update(path.name.encode() + path.read_bytes())
+    home = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    numba.config.CACHE_DIR = str(home / "rigid_env" / "numba" / digest.hexdigest()[:16])
+
+
+_use_cache_for_this_source()
 
 kernel = njit(cache=True, nogil=True, error_model="numpy")
 """The decorator of every compiled function: cached on disk, the GIL released, IEEE
@@ -124,7 +148,7 @@ def spin(q, w, h):
     below ``a = 1e-4`` ``sin a / a = 1 - a^2 / 6`` to a relative ``a^4 / 120 < 1e-18``."""
     half = 0.5 * h
     a = half * norm(w)
-    sinc = 1.0 - a * a / 6.0 if a < 1.0e-4 else math.sin(a) / a
+    sinc = 1.0 - a * a / 6.0 if abs(a) < 1.0e-4 else math.sin(a) / a
     f = half * sinc
     return quat_mul(q, (math.cos(a), f * w[0], f * w[1], f * w[2]))
 

@@ -1,9 +1,11 @@
 """The task layer shared by every environment, written once for a batch of ``N`` bodies.
 
 :class:`TaskBatch` owns a :class:`~rigid_env.core.world.World` of ``N`` bodies and a task's reset
-distribution, observation, reward and episode end. :class:`RigidBodyEnv` (a ``gymnasium.Env``)
+distribution, observation, reward and episode end. A step is two compiled calls: the world's
+step, then the task's pass over the envs (:func:`rigid_env.envs.kernels.task_pass`: fuel,
+reward, termination, success, observation, info). :class:`RigidBodyEnv` (a ``gymnasium.Env``)
 is the ``N = 1`` case of it and :class:`RigidBodyVectorEnv` (a native
-``gymnasium.vector.VectorEnv``) the ``N`` case: there is no second copy of the physics.
+``gymnasium.vector.VectorEnv``) the ``N`` case: there is no second copy of anything.
 
 Randomness comes only from per-environment generators (``np_random`` of the single env; one
 generator per sub-environment, seeded ``seed + i``, in the vector env), so sub-environment ``i``
@@ -14,7 +16,7 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
@@ -27,13 +29,9 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.columns import ARRAY, SCALAR, Ops, norm, rotate
-from rigid_env.core.columns import kinetic_energy as kinetic_energy_columns
 from rigid_env.core.effects import LinearActuator
-from rigid_env.core.rotation import canonical, quat_to_sixd
 from rigid_env.core.state import BodyModel
-from rigid_env.core.world import kinetic_energy
-from rigid_env.envs.rewards import fuel_rate, weighted_sum
+from rigid_env.envs import kernels as T
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
@@ -117,10 +115,11 @@ def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray
 class TaskBatch:
     """A task on ``num_envs`` bodies: reset distribution, observation, reward, episode end.
 
-    Subclasses set :attr:`scene_name` and implement :meth:`sample` (one env's initial state and
-    target from its generator), :meth:`task_observation`, :meth:`evaluate` and the extra
-    observation bounds. Everything else (actions, thrusters, counters, randomisation, spaces)
-    lives here.
+    A task subclass sets :attr:`scene_name` and its observation sizes, implements
+    :meth:`sample` (one env's initial state and target from its generator) and
+    :meth:`task_numbers`, and names its compiled pass (:attr:`task_pass`: the generic
+    :func:`~rigid_env.envs.kernels.task_pass` with the task's per-env ``evaluate``).
+    Everything else (actions, thrusters, fuel, randomisation, spaces, buffers) lives here.
 
     Args:
         num_envs: number of bodies ``N``.
@@ -134,6 +133,9 @@ class TaskBatch:
     scene_name: ClassVar[str]
     task_obs_dim: ClassVar[int] = 0
     task_obs_bound: ClassVar[float] = 1.0
+    target_dim: ClassVar[int] = 0
+    memory_dim: ClassVar[int] = 0
+    task_pass: ClassVar[Callable[..., None]]
 
     def __init__(
         self,
@@ -153,8 +155,6 @@ class TaskBatch:
                 f"rotation_repr: must be 'quaternion' or 'sixd', got {rotation_repr!r}"
             )
         self.n = int(num_envs)
-        self.ops: Ops = SCALAR if self.n == 1 else ARRAY
-        """Backend of the per-env columns: Python floats for one env, (N,) arrays for a batch."""
         self.scene: Scene = load_scene(
             scene if scene is not None else default_scene_path(self.scene_name)
         )
@@ -174,20 +174,7 @@ class TaskBatch:
         # Per-component force at |u| = 1 [N], for the fuel measure.
         actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
         self.max_force = np.concatenate([np.linalg.norm(a.force_map, axis=1) for a in actuators])
-        self._max_force = self.max_force.tolist()  # the fuel sum's weights, as floats
         self.action_dim = self.world.action_dim
-        self.thrust_scale: FloatArray | None = None  # (N, A) when thrust is randomised
-        self.steps = np.zeros(self.n, dtype=np.int64)
-        self._speed_of: object = None
-        self._speed = np.zeros(self.n)
-        self.fuel = np.zeros(self.n)
-        self.effort: Any = 0.0 if self.n == 1 else np.zeros(self.n)
-        """Mean ``|u_k|`` of the last command, the fuel term of the rewards: a float for one
-        env, (N,) for a batch (as :meth:`speed`)."""
-        self.success = np.zeros(self.n, dtype=bool)
-        self._last_action = np.zeros((self.n, self.action_dim))
-        self._last_one: list[float] | None = None  # a single env's last command, not yet stored
-        self.target = np.zeros((self.n, self.target_dim))
         self.w_scale = self.angular_velocity_scale()
         rot_dim = 4 if rotation_repr == "quaternion" else 6
         self.obs_dim = rot_dim + 6 + self.task_obs_dim
@@ -201,10 +188,25 @@ class TaskBatch:
         ).astype(np.float32)
         self.single_observation_space = spaces.Box(-bound, bound, dtype=np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
+        self.tp = self.task_parameters()
+        """Task parameters of the compiled pass (:mod:`rigid_env.envs.kernels`)."""
+        n, a = self.n, self.action_dim
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.target = np.zeros((n, self.target_dim))
+        self.thrust_scale = np.ones((1, a))
+        """(1 | N, A) strength of each actuator relative to the scene's (thrust randomisation)."""
+        self.last_action = np.zeros((n, a))
+        """(N, A) the last command each env was sent, clipped (before thrust randomisation)."""
+        self.command = np.zeros((n, a))
+        """(N, A) the last command the bodies got (thrust randomisation included)."""
+        self.record = np.zeros((n, T.RECORD + self.memory_dim))
+        """(N, RECORD + M) each env's reward, flags, info numbers, fuel and task memory
+        (columns named in :mod:`rigid_env.envs.kernels`), written by the compiled pass."""
+        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
+        """(N, obs_dim) the latest observations (overwritten by every step and reset)."""
+        self._no_noise = np.zeros((1, 3))
 
     # ---- task interface ------------------------------------------------------------------
-    target_dim: ClassVar[int] = 0
-
     def angular_velocity_scale(self) -> float:
         """Typical angular speed [rad/s] that the observation divides by."""
         raise NotImplementedError
@@ -213,80 +215,114 @@ class TaskBatch:
         """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
         raise NotImplementedError
 
-    def task_columns(self) -> list[Any]:
-        """The ``task_obs_dim`` extra observation components as columns: floats for one env,
-        (N,) arrays for a batch (clipped into ``+-task_obs_bound`` by the observation)."""
+    def task_numbers(self) -> list[float]:
+        """The task's own parameters, from :data:`rigid_env.envs.kernels.TASK` on (in the
+        order its ``evaluate`` reads them)."""
         return []
 
-    def task_observation(self) -> FloatArray:
-        """(N, task_obs_dim) extra observation components (:meth:`task_columns`)."""
-        cols = self.task_columns()
-        out = np.empty((self.n, len(cols)))
-        for k, c in enumerate(cols):
-            out[:, k] = c
-        return out
-
-    def evaluate(self, action: Any) -> tuple[Any, Any, Any]:
-        """``(reward, terminated, success)`` after a step: (N,) arrays for a batch; for one
-        env floats and bools where the task computes on :meth:`speed`, :meth:`state_columns`
-        and :attr:`effort` (which are floats then), else (1,) arrays. ``action`` is the command
-        the bodies got (thrust randomisation included)."""
-        raise NotImplementedError
+    def task_parameters(self) -> FloatArray:
+        """The float64 array of task parameters: the common header, :meth:`task_numbers` and
+        each actuator's force at ``|u| = 1`` (the fuel weights)."""
+        numbers = self.task_numbers()
+        if len(numbers) > T.FMAX - T.TASK:
+            raise ValueError(f"task_numbers: at most {T.FMAX - T.TASK}, got {len(numbers)}")
+        tp = np.zeros(T.FMAX + self.action_dim)
+        tp[T.DT] = self.dt
+        tp[T.W_SCALE] = self.w_scale
+        tp[T.SIXD] = 1.0 if self.rotation_repr == "sixd" else 0.0
+        tp[T.EXTRA_BOUND] = self.task_obs_bound
+        tp[T.FUEL_WEIGHT] = getattr(self, "fuel_weight", 0.0)
+        tp[T.TASK : T.TASK + len(numbers)] = numbers
+        tp[T.FMAX :] = self.max_force
+        return tp
 
     # ---- shared machinery ----------------------------------------------------------------
+    @property
+    def fuel(self) -> FloatArray:
+        """(N,) impulse spent in the episode so far [N s] (a view of :attr:`record`)."""
+        return self.record[:, T.FUEL]
+
+    @property
+    def success(self) -> NDArray[np.bool_]:
+        """(N,) whether each env's task counts as solved at the current step."""
+        return self.record[:, T.SUCCESS] != 0.0
+
+    def angular_speed(self) -> FloatArray:
+        """(N,) ``|w|`` [rad/s] of the current state (finite for a frozen, diverged body)."""
+        return self.record[:, T.SPEED].copy()
+
     def check_action(self, action: ArrayLike) -> FloatArray:
-        """Validate and clip a command to (N, A) in [-1, 1].
+        """Validate and clip a command to (N, A) in [-1, 1] (into :attr:`last_action`; the
+        bodies' command, thrust randomisation included, into :attr:`command`).
 
         Raises:
             ValueError: wrong shape, or a NaN/inf entry (never silently simulated).
         """
-        if self.n == 1:
-            return np.array([self.check_one(action)])
-        act = self._command_array(action)
-        # One sum finds a NaN or inf; only a sum that overflowed needs the element-wise test.
-        with np.errstate(over="ignore", invalid="ignore"):
-            total = act.sum()
-        if not np.isfinite(total) and not np.isfinite(act).all():
-            raise ValueError(_NON_FINITE_ACTION)
-        # Huge finite commands saturate like a real thruster: clipped to [-1, 1] (clipping is
-        # exact, so clipping float32 into float64 equals converting first).
-        # Column-major: the physics reads the command column by column.
-        return np.clip(act, -1.0, 1.0, out=np.empty(act.shape, order="F"))
-
-    def check_one(self, action: ArrayLike) -> list[float]:
-        """:meth:`check_action` of a task of one body, as ``A`` floats (no NumPy call for six
-        numbers; the same clipped values)."""
-        act = np.asarray(action)
-        if act.shape == (self.action_dim,) and act.dtype.char in "fd":
-            values = act.tolist()  # the common case: one float vector
-        else:
-            values = self._command_array(action)[0].tolist()
-        if not all(map(math.isfinite, values)):
-            raise ValueError(_NON_FINITE_ACTION)
-        return [-1.0 if c < -1.0 else 1.0 if c > 1.0 else float(c) for c in values]
-
-    def _command_array(self, action: ArrayLike) -> NDArray[np.floating]:
-        """``action`` as a float (N, A) array, or a one-line error naming the shapes."""
-        act = np.asarray(action)
-        if act.dtype not in (np.float32, np.float64):
-            act = act.astype(np.float64)
-        if act.shape == (self.action_dim,) and self.n == 1:
-            act = act[None, :]
-        if act.shape != (self.n, self.action_dim):
+        act = action if isinstance(action, np.ndarray) else np.asarray(action)
+        if act.dtype.kind not in "fiu":
             raise ValueError(
-                f"action: expected shape ({self.n}, {self.action_dim})"
-                f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
-                f"got {act.shape}"
+                f"action: expected real numbers (float32 or float64), got dtype {act.dtype}"
             )
-        return act
+        if act.shape != (self.n, self.action_dim):
+            if self.n == 1 and act.shape == (self.action_dim,):
+                act = act.reshape(1, -1)
+            else:
+                raise ValueError(
+                    f"action: expected shape ({self.n}, {self.action_dim})"
+                    f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                    f"got {act.shape}"
+                )
+        if T.clip_commands(act, self.thrust_scale, self.last_action, self.command) < 0:
+            raise ValueError(_NON_FINITE_ACTION)
+        return self.last_action
+
+    def step(
+        self, rngs: Sequence[np.random.Generator]
+    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+        """Advance every body by ``dt`` with the command of the last :meth:`check_action`.
+
+        Args:
+            rngs: one generator per env (drawn from only for sensor noise).
+
+        Returns:
+            reward (N,), terminated (N,), failed (N,) (the state turned non-finite this step;
+            the body is frozen at its last finite state and the episode must end). Views of
+            the task's buffers, valid until the next step.
+        """
+        failed = self.world.advance(self.command)
+        self.steps += 1
+        self._pass(
+            self.world.rows,
+            self.command,
+            self.target,
+            self._noise(rngs),
+            True,
+            self.record,
+            self.obs,
+        )
+        r = self.record
+        return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
+
+    def _pass(self, rows, command, target, noise, stepped, record, obs) -> None:
+        self.task_pass(
+            self.tp, rows, self.world.model_rows, command, target, noise, stepped, record, obs
+        )
+
+    def _noise(self, rngs: Sequence[np.random.Generator]) -> FloatArray:
+        sigma = self.randomization.sensor_noise
+        if sigma <= 0.0:
+            return self._no_noise
+        return np.stack([rng.normal(0.0, sigma, 3) for rng in rngs])
 
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
     ) -> None:
-        """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index)."""
+        """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index),
+        and observe them (:attr:`obs` rows ``idx``; sensor noise from the same generators)."""
+        idx = np.asarray(idx, dtype=np.int64)
         s = self.world.state
         draws = []
-        for k, i in enumerate(idx):
+        for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
             self._randomize(i, rngs[k])
         if draws:
@@ -294,16 +330,17 @@ class TaskBatch:
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
             if self.target_dim:
                 self.target[idx] = target
-        self._speed_of = None  # the state was changed in place
         self.steps[idx] = 0
-        self.fuel[idx] = 0.0
-        self.success[idx] = False
+        self.record[idx] = 0.0
         self.last_action[idx] = 0.0
+        self.command[idx] = 0.0
         self.world.failed[idx] = False
-        self.on_reset(np.asarray(idx))
-
-    def on_reset(self, idx: NDArray[np.int64]) -> None:
-        """Hook for task counters after :meth:`reset_envs`."""
+        if idx.size == 0:
+            return
+        record, obs = self.record[idx], self.obs[idx]
+        rows = self.world.rows[idx]
+        self._pass(rows, self.command[idx], self.target[idx], self._noise(rngs), False, record, obs)
+        self.record[idx], self.obs[idx] = record, obs
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
         r = self.randomization
@@ -331,257 +368,44 @@ class TaskBatch:
             model.inertia[i] = inertia
             self.world.set_model(BodyModel(model.mass, model.inertia))
         if r.thrust > 0.0:
-            if self.thrust_scale is None:
+            if self.thrust_scale.shape[0] == 1:
                 self.thrust_scale = np.ones((self.n, self.action_dim))
             self.thrust_scale[i] = rng.uniform(1.0 - r.thrust, 1.0 + r.thrust, size=self.action_dim)
 
-    def step(self, action: FloatArray) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
-        """Advance every body by ``dt`` with a checked command (N, A).
+    def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
+        """A copy of the latest observations: (N, obs_dim), or the rows ``idx``."""
+        return self.obs.copy() if idx is None else self.obs[idx]
 
-        Returns:
-            reward (N,), terminated (N,), failed (N,) (state turned non-finite this step; the
-            body is frozen at its last finite state and the episode must end).
-        """
-        if self.n == 1:
-            reward, terminated, failed = self.step_one(action[0].tolist())
-            return np.array([reward]), np.array([terminated]), np.array([failed])
-        command = action if self.thrust_scale is None else action * self.thrust_scale
-        failed = self.world.advance(command)
-        self.steps += 1
-        self._account([command[:, k] for k in range(self.action_dim)])
-        self.last_action = action
-        reward, terminated, success = self.evaluate(command)
-        self.success = np.array(success, dtype=bool)  # its own copy: terminated is edited
-        return reward, np.array(terminated, dtype=bool), failed
-
-    def step_one(self, u: list[float]) -> tuple[float, bool, bool]:
-        """:meth:`step` of a task of one body on floats: ``u`` is the checked command (``A``
-        floats in [-1, 1], :meth:`check_one`); returns ``(reward, terminated, failed)``. The
-        same operations as a batch's row, so the same numbers bit for bit."""
-        command = u
-        if self.thrust_scale is not None:
-            command = [c * s for c, s in zip(u, self.thrust_scale[0].tolist(), strict=True)]
-        world = self.world
-        if world.single_body_lane:
-            failed = world.advance_one(command)
-        else:
-            failed = bool(world.advance(np.array([command]))[0])
-        self.steps[0] += 1
-        self._account(command)
-        self._last_one = u
-        reward, terminated, success = self.evaluate(command)
-        if type(success) is bool:
-            self.success[0] = success
-        else:
-            self.success[:] = success
-        return _item(reward), bool(_item(terminated)), failed
-
-    @property
-    def last_action(self) -> FloatArray:
-        """(N, A) the last command each env was sent (before thrust randomisation)."""
-        if self._last_one is not None:
-            self._last_action[0] = self._last_one
-            self._last_one = None
-        return self._last_action
-
-    @last_action.setter
-    def last_action(self, action: FloatArray) -> None:
-        self._last_action = action
-        self._last_one = None
-
-    def _account(self, cols: Sequence[Any]) -> None:
-        """Fuel and effort of a command given as columns (floats for one env)."""
-        magnitude = [abs(c) for c in cols]
-        rate = fuel_rate(magnitude, self._max_force) * self.dt
-        if self.n == 1:
-            self.fuel[0] += rate
-        else:
-            self.fuel += rate
-        self.effort = weighted_sum(magnitude) / self.action_dim
-
-    def observe(
-        self, rngs: Sequence[np.random.Generator], idx: NDArray[np.int64] | None = None
-    ) -> NDArray[np.float32]:
-        """(N, obs_dim) float32 observation, clipped into the observation space.
-
-        Args:
-            rngs: one generator per env (``idx=None``) or per entry of ``idx``; drawn from only
-                when sensor noise is on.
-            idx: observe only these envs (rows in that order); None = all.
-        """
-        s = self.world.state
-        q, w = (s.q, s.w) if idx is None else (s.q[idx], s.w[idx])
-        if self.randomization.sensor_noise > 0.0:
-            noise = np.stack([rng.normal(0.0, self.randomization.sensor_noise, 3) for rng in rngs])
-            w = w + noise
-        # Built component by component (one contiguous float32 row each: about twice as fast
-        # as writing strided column blocks), then laid out as (n, obs_dim).
-        rows = np.empty((self.obs_dim, q.shape[0]), dtype=np.float32)
-        r = 4 if self.rotation_repr == "quaternion" else 6
-        if r == 4:
-            _canonical_rows(q, rows[:4])
-        else:
-            rows[:6] = quat_to_sixd(q).T
-        with np.errstate(over="ignore"):  # a frozen, diverged body: huge, then clipped
-            for k in range(3):
-                wk = w[:, k]
-                np.clip(wk / self.w_scale, -5.0, 5.0, out=rows[r + k], casting="same_kind")
-                # tanh(w / 0.1 rad/s) in float32 (the observation's precision; NumPy's float32
-                # tanh is many times cheaper than its float64 one).
-                np.tanh((wk / 0.1).astype(np.float32), out=rows[r + 3 + k])
-        if self.task_obs_dim:
-            extra = self.task_observation()
-            bound = self.task_obs_bound
-            extra = extra if idx is None else extra[idx]
-            np.clip(extra.T, -bound, bound, out=rows[r + 6 :], casting="same_kind")
-        # Rotation entries and tanh lie in [-1, 1] by construction (a unit vector's component
-        # may exceed 1 by one rounding in float64, which float32 rounds back to 1).
-        return np.ascontiguousarray(rows.T)
-
-    def _columns(self, a: FloatArray) -> tuple[Ops, list[Any]]:
-        """The columns of an (N, k) array with their backend: Python floats for one env (no
-        NumPy call per operation), (N,) arrays for a batch; the same sums either way."""
-        if self.n == 1:
-            return self.ops, a[0].tolist()
-        return self.ops, [a[:, k] for k in range(a.shape[1])]
-
-    def observe_one(self, rng: np.random.Generator) -> NDArray[np.float32]:
-        """(obs_dim,) observation of a task of one body: :meth:`observe` computed on floats,
-        the same operations in the same order (bit-identical), at a fraction of the cost."""
-        if self.randomization.sensor_noise > 0.0 or self.rotation_repr != "quaternion":
-            return self.observe([rng])[0]
-        qw, qx, qy, qz, wx, wy, wz = self.world.one_body_values()[6:13]
-        if qw < 0.0:
-            qw, qx, qy, qz = -qw, -qx, -qy, -qz
-        elif qw == 0.0:
-            qw, qx, qy, qz = canonical(self.world.state.q[0]).tolist()
-        scale = self.w_scale
-        fx, fy, fz = wx / 0.1, wy / 0.1, wz / 0.1  # tanh of these in float32, below
-        values = [
-            qw,
-            qx,
-            qy,
-            qz,
-            min(5.0, max(-5.0, wx / scale)),
-            min(5.0, max(-5.0, wy / scale)),
-            min(5.0, max(-5.0, wz / scale)),
-            fx,
-            fy,
-            fz,
-        ]
-        if self.task_obs_dim:
-            bound = self.task_obs_bound
-            values += [min(bound, max(-bound, float(c))) for c in self.task_columns()]
-        if abs(fx) < 1.0e38 and abs(fy) < 1.0e38 and abs(fz) < 1.0e38:
-            obs = np.array(values, dtype=np.float32)
-        else:
-            with np.errstate(over="ignore"):  # a frozen, diverged body: inf in float32, tanh 1
-                obs = np.array(values, dtype=np.float32)
-        fine = obs[7:10]
-        np.tanh(fine, out=fine)
-        return obs
+    def infos(self) -> dict[str, NDArray[Any]]:
+        """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure."""
+        r = self.record
+        success = r[:, T.SUCCESS] != 0.0
+        return {
+            "angular_speed": r[:, T.SPEED].copy(),
+            "energy": r[:, T.ENERGY].copy(),
+            "fuel": r[:, T.FUEL].copy(),
+            "success": success,
+            "is_success": success.copy(),  # SB3 EvalCallback logs this key
+            "numerical_error": self.world.failed.copy(),
+            "angular_velocity_world": r[:, T.W_WORLD : T.W_WORLD + 3].copy(),
+        }
 
     def info_one(self) -> dict[str, Any]:
-        """:meth:`infos` of a task of one body as Python scalars, computed on floats (the same
-        operations in the same order as the batch's)."""
-        values = self.world.one_body_values()
-        q, w = values[6:10], values[10:13]
-        mass, inertia = self.world.dynamics.model_columns[:2]
-        success = bool(self.success[0])
+        """:meth:`infos` of env 0 as Python scalars (what a single env returns)."""
+        r = self.record[0].tolist()
+        success = r[T.SUCCESS] != 0.0
         return {
-            "angular_speed": float(self.speed()),
-            "energy": kinetic_energy_columns(mass, inertia, values[3:6], w),
-            "fuel": float(self.fuel[0]),
+            "angular_speed": r[T.SPEED],
+            "energy": r[T.ENERGY],
+            "fuel": r[T.FUEL],
             "success": success,
             "is_success": success,
             "numerical_error": bool(self.world.failed[0]),
-            "angular_velocity_world": np.array(rotate(q, w)),
-        }
-
-    def speed(self) -> Any:
-        """``|w|`` [rad/s] of the current state: a float for one env, (N,) for a batch
-        (computed once per state)."""
-        # Keyed by the state object (a batch) or the float sequence (one body) it came from.
-        if self.n == 1:
-            values = self.world.one_body_values()
-            if self._speed_of is not values:
-                self._speed = norm(SCALAR, values[10:13])
-                self._speed_of = values
-            return self._speed
-        state = self.world.state
-        if self._speed_of is not state:
-            with np.errstate(over="ignore"):  # a frozen, diverged body may be huge: inf
-                self._speed = norm(ARRAY, [state.w[:, k] for k in range(3)])
-            self._speed_of = state
-        return self._speed
-
-    def angular_speed(self) -> FloatArray:
-        """(N,) ``|w|`` [rad/s] of the current state."""
-        return np.atleast_1d(self.speed())
-
-    def state_columns(self, name: str) -> list[Any]:
-        """The components of the state's ``x``, ``v``, ``q`` or ``w``: floats for one env,
-        (N,) arrays for a batch."""
-        if self.n == 1:
-            start = _STATE_OFFSET[name]
-            return list(self.world.one_body_values()[start : start + (4 if name == "q" else 3)])
-        a = getattr(self.world.state, name)
-        return [a[:, k] for k in range(a.shape[1])]
-
-    def target_columns(self) -> list[Any]:
-        """The components of :attr:`target`, as :meth:`state_columns`."""
-        return self._columns(self.target)[1]
-
-    def infos(self) -> dict[str, NDArray[Any]]:
-        """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
-        s = self.world.state
-        with np.errstate(over="ignore"):
-            energy = kinetic_energy(self.world.model, s)
-        return {
-            "angular_speed": self.angular_speed(),
-            "energy": energy,
-            "fuel": self.fuel.copy(),
-            "success": self.success.copy(),
-            "is_success": self.success.copy(),  # SB3 EvalCallback logs this key
-            "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": _stack3(
-                rotate([s.q[:, k] for k in range(4)], [s.w[:, k] for k in range(3)])
-            ),
+            "angular_velocity_world": np.array(r[T.W_WORLD : T.W_WORLD + 3]),
         }
 
 
-_NUMPY_VALUES = (np.ndarray, np.generic)
-_STATE_OFFSET = {"x": 0, "v": 3, "q": 6, "w": 10}
 _NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
-
-
-def _item(x: Any) -> Any:
-    """A float or bool from a float, a bool, or a one-element array."""
-    return x.item() if isinstance(x, _NUMPY_VALUES) else x
-
-
-def _stack3(cols: Sequence[FloatArray]) -> FloatArray:
-    out = np.empty((cols[0].shape[0], 3))
-    for k in range(3):
-        out[:, k] = cols[k]
-    return out
-
-
-def _canonical_rows(q: FloatArray, out: NDArray[np.float32]) -> None:
-    """:func:`~rigid_env.core.rotation.canonical` of (N, 4) ``q`` into the rows of ``out``
-    (4, N), sign-flipping by the ``w`` column alone where ``w != 0`` (every row but a
-    measure-zero few)."""
-    qw = q[:, 0]
-    if not np.all(qw != 0.0):
-        out[:] = canonical(q).T
-        return
-    sign = np.where(qw < 0.0, -1.0, 1.0)
-    for k in range(4):
-        np.multiply(q[:, k], sign, out=out[k], casting="same_kind")
-
-
-def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:
-    return {k: (v[0].copy() if v.ndim > 1 else v[0].item()) for k, v in info.items()}
 
 
 class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
@@ -611,22 +435,23 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         """Start an episode; ``seed`` reseeds :attr:`np_random`."""
         super().reset(seed=seed)
         self.task.reset_envs([0], [self.np_random])
+        self._rngs = [self.np_random]
         self._has_reset = True
-        obs = self.task.observe([self.np_random])[0]
         if self.render_mode == "human":
             self.render()
-        return obs, _single_info(self.task.infos())
+        return self.task.obs[0].copy(), self.task.info_one()
 
     def step(self, action: ArrayLike):
         """One control step of ``dt``; see the task class for reward and episode end."""
         if not self._has_reset:
             raise RuntimeError("Call reset before using step method.")
-        reward, terminated, failed = self.task.step_one(self.task.check_one(action))
-        obs = self.task.observe_one(self.np_random)
-        info = self.task.info_one()
+        task = self.task
+        task.check_action(action)
+        reward, terminated, failed = task.step(self._rngs)
+        info = task.info_one()
         if self.render_mode == "human":
             self.render()
-        return obs, float(reward), terminated, failed, info
+        return task.obs[0].copy(), float(reward[0]), bool(terminated[0]), bool(failed[0]), info
 
     def render(self):
         """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""
@@ -708,14 +533,15 @@ class RigidBodyVectorEnv(VectorEnv):
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
         self.task.reset_envs(np.arange(self.num_envs), self._rngs)
         self._autoreset[:] = False
-        return self.task.observe(self._rngs), self._vector_info(self.task.infos())
+        return self.task.observe(), self._vector_info(self.task.infos())
 
     def step(self, actions: ArrayLike):
         """Step all sub-environments; see the class docstring for autoreset."""
         if not self._rngs:
             raise RuntimeError("Call reset before using step method.")
-        act = self.task.check_action(actions)
-        reward, terminated, failed = self.task.step(act)
+        self.task.check_action(actions)
+        reward, terminated, failed = self.task.step(self._rngs)
+        reward = reward.copy()
         truncated = failed.copy()
         if self.max_episode_steps is not None:
             truncated |= self.task.steps >= self.max_episode_steps
@@ -727,7 +553,7 @@ class RigidBodyVectorEnv(VectorEnv):
             terminated[idx] = False
             truncated[idx] = False
         self._autoreset = terminated | truncated
-        obs = self.task.observe(self._rngs)
+        obs = self.task.observe()
         return obs, reward, terminated, truncated, self._vector_info(self.task.infos())
 
     def _vector_info(self, info: dict[str, NDArray[Any]]) -> dict[str, Any]:

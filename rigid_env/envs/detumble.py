@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.core.kernels import kernel
+from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
@@ -13,7 +15,25 @@ from rigid_env.envs.base import (
     positive,
     random_tumble,
 )
-from rigid_env.envs.rewards import tolerance
+from rigid_env.envs.rewards import LINEAR, tolerance_one
+
+MAX_SPIN, THRESHOLD, BONUS = T.TASK, T.TASK + 1, T.TASK + 2
+
+
+@kernel
+def evaluate(s, effort, target, memory, tp, stepped, extra):
+    """Detumble's reward, termination and success of one env (see :class:`DetumbleEnv`)."""
+    speed = T.safe_norm((s[10], s[11], s[12]))
+    success = speed < tp[THRESHOLD]
+    # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
+    spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
+    reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
+    return reward, success, success
+
+
+@kernel
+def detumble_pass(tp, state, model, command, target, noise, stepped, record, obs):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
 
 
 class DetumbleTask(TaskBatch):
@@ -27,6 +47,7 @@ class DetumbleTask(TaskBatch):
     """
 
     scene_name = "detumble"
+    task_pass = staticmethod(detumble_pass)
 
     def __init__(
         self,
@@ -51,19 +72,8 @@ class DetumbleTask(TaskBatch):
         q, w = random_tumble(rng, self.max_initial_spin)
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
 
-    def evaluate(self, action):
-        speed = self.speed()
-        success = speed < self.success_threshold
-        # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
-        spin_cost = 1.0 - tolerance(
-            speed,
-            (0.0, self.success_threshold),
-            margin=self.max_initial_spin,
-            sigmoid="linear",
-            value_at_margin=0.0,
-        )
-        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * success
-        return reward, success, success
+    def task_numbers(self) -> list[float]:
+        return [self.max_initial_spin, self.success_threshold, self.success_bonus]
 
 
 class DetumbleEnv(RigidBodyEnv):

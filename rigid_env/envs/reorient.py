@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
-from rigid_env.core import columns
-from rigid_env.core.rotation import canonical
+from rigid_env.core.kernels import kernel, quat_mul
+from rigid_env.core.rotation import canonical, quat_conj
+from rigid_env.core.rotation import quat_mul as quat_mul_array
+from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
@@ -16,7 +19,34 @@ from rigid_env.envs.base import (
     random_quaternion,
     random_tumble,
 )
-from rigid_env.envs.rewards import tolerance
+from rigid_env.envs.rewards import LINEAR, tolerance_one
+
+MAX_SPIN, SUCCESS_ANGLE, SUCCESS_SPIN = T.TASK, T.TASK + 1, T.TASK + 2
+
+
+@kernel
+def evaluate(s, effort, target, memory, tp, stepped, extra):
+    """Reorient's reward and success of one env (see :class:`ReorientEnv`); its extra
+    observation is the error quaternion ``canonical(conj(q) (x) target)``."""
+    err = T.canonical(
+        quat_mul((s[6], -s[7], -s[8], -s[9]), (target[0], target[1], target[2], target[3]))
+    )
+    angle = 2.0 * math.atan2(
+        math.sqrt(err[1] * err[1] + err[2] * err[2] + err[3] * err[3]), abs(err[0])
+    )
+    speed = T.safe_norm((s[10], s[11], s[12]))
+    success = angle < tp[SUCCESS_ANGLE] and speed < tp[SUCCESS_SPIN]
+    r_angle = tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], math.pi, LINEAR, 0.0)
+    r_spin = tolerance_one(speed, 0.0, tp[SUCCESS_SPIN], tp[MAX_SPIN], LINEAR, 0.0)
+    reward = r_angle * (0.5 + 0.5 * r_spin) - tp[T.FUEL_WEIGHT] * effort
+    for k in range(4):
+        extra[k] = err[k]
+    return reward, False, success
+
+
+@kernel
+def reorient_pass(tp, state, model, command, target, noise, stepped, record, obs):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
 
 
 class ReorientTask(TaskBatch):
@@ -32,6 +62,7 @@ class ReorientTask(TaskBatch):
     scene_name = "reorient"
     task_obs_dim = 4
     target_dim = 4
+    task_pass = staticmethod(reorient_pass)
 
     def __init__(
         self,
@@ -59,32 +90,10 @@ class ReorientTask(TaskBatch):
 
     def error_quaternion(self) -> np.ndarray:
         """(N, 4) rotation from the current to the target orientation, body frame, w >= 0."""
-        return self.task_observation()
+        return canonical(quat_mul_array(quat_conj(self.world.state.q), self.target))
 
-    def _error(self) -> tuple[Any, ...]:
-        """``conj(q) (x) target`` by components (floats for one env)."""
-        w, x, y, z = self.state_columns("q")
-        return columns.quat_mul((w, -x, -y, -z), self.target_columns())
-
-    def task_columns(self):
-        return columns.canonical(self.ops, self._error())
-
-    def evaluate(self, action):
-        angle = columns.rotation_angle(self.ops, self._error())
-        speed = self.speed()
-        success = (angle < self.success_angle) & (speed < self.success_spin)
-        r_angle = tolerance(
-            angle, (0.0, self.success_angle), margin=np.pi, sigmoid="linear", value_at_margin=0.0
-        )
-        r_spin = tolerance(
-            speed,
-            (0.0, self.success_spin),
-            margin=self.max_initial_spin,
-            sigmoid="linear",
-            value_at_margin=0.0,
-        )
-        reward = r_angle * (0.5 + 0.5 * r_spin) - self.fuel_weight * self.effort
-        return reward, np.zeros(self.n, dtype=bool), success
+    def task_numbers(self) -> list[float]:
+        return [self.max_initial_spin, self.success_angle, self.success_spin]
 
 
 class ReorientEnv(RigidBodyEnv):

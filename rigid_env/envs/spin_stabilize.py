@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
 
+from rigid_env.core.kernels import kernel
 from rigid_env.core.rotation import quat_from_axis_angle, quat_rotate
+from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
@@ -14,7 +17,43 @@ from rigid_env.envs.base import (
     positive,
     random_quaternion,
 )
-from rigid_env.envs.rewards import tolerance
+from rigid_env.envs.rewards import GAUSSIAN, tolerance_one
+
+TARGET_SPIN, SUCCESS_ANGLE, HOLD_STEPS = T.TASK, T.TASK + 1, T.TASK + 2
+MARGIN_45_DEG = math.pi / 4.0
+
+
+@kernel
+def axis_error(w):
+    """Angle [rad] between ``w`` and body +y (pi when spinning backwards)."""
+    return math.atan2(math.hypot(w[0], w[2]), w[1])
+
+
+@kernel
+def evaluate(s, effort, target, memory, tp, stepped, extra):
+    """SpinStabilize's reward and success of one env (see :class:`SpinStabilizeEnv`); its
+    memory is the number of consecutive steps with the spin axis within the success angle."""
+    w = (s[10], s[11], s[12])
+    angle = axis_error(w)
+    speed = T.safe_norm(w)
+    spin = tp[TARGET_SPIN]
+    if stepped:
+        memory[0] = memory[0] + 1.0 if angle < tp[SUCCESS_ANGLE] else 0.0
+    success = memory[0] >= tp[HOLD_STEPS]
+    rate_error = abs(speed - spin)
+    reward = (
+        tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], MARGIN_45_DEG, GAUSSIAN, 0.1)
+        * tolerance_one(rate_error, 0.0, 0.1 * spin, spin, GAUSSIAN, 0.1)
+        - tp[T.FUEL_WEIGHT] * effort
+    )
+    bound = tp[T.EXTRA_BOUND]
+    extra[0] = min(bound, max(-bound, (speed - spin) / spin))
+    return reward, False, success
+
+
+@kernel
+def spin_stabilize_pass(tp, state, model, command, target, noise, stepped, record, obs):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
 
 
 class SpinStabilizeTask(TaskBatch):
@@ -30,6 +69,8 @@ class SpinStabilizeTask(TaskBatch):
 
     scene_name = "spin_stabilize"
     task_obs_dim = 1
+    memory_dim = 1
+    task_pass = staticmethod(spin_stabilize_pass)
 
     def __init__(
         self,
@@ -47,9 +88,10 @@ class SpinStabilizeTask(TaskBatch):
         self.success_angle = float(success_angle)
         self.fuel_weight = float(fuel_weight)
         self.hold_time = float(hold_time)
+        self.hold_steps = 1
         super().__init__(num_envs, **kwargs)
         self.hold_steps = max(1, round(self.hold_time / self.dt))
-        self.streak = np.zeros(self.n, dtype=np.int64)
+        self.tp = self.task_parameters()
 
     def angular_velocity_scale(self) -> float:
         return self.target_spin
@@ -64,32 +106,18 @@ class SpinStabilizeTask(TaskBatch):
         w = rate * quat_rotate(quat_from_axis_angle(axis, tilt), np.array([0.0, 1.0, 0.0]))
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
 
-    def on_reset(self, idx) -> None:
-        self.streak[idx] = 0
+    def task_numbers(self) -> list[float]:
+        return [self.target_spin, self.success_angle, float(self.hold_steps)]
+
+    @property
+    def streak(self) -> np.ndarray:
+        """(N,) consecutive steps with the spin axis within ``success_angle`` of +y."""
+        return self.record[:, T.RECORD].astype(np.int64)
 
     def axis_error(self) -> np.ndarray:
         """(N,) angle [rad] between w and body +y (pi when spinning backwards)."""
-        return np.atleast_1d(self._axis_error())
-
-    def _axis_error(self) -> Any:
-        wx, wy, wz = self.state_columns("w")
-        return np.arctan2(np.hypot(wx, wz), wy)
-
-    def task_columns(self):
-        return [(self.speed() - self.target_spin) / self.target_spin]
-
-    def evaluate(self, action):
-        angle = self._axis_error()
-        within = angle < self.success_angle
-        self.streak = np.where(within, self.streak + 1, 0)
-        success = self.streak >= self.hold_steps
-        rate_error = abs(self.speed() - self.target_spin)
-        reward = (
-            tolerance(angle, (0.0, self.success_angle), margin=np.deg2rad(45.0))
-            * tolerance(rate_error, (0.0, 0.1 * self.target_spin), margin=self.target_spin)
-            - self.fuel_weight * self.effort
-        )
-        return reward, np.zeros(self.n, dtype=bool), success
+        w = self.world.state.w
+        return np.arctan2(np.hypot(w[:, 0], w[:, 2]), w[:, 1])
 
 
 class SpinStabilizeEnv(RigidBodyEnv):

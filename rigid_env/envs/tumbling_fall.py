@@ -6,6 +6,8 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.core.kernels import kernel
+from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
@@ -13,7 +15,30 @@ from rigid_env.envs.base import (
     positive,
     random_tumble,
 )
-from rigid_env.envs.rewards import tolerance
+from rigid_env.envs.rewards import LINEAR, tolerance_one
+
+MAX_SPIN, THRESHOLD, BONUS, TOP = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3
+FALL_SPEED_SCALE = 20.0  # [m/s], the observed vertical speed's unit
+
+
+@kernel
+def evaluate(s, effort, target, memory, tp, stepped, extra):
+    """TumblingFall's reward, termination (touchdown) and success of one env (see
+    :class:`TumblingFallEnv`)."""
+    speed = T.safe_norm((s[10], s[11], s[12]))
+    landed = s[2] <= 0.0
+    success = landed and speed < tp[THRESHOLD]
+    spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
+    reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
+    bound = tp[T.EXTRA_BOUND]
+    extra[0] = min(bound, max(-bound, s[2] / tp[TOP]))
+    extra[1] = min(bound, max(-bound, s[5] / FALL_SPEED_SCALE))
+    return reward, landed, success
+
+
+@kernel
+def tumbling_fall_pass(tp, state, model, command, target, noise, stepped, record, obs):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
 
 
 class TumblingFallTask(TaskBatch):
@@ -30,6 +55,7 @@ class TumblingFallTask(TaskBatch):
     scene_name = "tumbling_fall"
     task_obs_dim = 2
     task_obs_bound = 5.0
+    task_pass = staticmethod(tumbling_fall_pass)
 
     def __init__(
         self,
@@ -60,25 +86,13 @@ class TumblingFallTask(TaskBatch):
         x = np.array([0.0, 0.0, rng.uniform(*self.drop_height)])
         return x, np.zeros(3), q, w, np.zeros(0)
 
-    def task_columns(self):
+    def task_numbers(self) -> list[float]:
         return [
-            self.state_columns("x")[2] / self.drop_height[1],
-            self.state_columns("v")[2] / 20.0,
+            self.max_initial_spin,
+            self.success_threshold,
+            self.success_bonus,
+            self.drop_height[1],
         ]
-
-    def evaluate(self, action):
-        speed = self.speed()
-        landed = self.state_columns("x")[2] <= 0.0
-        success = landed & (speed < self.success_threshold)
-        spin_cost = 1.0 - tolerance(
-            speed,
-            (0.0, self.success_threshold),
-            margin=self.max_initial_spin,
-            sigmoid="linear",
-            value_at_margin=0.0,
-        )
-        reward = -spin_cost - self.fuel_weight * self.effort + self.success_bonus * success
-        return reward, landed, success
 
 
 class TumblingFallEnv(RigidBodyEnv):

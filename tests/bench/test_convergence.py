@@ -12,7 +12,8 @@ from numpy.typing import NDArray
 from rigid_env.bench._common import SCENE_DIR
 from rigid_env.bench.accuracy import measure_errors
 from rigid_env.bench.reference import Trajectory, reference_trajectory
-from rigid_env.core.integrators import INTEGRATORS, free_rotation_exact
+from rigid_env.core.exact import free_rotation_exact
+from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import (
     quat_angle_between,
     quat_from_rotvec,

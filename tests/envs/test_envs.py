@@ -11,7 +11,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import rigid_env
-from rigid_env.core.effects import Gravity, QuadraticDrag
+from rigid_env.core import kernels as K
 from rigid_env.envs.base import RigidBodyVectorEnv
 
 ENV_IDS = rigid_env.envs.ENV_IDS
@@ -92,15 +92,15 @@ def assert_vector_env_equals_single_envs(env_id: str, n: int, **kwargs) -> None:
 @pytest.mark.parametrize("env_id", ENV_IDS)
 @pytest.mark.parametrize("n", [4, 30])
 def test_vector_env_equals_single_envs(env_id, n):
-    """4 envs: the world steps them body by body on the single-body lane; 30: the batch lane
-    (the kernel compiled over arrays). Either way each equals its single env bit for bit."""
+    """A vector env of 4 or 30 envs runs the same compiled step and task pass as a single env,
+    looped over its envs: each sub-env equals its single env bit for bit."""
     assert_vector_env_equals_single_envs(env_id, n)
 
 
 @pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/Reorient-v0"])
 def test_vector_env_equals_single_envs_with_randomization_and_sixd(env_id):
-    """Mass properties per body (the batch lane then takes them as columns), randomised
-    thrust, sensor noise and the 6-D rotation: still each sub-env equals its single env."""
+    """Mass properties per body (a model row each), randomised thrust, sensor noise and the
+    6-D rotation: still each sub-env equals its single env."""
     rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.2, "sensor_noise": 0.01}
     assert_vector_env_equals_single_envs(env_id, 30, randomization=rand, rotation_repr="sixd")
 
@@ -190,32 +190,14 @@ def test_single_env_reports_numerical_error_as_truncation():
     assert trunc and info["numerical_error"]
 
 
-def test_scene_without_gravity_or_drag_never_calls_them(monkeypatch):
-    calls = {"gravity": 0, "drag": 0}
-    # Every path into an effect's physics (the (N, 3) ``accumulate`` of the batch integrators
-    # and the column kernels of splitting and of a single body) goes through ``add_columns``.
-    orig_g, orig_d = Gravity.add_columns, QuadraticDrag.add_columns
-
-    def count_g(self, *a):
-        calls["gravity"] += 1
-        return orig_g(self, *a)
-
-    def count_d(self, *a):
-        calls["drag"] += 1
-        return orig_d(self, *a)
-
-    monkeypatch.setattr(Gravity, "add_columns", count_g)
-    monkeypatch.setattr(QuadraticDrag, "add_columns", count_d)
-    env = gym.make("RigidEnv/Detumble-v0")
-    env.reset(seed=0)
-    for _ in range(20):
-        env.step(env.action_space.sample())
-    assert calls == {"gravity": 0, "drag": 0}
-    fall = gym.make("RigidEnv/TumblingFall-v0")
-    fall.reset(seed=0)
-    fall.step(fall.action_space.sample())
-    substeps = fall.unwrapped.task.world.substeps
-    assert calls["gravity"] > 0 and calls["drag"] >= substeps  # the fall scene does use them
+def test_scene_without_gravity_or_drag_never_evaluates_them():
+    """Detumble's scene lists neither gravity nor drag: its world carries zero flags for them,
+    so the compiled kernel skips both (tests/core/test_world.py traces the kernel's lines to
+    show a zero flag runs none of an effect's code); the fall's scene sets both."""
+    detumble = gym.make("RigidEnv/Detumble-v0").unwrapped.task.world.params
+    fall = gym.make("RigidEnv/TumblingFall-v0").unwrapped.task.world.params
+    assert detumble[K.GRAVITY] == detumble[K.DRAG] == 0.0
+    assert fall[K.GRAVITY] == fall[K.DRAG] == fall[K.DRAG_OFFSET] == 1.0
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -1,12 +1,12 @@
-"""Reward helpers: tolerance's defining values, and the single-env (float) forms equal the
-batch forms bit for bit."""
+"""Reward helpers: tolerance's defining values, its compiled scalar form equals the array form,
+and dm_control's closed forms."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from rigid_env.envs.rewards import fuel_rate, row_sum, tolerance
+from rigid_env.envs.rewards import SIGMOIDS, tolerance, tolerance_one
 
 
 @pytest.mark.parametrize("sigmoid", ["gaussian", "linear", "reciprocal"])
@@ -29,23 +29,19 @@ def test_linear_tolerance_halfway_and_floor() -> None:
 
 
 @pytest.mark.parametrize("sigmoid", ["gaussian", "linear", "reciprocal"])
-def test_one_value_equals_its_row_of_a_batch_bitwise(sigmoid: str) -> None:
-    """A single env evaluates one-element arrays (on floats where it can); its values must be
-    the batch's, bit for bit (the vector env equals its single envs)."""
+def test_scalar_kernel_equals_array_form_and_closed_form(sigmoid: str) -> None:
+    """The kernels' scalar ``tolerance_one`` is the array form's element (the same code), and
+    both equal the closed forms written here with NumPy (to a few roundings)."""
     x = np.random.default_rng(3).uniform(-4.0, 6.0, 500)
-    kw = dict(bounds=(0.0, 0.05), margin=3.0, sigmoid=sigmoid, value_at_margin=0.1)
-    batch = tolerance(x, **kw)
-    alone = np.array([tolerance(x[i : i + 1], **kw)[0] for i in range(x.size)])
-    assert np.array_equal(batch, alone)
-    floats = [tolerance(float(c), **kw) for c in x.tolist()]
-    assert all(type(f) is float for f in floats)
-    assert np.array_equal(batch, np.array(floats))
-
-
-def test_row_sum_and_fuel_rate() -> None:
-    a = np.random.default_rng(4).uniform(-1, 1, (7, 6))
-    w = np.linspace(0.1, 0.6, 6)
-    exact = np.array([sum(abs(r[k]) * w[k] for k in range(6)) for r in a])
-    assert fuel_rate([np.abs(a[:, k]) for k in range(6)], w) == pytest.approx(exact, rel=1e-15)
-    assert row_sum(a) == pytest.approx(a.sum(axis=1), rel=1e-13, abs=1e-15)
-    assert np.array_equal(row_sum(a)[2:3], row_sum(a[2:3]))
+    lo, hi, margin, v = 0.0, 0.05, 3.0, 0.1
+    batch = tolerance(x, (lo, hi), margin=margin, sigmoid=sigmoid, value_at_margin=v)
+    alone = [tolerance_one(c, lo, hi, margin, SIGMOIDS[sigmoid], v) for c in x.tolist()]
+    assert np.array_equal(batch, np.array(alone))
+    d = np.where(x < lo, lo - x, x - hi) / margin
+    closed = {
+        "gaussian": np.exp(-(d**2) * np.log(1.0 / v)),
+        "linear": np.maximum(0.0, 1.0 - d * (1.0 - v)),
+        "reciprocal": 1.0 / (1.0 + d * (1.0 / v - 1.0)),
+    }[sigmoid]
+    expected = np.where((x >= lo) & (x <= hi), 1.0, closed)
+    assert np.abs(batch - expected).max() < 1e-15  # values in [0, 1]: a few ulps
