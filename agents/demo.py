@@ -22,6 +22,7 @@ Earlier results in ``DIR`` are never overwritten without ``force``.
 from __future__ import annotations
 
 import csv
+import importlib.util
 import io
 import json
 import os
@@ -293,12 +294,7 @@ def check_out(out: Path, tasks: list[str], force: bool) -> None:
 
 
 def _check_render_extras() -> None:
-    missing = []
-    for module in ("imageio", "pygame", "PIL"):
-        try:
-            __import__(module)
-        except ImportError:
-            missing.append(module)
+    missing = [m for m in ("imageio", "pygame", "PIL") if importlib.util.find_spec(m) is None]
     if missing:
         raise DemoError(
             f"demo: the animation needs {', '.join(missing)}; install the render extras with "
