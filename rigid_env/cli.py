@@ -6,6 +6,9 @@
     rigid-env bench speed [...]         throughput benchmark (rigid_env.bench.speed)
     rigid-env scenes [--dir DIR]        the example scenes with a one-line summary each
     rigid-env integrators               the integrator registry
+    rigid-env demo [--task T] [--episodes K] [--out DIR] [--force]
+                                        the main job: pretrained policies beside the PD
+                                        controller (agents.demo: a table and a GIF per task)
 
 A user's mistake (a bad file, scene or flag value) ends with exit status 2 and one line on
 stderr, ``rigid-env: error: ...``; a simulation that turns non-finite ends with status 1 and one
@@ -195,6 +198,35 @@ def build_parser() -> argparse.ArgumentParser:
         description="Name, order and a note for every integrator.",
     )
     integ.set_defaults(handler=_cmd_integrators)
+
+    demo = sub.add_parser(
+        "demo",
+        help="the main job: pretrained PPO beside the PD controller (table + GIF)",
+        description="Evaluate the pretrained policies (agents/pretrained) beside the PD "
+        "controller on fixed seeds never used in training (20261201 + k), print the table, and "
+        "write results.md, results.csv, episodes.csv and a side-by-side GIF per task to --out.",
+    )
+    demo.add_argument(
+        "--task",
+        metavar="T",
+        help="one task: Detumble, SpinStabilize, Reorient, TumblingFall or its id "
+        "RigidEnv/<Task>-v0 (default: all four)",
+    )
+    demo.add_argument(
+        "--episodes",
+        type=_int_at_least(1),
+        metavar="K",
+        help="episodes per task and policy (default: 10)",
+    )
+    demo.add_argument(
+        "--out",
+        type=Path,
+        default=Path("runs/demo"),
+        metavar="DIR",
+        help="output directory (default: runs/demo)",
+    )
+    demo.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
+    demo.set_defaults(handler=_cmd_demo)
     return parser
 
 
@@ -419,6 +451,13 @@ def _cmd_integrators(args: argparse.Namespace, extra: list[str]) -> int:
     for name, info in INTEGRATORS.items():
         print(f"{name:<{width}}  {info.order:>5}  {info.note}")
     return 0
+
+
+def _cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
+    # agents sits above rigid_env (DESIGN.md): imported only when the command runs.
+    from agents import demo
+
+    return demo.run(args.task, args.episodes, args.out, args.force)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,369 @@
+"""The main job: the pretrained policies beside the PD controller on fixed unseen seeds.
+
+    rigid-env demo [--task T] [--episodes K] [--out DIR] [--force]
+
+For each task the pretrained policy in ``agents/pretrained/`` (an SB3 zip with its
+``VecNormalize`` statistics, loaded by :func:`agents.evaluate.load_policy`) and the PD controller
+(:mod:`agents.controllers`) play the same ``K`` episodes, episode ``k`` reset with seed
+``DEMO_SEED + k``. No other job uses these seeds: training resets from seeds 0..15, its periodic
+evaluation from 1,000,000 + k, the README's tables and the sweeps from 12345 + k.
+
+Written to ``DIR`` (default ``runs/demo``):
+
+* ``results.md`` and ``results.csv``: per task and policy, the success rate, the mean final
+  ``|w|`` [rad/s], fuel [N s] and return over the ``K`` episodes, and the mean time to success [s]
+  over the successful episodes only (the first step at which ``info["success"]`` held);
+* ``episodes.csv``: the same quantities for every episode, with its seed;
+* ``<task>_ppo_vs_pd.gif``: episode 0 of the policy (left) and of the PD controller (right).
+
+Earlier results in ``DIR`` are never overwritten without ``force``.
+"""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import io
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from agents.controllers import CONTROLLERS
+from agents.evaluate import Policy, load_policy, rollout
+from rigid_env.envs import TASKS
+
+#: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
+DEMO_SEED = 20261201
+#: Episodes per task and policy by default: the whole command (imports, the four tasks, the
+#: GIFs) takes well under 2 minutes on two busy cores.
+DEFAULT_EPISODES = 10
+DEFAULT_OUT = Path("runs/demo")
+PRETRAINED = Path(__file__).resolve().parent / "pretrained"
+RESULT_FILES = ("results.md", "results.csv", "episodes.csv")
+
+
+class DemoError(ValueError):
+    """A user's mistake (unknown task, earlier results in the way, ...); one line."""
+
+
+@dataclass(frozen=True)
+class Episode:
+    """One episode's outcome, as :func:`agents.evaluate.rollout` measures it."""
+
+    seed: int
+    success: bool
+    final_angular_speed: float  # [rad/s]
+    fuel: float  # [N s]
+    ret: float  # undiscounted return
+    time_to_success: float | None  # first step with success [s]; None if never
+
+
+@dataclass(frozen=True)
+class Row:
+    """A task x policy row of the table: its episodes and their summary."""
+
+    task: str
+    policy: str
+    episodes: list[Episode]
+
+    @property
+    def success_rate(self) -> float:
+        return float(np.mean([e.success for e in self.episodes]))
+
+    def mean(self, field: str) -> float:
+        return float(np.mean([getattr(e, field) for e in self.episodes]))
+
+    @property
+    def time_to_success(self) -> float | None:
+        """Mean over the successful episodes only [s]; None if none succeeded."""
+        times = [e.time_to_success for e in self.episodes if e.success]
+        times = [t for t in times if t is not None]
+        return float(np.mean(times)) if times else None
+
+
+def env_id(task: str) -> str:
+    return f"RigidEnv/{task}-v0"
+
+
+def resolve_tasks(text: str | None) -> list[str]:
+    """The tasks ``--task`` names: a short name (``Detumble``, any case) or its id
+    (``RigidEnv/Detumble-v0``); None means all four."""
+    if text is None:
+        return list(TASKS)
+    for task in TASKS:
+        if text.strip().lower() in (task.lower(), env_id(task).lower()):
+            return [task]
+    raise DemoError(
+        f"--task: unknown task {text!r}; choose one of {', '.join(TASKS)} "
+        f"(or its id, e.g. {env_id('Detumble')})"
+    )
+
+
+def pretrained_model(task: str) -> Path:
+    """``agents/pretrained/ppo_<task>.zip`` (module name of the task, e.g. spin_stabilize)."""
+    return PRETRAINED / f"ppo_{TASKS[task][0]}.zip"
+
+
+def policy_label(model: Path) -> str:
+    """The model's algorithm in capitals (``PPO``), from its ``.json`` beside it."""
+    meta = model.with_suffix(".json")
+    algo = json.loads(meta.read_text()).get("algo", "policy") if meta.exists() else "policy"
+    return str(algo).upper()
+
+
+def run_episodes(task: str, policy: Policy, episodes: int, seed: int) -> list[Episode]:
+    """Episodes ``seed + k`` one at a time, each by :func:`agents.evaluate.rollout` (which
+    returns means; one episode at a time keeps each episode's outcome)."""
+    out = []
+    for k in range(episodes):
+        r = rollout(env_id(task), policy, 1, seed + k)
+        out.append(
+            Episode(
+                seed + k,
+                r["success_rate"] == 1.0,
+                r["mean_final_angular_speed"],
+                r["mean_fuel"],
+                r["mean_return"],
+                r["mean_time_to_success"],
+            )
+        )
+    return out
+
+
+def pd_policy(task: str) -> Policy:
+    probe = gym.make_vec(env_id(task), num_envs=1, vectorization_mode="vector_entry_point")
+    policy = CONTROLLERS["pd"](probe)
+    probe.close()
+    return policy
+
+
+# ---- tables ------------------------------------------------------------------------------------
+
+COLUMNS = (
+    "task",
+    "policy",
+    "episodes",
+    "success rate",
+    "final |w| [rad/s]",
+    "fuel [N s]",
+    "return",
+    "time to success [s]",
+)
+
+
+def _cells(row: Row) -> list[str]:
+    t = row.time_to_success
+    return [
+        row.task,
+        row.policy,
+        str(len(row.episodes)),
+        f"{row.success_rate:.2f}",
+        f"{row.mean('final_angular_speed'):.3f}",
+        f"{row.mean('fuel'):.3f}",
+        f"{row.mean('ret'):.2f}",
+        "-" if t is None else f"{t:.2f}",
+    ]
+
+
+def text_table(rows: list[Row]) -> str:
+    """Aligned plain-text table for the terminal."""
+    body = [list(COLUMNS)] + [_cells(r) for r in rows]
+    widths = [max(len(line[j]) for line in body) for j in range(len(COLUMNS))]
+    # Names left-aligned, numbers right-aligned.
+    return "\n".join(
+        "  ".join(
+            c.ljust(w) if j < 2 else c.rjust(w)
+            for j, (c, w) in enumerate(zip(line, widths, strict=True))
+        ).rstrip()
+        for line in body
+    )
+
+
+def markdown_report(rows: list[Row], seed: int) -> str:
+    """``results.md``: where the numbers come from, then the table."""
+    k = len(rows[0].episodes)
+    return (
+        "# rigid-env demo\n\n"
+        f"{k} episode{'s' if k > 1 else ''} per task and policy on seeds {seed}..{seed + k - 1} "
+        "(episode k resets with the first + k; none is used in training or in the README's "
+        "evaluations). Success "
+        "rate, final |w|, fuel and return are means over the episodes; time to success is the "
+        "mean over the successful episodes only.\n\n" + markdown_table(rows) + "\n"
+    )
+
+
+def markdown_table(rows: list[Row]) -> str:
+    """The table in Markdown (``|`` in headers escaped)."""
+    head = [c.replace("|", "\\|") for c in COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    lines += ["| " + " | ".join(_cells(r)) + " |" for r in rows]
+    return "\n".join(lines)
+
+
+def _num(x: float | None) -> str:
+    """A CSV number to 10 significant digits (no ``5.800000000000001``); empty for None."""
+    return "" if x is None else f"{x:.10g}"
+
+
+def results_csv(rows: list[Row]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(
+        [
+            "task",
+            "policy",
+            "episodes",
+            "first_seed",
+            "success_rate",
+            "final_angular_speed_rad_s",
+            "fuel_N_s",
+            "return",
+            "time_to_success_s",
+        ]
+    )
+    for r in rows:
+        means = [r.success_rate, r.mean("final_angular_speed"), r.mean("fuel"), r.mean("ret")]
+        w.writerow(
+            [r.task, r.policy, len(r.episodes), r.episodes[0].seed]
+            + [_num(x) for x in [*means, r.time_to_success]]
+        )
+    return buf.getvalue()
+
+
+def episodes_csv(rows: list[Row]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(
+        [
+            "task",
+            "policy",
+            "seed",
+            "success",
+            "final_angular_speed_rad_s",
+            "fuel_N_s",
+            "return",
+            "time_to_success_s",
+        ]
+    )
+    for r in rows:
+        for e in r.episodes:
+            values = [e.final_angular_speed, e.fuel, e.ret, e.time_to_success]
+            w.writerow([r.task, r.policy, e.seed, int(e.success)] + [_num(x) for x in values])
+    return buf.getvalue()
+
+
+def _write_text(path: Path, text: str) -> None:
+    """Write beside ``path`` and rename into place: a failed write leaves no partial file."""
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(text)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+# ---- the command -------------------------------------------------------------------------------
+
+
+def animation_path(out: Path, task: str) -> Path:
+    return out / f"{TASKS[task][0]}_ppo_vs_pd.gif"
+
+
+def check_out(out: Path, tasks: list[str], force: bool) -> None:
+    """Refuse a file in the way of ``out`` or earlier results there (unless ``force``)."""
+    if out.exists() and not out.is_dir():
+        raise DemoError(f"--out: {out} is a file; give a directory such as {DEFAULT_OUT}")
+    if force:
+        return
+    ours = [out / name for name in RESULT_FILES] + [animation_path(out, t) for t in tasks]
+    earlier = [p.name for p in ours if p.exists()]
+    if earlier:
+        listed = ", ".join(earlier[:3]) + (
+            f" and {len(earlier) - 3} more" if len(earlier) > 3 else ""
+        )
+        raise DemoError(
+            f"--out: {out} holds earlier demo results ({listed}); "
+            "pass --force to overwrite them, or choose another --out"
+        )
+
+
+def _check_render_extras() -> None:
+    missing = [m for m in ("imageio", "pygame", "PIL") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise DemoError(
+            f"demo: the animation needs {', '.join(missing)}; install the render extras with "
+            "pip install -e '.[render]'"
+        )
+
+
+def run(
+    task: str | None = None,
+    episodes: int | None = None,
+    out: Path | None = None,
+    force: bool = False,
+    seed: int = DEMO_SEED,
+    log: Callable[[str], None] = print,
+) -> int:
+    """Evaluate, tabulate and animate; returns the exit status (0).
+
+    Args:
+        task: one task (short name or id); None for all four.
+        episodes: episodes per task and policy (>= 1); None for :data:`DEFAULT_EPISODES`.
+        out: output directory; None for :data:`DEFAULT_OUT`.
+        force: overwrite earlier results in ``out``.
+        seed: seed of episode 0.
+        log: where the progress lines, the table and the paths written go.
+
+    Raises:
+        DemoError: a user's mistake, in one line.
+    """
+    start = time.perf_counter()
+    tasks = resolve_tasks(task)
+    episodes = DEFAULT_EPISODES if episodes is None else int(episodes)
+    if episodes < 1:
+        raise DemoError(f"--episodes: must be an integer >= 1, got {episodes}")
+    out = DEFAULT_OUT if out is None else Path(out)
+    check_out(out, tasks, force)
+    _check_render_extras()
+    from agents.side_by_side import record_side_by_side
+
+    log(f"seeds {seed}..{seed + episodes - 1} ({episodes} episodes per task and policy)")
+    rows: list[Row] = []
+    written: list[Path] = []
+    out.mkdir(parents=True, exist_ok=True)
+    for name in tasks:
+        t0 = time.perf_counter()
+        model = pretrained_model(name)
+        label = policy_label(model)
+        learned = load_policy(model, env_id(name))
+        pd = pd_policy(name)
+        rows.append(Row(name, label, run_episodes(name, learned, episodes, seed)))
+        rows.append(Row(name, "PD", run_episodes(name, pd, episodes, seed)))
+        gif = animation_path(out, name)
+        pair = [(f"{label} (pretrained)", learned), ("PD controller", pd)]
+        record_side_by_side(env_id(name), pair, seed, gif)
+        written.append(gif)
+        log(
+            f"{name}: {rows[-2].success_rate:.2f} / {rows[-1].success_rate:.2f} success "
+            f"({label} / PD), {time.perf_counter() - t0:.1f} s"
+        )
+    for name, text in (
+        ("results.md", markdown_report(rows, seed)),
+        ("results.csv", results_csv(rows)),
+        ("episodes.csv", episodes_csv(rows)),
+    ):
+        _write_text(out / name, text)
+        written.append(out / name)
+    log("")
+    log(text_table(rows))
+    log("")
+    for path in sorted(written):
+        log(f"wrote {path}")
+    log(f"done in {time.perf_counter() - start:.1f} s")
+    return 0
