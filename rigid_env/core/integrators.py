@@ -53,10 +53,13 @@ from rigid_env.core.kernels import (
     gyro_jacobian,
     gyroscopic,
     kernel,
+    load,
+    model_row,
     normalize,
     qdot,
     solve3,
     spin,
+    store,
     wrench,
 )
 
@@ -411,20 +414,15 @@ def _clamp(w, limit):
 
 
 @kernel
-def _finite(s):
-    """Whether every number of a state row is finite (one sum when it is)."""
-    if math.isfinite(s.sum()):
+def _finite(x, v, q, w):
+    """Whether every number of a body's state is finite (one sum when it is)."""
+    total = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + q[0] + q[1] + q[2] + q[3]
+    if math.isfinite(total + w[0] + w[1] + w[2]):
         return True
-    return np.isfinite(s).all()
-
-
-@kernel
-def _store(s, x, v, q, w):
-    """Write ``(x, v, q, w)`` into a state row ``s`` (13,)."""
-    s[0], s[1], s[2] = x
-    s[3], s[4], s[5] = v
-    s[6], s[7], s[8], s[9] = q
-    s[10], s[11], s[12] = w
+    for c in (*x, *v, *q, *w):
+        if not math.isfinite(c):
+            return False
+    return True  # finite numbers whose sum overflowed
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -447,8 +445,9 @@ def advance(step, p, model, state, command, status):
         (nothing stepped) if the command has a NaN or inf.
     """
     for r in range(command.shape[0]):
-        if not _finite(command[r]):
-            return -1
+        for a in range(command.shape[1]):
+            if not math.isfinite(command[r, a]):
+                return -1
     h = p[H]
     substeps = int(p[SUBSTEPS])
     limit = p[MAX_SPEED_VALUE]
@@ -457,12 +456,9 @@ def advance(step, p, model, state, command, status):
     for i in range(state.shape[0]):
         if status[i] != 0:
             continue
-        m = model[0] if model.shape[0] == 1 else model[i]
-        fb, tb = wrench(p, command[0] if command.shape[0] == 1 else command[i])
-        s = state[i]
-        x0, v0 = (s[0], s[1], s[2]), (s[3], s[4], s[5])
-        q0, w0 = (s[6], s[7], s[8], s[9]), (s[10], s[11], s[12])
-        x, v, q, w = x0, v0, q0, w0
+        m = model_row(model, i)
+        fb, tb = wrench(p, command, i)
+        x, v, q, w = load(state, i)
         for _ in range(substeps):
             if p[MAX_SPEED] != 0.0:
                 w = _clamp(w, limit)
@@ -475,12 +471,12 @@ def advance(step, p, model, state, command, status):
         if p[ANGULAR_DAMPING] != 0.0:
             a = p[ANGULAR_ALPHA]
             w = (w[0] * a, w[1] * a, w[2] * a)
-        _store(s, x, v, q, w)
-        if not _finite(s):
-            _store(s, x0, v0, q0, w0)  # frozen at its last finite state
-            status[i] = 2
+        if not _finite(x, v, q, w):
+            status[i] = 2  # left at its last finite state
             failures += 1
-        elif w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > stable * stable:
+            continue
+        store(state, i, x, v, q, w)
+        if w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > stable * stable:
             over = 1
     return 2 * failures + over
 
@@ -490,13 +486,10 @@ def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
     (N, 13): the force half-steps of ``exact_free``."""
     for i in range(state.shape[0]):
-        m = model[0] if model.shape[0] == 1 else model[i]
-        fb, tb = wrench(p, command[0] if command.shape[0] == 1 else command[i])
-        s = state[i]
-        q = (s[6], s[7], s[8], s[9])
-        v, w = kick((s[3], s[4], s[5]), q, (s[10], s[11], s[12]), fb, tb, m, p, h)
-        s[3], s[4], s[5] = v
-        s[10], s[11], s[12] = w
+        fb, tb = wrench(p, command, i)
+        x, v, q, w = load(state, i)
+        v, w = kick(v, q, w, fb, tb, model_row(model, i), p, h)
+        store(state, i, x, v, q, w)
 
 
 @kernel
@@ -506,12 +499,9 @@ def derivatives(p, model, state, command, out):
     :func:`rigid_env.core.kernels.accelerations` (the right-hand side a reference solver
     integrates)."""
     for i in range(state.shape[0]):
-        m = model[0] if model.shape[0] == 1 else model[i]
-        fb, tb = wrench(p, command[0] if command.shape[0] == 1 else command[i])
-        s = state[i]
-        a, alpha = accelerations(
-            (s[3], s[4], s[5]), (s[6], s[7], s[8], s[9]), (s[10], s[11], s[12]), fb, tb, m, p, True
-        )
+        fb, tb = wrench(p, command, i)
+        _, v, q, w = load(state, i)
+        a, alpha = accelerations(v, q, w, fb, tb, model_row(model, i), p, True)
         out[i, 0], out[i, 1], out[i, 2] = a
         out[i, 3], out[i, 4], out[i, 5] = alpha
 

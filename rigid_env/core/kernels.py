@@ -215,14 +215,16 @@ def solve3(a, b):
 
 
 @kernel
-def wrench(p, u):
-    """Body-frame force and torque of the actuators for one body's command ``u`` (A,): each
-    actuator is linear in its command, ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a
-    (r_a x F_a)`` (rows of :data:`MAPS`), summed in a fixed order."""
+def wrench(p, command, i):
+    """Body-frame force and torque of the actuators for body ``i``'s command (row ``i`` of
+    ``command`` (N, A), or its only row): each actuator is linear in its command,
+    ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`),
+    summed in a fixed order."""
+    r = 0 if command.shape[0] == 1 else i
     fx = fy = fz = tx = ty = tz = 0.0
-    for a in range(u.shape[0]):
+    for a in range(command.shape[1]):
         k = MAPS + 6 * a
-        c = u[a]
+        c = command[r, a]
         fx += c * p[k]
         fy += c * p[k + 1]
         fz += c * p[k + 2]
@@ -232,7 +234,7 @@ def wrench(p, u):
     return (fx, fy, fz), (tx, ty, tz)
 
 
-@kernel
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def accelerations(v, q, w, fb, tb, m, p, gyro):
     """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
     [rad/s^2] of one body, from the actuators' body wrench ``(fb, tb)`` and the active effects:
@@ -273,6 +275,36 @@ def accelerations(v, q, w, fb, tb, m, p, gyro):
         tz -= g[2]
     inv_m = m[INV_MASS]
     return (fx * inv_m, fy * inv_m, fz * inv_m), (tx * m[INV_I0], ty * m[INV_I1], tz * m[INV_I2])
+
+
+@kernel
+def model_row(model, i):
+    """Body ``i``'s model row (or the only, shared one) of ``model`` (N | 1, 9) as a tuple."""
+    j = 0 if model.shape[0] == 1 else i
+    return (
+        model[j, 0], model[j, 1], model[j, 2], model[j, 3], model[j, 4],
+        model[j, 5], model[j, 6], model[j, 7], model[j, 8],
+    )  # fmt: skip
+
+
+@kernel
+def load(state, i):
+    """Body ``i``'s ``(x, v, q, w)`` from the state rows (N, 13), as tuples."""
+    return (
+        (state[i, 0], state[i, 1], state[i, 2]),
+        (state[i, 3], state[i, 4], state[i, 5]),
+        (state[i, 6], state[i, 7], state[i, 8], state[i, 9]),
+        (state[i, 10], state[i, 11], state[i, 12]),
+    )
+
+
+@kernel
+def store(state, i, x, v, q, w):
+    """Write ``(x, v, q, w)`` into row ``i`` of the state rows (N, 13)."""
+    state[i, 0], state[i, 1], state[i, 2] = x
+    state[i, 3], state[i, 4], state[i, 5] = v
+    state[i, 6], state[i, 7], state[i, 8], state[i, 9] = q
+    state[i, 10], state[i, 11], state[i, 12] = w
 
 
 @kernel

@@ -13,8 +13,11 @@ exactly (bit for bit) as it would without them: the compiled step treats each bo
 
 from __future__ import annotations
 
+import itertools
+import os
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Literal
 
 import numpy as np
@@ -29,6 +32,32 @@ from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
+
+
+THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
+"""Threads a large batch is split over (the cores this process may use)."""
+THREAD_MIN_BODIES = 1024
+"""Smallest batch split over threads: below it one thread is faster than the hand-over."""
+_pool: ThreadPoolExecutor | None = None
+
+
+def over_threads(n: int, call: Callable[[slice], Any]) -> list[Any]:
+    """``call(rows)`` for contiguous row slices covering ``range(n)``: one slice on this
+    thread for a small batch, else one per core on a thread pool (the compiled kernels
+    release the GIL and treat every row alone, so the split changes no number)."""
+    if n < THREAD_MIN_BODIES or THREADS == 1:
+        return [call(slice(0, n))]
+    global _pool
+    if _pool is None:
+        _pool = ThreadPoolExecutor(THREADS, thread_name_prefix="rigid_env")
+    bounds = np.linspace(0, n, THREADS + 1).astype(int).tolist()
+    parts = [slice(a, b) for a, b in itertools.pairwise(bounds)]
+    return [f.result() for f in [_pool.submit(call, rows) for rows in parts]]
+
+
+def rows_of(a: NDArray[Any], rows: slice) -> NDArray[Any]:
+    """The rows of a per-body array (N, ...), or the array itself when it is shared (1, ...)."""
+    return a if a.shape[0] == 1 else a[rows]
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -237,8 +266,10 @@ class World:
         step = self.integrator.world_step
         if step is None:
             code = self._step_arrays(u)
-        else:
+        elif self._n < THREAD_MIN_BODIES or THREADS == 1:
             code = step(self.params, self._model_rows, self._rows, u, self._status)
+        else:
+            code = self._step_threads(step, u)
         if code < 0:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
         if code & 1 and not self._warned:
@@ -258,6 +289,17 @@ class World:
         self._status[bad] = 1
         self.step_count += 1
         return bad
+
+    def _step_threads(self, step: Callable[..., int], u: FloatArray) -> int:
+        """The compiled step of a large batch, its rows split over the cores."""
+        if not np.isfinite(u).all():  # refused before any thread steps its rows
+            return -1
+        p, model, rows, status = self.params, self._model_rows, self._rows, self._status
+        codes = over_threads(
+            self._n,
+            lambda r: step(p, rows_of(model, r), rows[r], rows_of(u, r), status[r]),
+        )
+        return 2 * sum(c >> 1 for c in codes) + max(c & 1 for c in codes)
 
     def _step_arrays(self, u: FloatArray) -> int:
         """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the

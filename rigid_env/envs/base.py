@@ -29,6 +29,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core import world as core_world
 from rigid_env.core.effects import LinearActuator
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as T
@@ -304,8 +305,25 @@ class TaskBatch:
         return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
 
     def _pass(self, rows, command, target, noise, stepped, record, obs) -> None:
-        self.task_pass(
-            self.tp, rows, self.world.model_rows, command, target, noise, stepped, record, obs
+        """The task's compiled pass over the envs of ``rows`` (split over the cores when many;
+        each env is computed alone, so the split changes no number)."""
+        tp, model = self.tp, self.world.model_rows
+        if rows.shape[0] < core_world.THREAD_MIN_BODIES:
+            self.task_pass(tp, rows, model, command, target, noise, stepped, record, obs)
+            return
+        core_world.over_threads(
+            rows.shape[0],
+            lambda r: self.task_pass(
+                tp,
+                rows[r],
+                core_world.rows_of(model, r),
+                command[r],
+                target[r],
+                core_world.rows_of(noise, r),
+                stepped,
+                record[r],
+                obs[r],
+            ),
         )
 
     def _noise(self, rngs: Sequence[np.random.Generator]) -> FloatArray:

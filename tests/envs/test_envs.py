@@ -307,3 +307,31 @@ def test_step_before_reset_is_an_error():
     env = gym.make("RigidEnv/Detumble-v0")
     with pytest.raises((RuntimeError, gym.error.ResetNeeded)):
         env.step(np.zeros(6, np.float32))
+
+
+def test_vector_env_split_over_threads_equals_one_thread(monkeypatch):
+    """A vector env of at least ``THREAD_MIN_BODIES`` envs runs its world step and task pass
+    in row slices on several threads: the same observations, rewards and flags as one thread,
+    bit for bit (with randomisation and sensor noise)."""
+    from rigid_env.core import world as world_module
+
+    n = world_module.THREAD_MIN_BODIES + 33
+    rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.2, "sensor_noise": 0.01}
+    actions = np.random.default_rng(2).uniform(-1, 1, (6, n, 6)).astype(np.float32)
+
+    def run():
+        venv = gym.make_vec(
+            "RigidEnv/Reorient-v0", num_envs=n, vectorization_mode="vector_entry_point",
+            randomization=rand,
+        )  # fmt: skip
+        out = [venv.reset(seed=3)[0]]
+        for a in actions:
+            obs, rew, term, trunc, _ = venv.step(a)
+            out += [obs, rew, term, trunc]
+        return out
+
+    monkeypatch.setattr(world_module, "THREADS", 2)
+    split = run()
+    monkeypatch.setattr(world_module, "THREAD_MIN_BODIES", 10**9)
+    one = run()
+    assert all(np.array_equal(a, b) for a, b in zip(split, one, strict=True))
