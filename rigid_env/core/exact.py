@@ -10,15 +10,16 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.rotation import cross, quat_conj, quat_from_rotvec, quat_mul, quat_normalize
+from rigid_env.core.rotation import (
+    cross,
+    quat_conj,
+    quat_integrate_exp,
+    quat_mul,
+    quat_normalize,
+)
 from rigid_env.core.state import isotropic_rows
 
 FloatArray = NDArray[np.float64]
-
-
-def _rotate(q: FloatArray, w: FloatArray, h: float) -> FloatArray:
-    """``q (x) exp(h w / 2)``: rotate by the body-frame angle vector ``h w``."""
-    return quat_mul(q, quat_from_rotvec(h * w))
 
 
 def _isotropic_exact(
@@ -30,7 +31,7 @@ def _isotropic_exact(
     iso = isotropic_rows(inertia)
     if not iso.any():
         return q1, w1
-    return (np.where(iso[:, None], _rotate(q, w, h), q1), np.where(iso[:, None], w, w1))
+    return (np.where(iso[:, None], quat_integrate_exp(q, w, h), q1), np.where(iso[:, None], w, w1))
 
 
 def _safe_div(a: FloatArray, b: FloatArray) -> FloatArray:
@@ -122,7 +123,7 @@ def free_rotation_exact(
     ``|L|``, and the world ``L`` are kept to round-off for any ``h``. Returns new ``(q, w)``.
     """
     if isotropic:
-        return _rotate(q, w, h), w
+        return quat_integrate_exp(q, w, h), w
     from scipy import special
 
     inertia = np.broadcast_to(inertia, w.shape)

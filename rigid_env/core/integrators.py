@@ -508,50 +508,28 @@ def derivatives(p, model, state, command, out):
 
 # One compiled entry per integrator: Numba resolves the per-body function at compile time and
 # caches the specialised loop on disk (a function object passed from Python would cost a slow
-# type lookup at every call).
+# type lookup at every call, and a closure would not be cached).
+# Arguments (p, model, state, command, status) and result as advance's.
+# fmt: off
 @kernel
-def _explicit_euler(p, model, state, command, status):
-    return advance(explicit_euler, p, model, state, command, status)
-
-
+def _explicit_euler(p, m, s, u, f): return advance(explicit_euler, p, m, s, u, f)
 @kernel
-def _symplectic_euler(p, model, state, command, status):
-    return advance(symplectic_euler, p, model, state, command, status)
-
-
+def _symplectic_euler(p, m, s, u, f): return advance(symplectic_euler, p, m, s, u, f)
 @kernel
-def _implicit_euler(p, model, state, command, status):
-    return advance(implicit_euler, p, model, state, command, status)
-
-
+def _implicit_euler(p, m, s, u, f): return advance(implicit_euler, p, m, s, u, f)
 @kernel
-def _leapfrog(p, model, state, command, status):
-    return advance(leapfrog, p, model, state, command, status)
-
-
+def _leapfrog(p, m, s, u, f): return advance(leapfrog, p, m, s, u, f)
 @kernel
-def _midpoint(p, model, state, command, status):
-    return advance(midpoint, p, model, state, command, status)
-
-
+def _midpoint(p, m, s, u, f): return advance(midpoint, p, m, s, u, f)
 @kernel
-def _rk4(p, model, state, command, status):
-    return advance(rk4, p, model, state, command, status)
-
-
+def _rk4(p, m, s, u, f): return advance(rk4, p, m, s, u, f)
 @kernel
-def _implicit_gyro(p, model, state, command, status):
-    return advance(implicit_gyro, p, model, state, command, status)
-
-
+def _implicit_gyro(p, m, s, u, f): return advance(implicit_gyro, p, m, s, u, f)
 @kernel
-def _splitting(p, model, state, command, status):
-    return advance(splitting, p, model, state, command, status)
-
-
+def _splitting(p, m, s, u, f): return advance(splitting, p, m, s, u, f)
 @kernel
-def _yoshida4(p, model, state, command, status):
-    return advance(yoshida4, p, model, state, command, status)
+def _yoshida4(p, m, s, u, f): return advance(yoshida4, p, m, s, u, f)
+# fmt: on
 
 
 # --------------------------------------------------------------------------------------------
@@ -589,50 +567,27 @@ class IntegratorInfo:
     stability: float | None = None
 
 
-INTEGRATORS: dict[str, IntegratorInfo] = {
-    info.name: info
-    for info in (
-        IntegratorInfo(
-            "explicit_euler", 1, "forward Euler; energy grows, kept to show the failure",
-            explicit_euler, _explicit_euler,
-        ),
-        IntegratorInfo(
-            "implicit_euler", 1,
-            "backward Euler by Newton iteration; unconditionally stable, damps",
-            implicit_euler, _implicit_euler,
-        ),
-        IntegratorInfo(
-            "symplectic_euler", 1, "semi-implicit Euler: velocities first, then positions",
-            symplectic_euler, _symplectic_euler,
-        ),
-        IntegratorInfo(
-            "leapfrog", 2, "drift-kick-drift with mid-point velocities", leapfrog, _leapfrog
-        ),
-        IntegratorInfo("midpoint", 2, "explicit midpoint (RK2)", midpoint, _midpoint),
-        IntegratorInfo(
-            "rk4", 4, "classical Runge-Kutta, q as a vector in R^4, renormalised", rk4, _rk4
-        ),
-        IntegratorInfo(
-            "implicit_gyro", 1, "one Newton step on the gyroscopic term (Bullet, Box2D); damps",
-            implicit_gyro, _implicit_gyro,
-        ),
-        IntegratorInfo(
-            "splitting", 2,
-            "symplectic splitting into exact axis rotations; conserves |L| exactly",
-            splitting, _splitting, SPLITTING_STABLE,
-        ),
-        IntegratorInfo(
-            "yoshida4", 4,
-            "Yoshida triple jump of splitting; symplectic, conserves |L| exactly",
-            yoshida4, _yoshida4, SPLITTING_STABLE / abs(YOSHIDA_C0),
-        ),
-        IntegratorInfo(
-            "exact_free", 2,
-            "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
-            None, None,
-        ),
-    )
-}  # fmt: skip
+_REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
+    ("explicit_euler", 1, "forward Euler; energy grows, kept to show the failure",
+     explicit_euler, _explicit_euler, None),
+    ("implicit_euler", 1, "backward Euler by Newton iteration; unconditionally stable, damps",
+     implicit_euler, _implicit_euler, None),
+    ("symplectic_euler", 1, "semi-implicit Euler: velocities first, then positions",
+     symplectic_euler, _symplectic_euler, None),
+    ("leapfrog", 2, "drift-kick-drift with mid-point velocities", leapfrog, _leapfrog, None),
+    ("midpoint", 2, "explicit midpoint (RK2)", midpoint, _midpoint, None),
+    ("rk4", 4, "classical Runge-Kutta, q as a vector in R^4, renormalised", rk4, _rk4, None),
+    ("implicit_gyro", 1, "one Newton step on the gyroscopic term (Bullet, Box2D); damps",
+     implicit_gyro, _implicit_gyro, None),
+    ("splitting", 2, "symplectic splitting into exact axis rotations; conserves |L| exactly",
+     splitting, _splitting, SPLITTING_STABLE),
+    ("yoshida4", 4, "Yoshida triple jump of splitting; symplectic, conserves |L| exactly",
+     yoshida4, _yoshida4, SPLITTING_STABLE / abs(YOSHIDA_C0)),
+    ("exact_free", 2,
+     "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
+     None, None, None),
+)  # fmt: skip
+INTEGRATORS: dict[str, IntegratorInfo] = {r[0]: IntegratorInfo(*r) for r in _REGISTRY}
 
 
 def get_integrator(name: str) -> IntegratorInfo:

@@ -560,9 +560,3 @@ def euler_to_matrix(angles: ArrayLike) -> FloatArray:
 # --------------------------------------------------------------------------------------------
 # 6-D representation (Zhou et al., "On the Continuity of Rotation Representations", CVPR 2019)
 # --------------------------------------------------------------------------------------------
-
-
-def quat_to_sixd(q: ArrayLike) -> FloatArray:
-    """First two columns of ``R(q)``, flattened column-major: (..., 6). Continuous in ``q``."""
-    m = quat_to_matrix(q)
-    return np.concatenate([m[..., :, 0], m[..., :, 1]], axis=-1)

@@ -144,8 +144,3 @@ class State:
     def take(self, index: ArrayLike) -> State:
         """The bodies at ``index`` as a new state."""
         return State(self.x[index], self.v[index], self.q[index], self.w[index])
-
-    def put(self, mask: NDArray[np.bool_], other: State) -> None:
-        """Overwrite the bodies where ``mask`` (N,) is true with the same bodies of ``other``."""
-        for name in ("x", "v", "q", "w"):
-            getattr(self, name)[mask] = getattr(other, name)[mask]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 
+import meshes
 import numpy as np
 import pytest
 from numpy.typing import NDArray
@@ -113,7 +114,7 @@ def test_box_point_grid_converges_like_inverse_n_squared() -> None:
 def test_box_mesh_is_exact() -> None:
     size = np.array([0.3, 0.2, 0.1])
     density = 750.0
-    vertices, faces = inertia.box_mesh(size)
+    vertices, faces = meshes.box_mesh(size)
     props = inertia.from_mesh(vertices, faces, density)
     mass = density * float(np.prod(size))
     assert props.mass == pytest.approx(mass, rel=EXACT_RTOL)
@@ -132,7 +133,7 @@ def test_rotated_shifted_box_mesh() -> None:
     rot = _rotation(rng)
     shift = np.array([1.5, -2.0, 0.7])
     size = np.array([0.4, 0.25, 0.1])  # distinct sides: distinct moments, axes well defined
-    vertices, faces = inertia.box_mesh(size)
+    vertices, faces = meshes.box_mesh(size)
     props = inertia.from_mesh(vertices @ rot.T + shift, faces, density=2.0)
     reference = inertia.box(2.0 * float(np.prod(size)), size)
     np.testing.assert_allclose(props.center_of_mass, shift, rtol=0.0, atol=1.0e-14)
@@ -155,7 +156,7 @@ def test_icosphere_mesh_approaches_sphere() -> None:
     radius = 0.5
     errors = []
     for n in range(6):
-        vertices, faces = inertia.icosphere_mesh(radius, n)
+        vertices, faces = meshes.icosphere_mesh(radius, n)
         assert faces.shape == (20 * 4**n, 3)
         np.testing.assert_allclose(np.linalg.norm(vertices, axis=1), radius, rtol=EXACT_RTOL)
         props = inertia.from_mesh(vertices, faces)
@@ -180,7 +181,7 @@ def test_ellipsoid_against_grid_and_mesh() -> None:
     )
     assert _rel_err(inertia.from_points(pts), exact) < 1.0e-3
     # A scaled icosphere is a closed mesh of the ellipsoid; 4 subdivisions: 0.2 % error.
-    vertices, faces = inertia.icosphere_mesh(1.0, 4)
+    vertices, faces = meshes.icosphere_mesh(1.0, 4)
     assert _rel_err(inertia.from_mesh(vertices * semi, faces), exact) < 2.0e-3
     # Equal semi-axes: the sphere's closed form.
     np.testing.assert_allclose(
@@ -368,7 +369,7 @@ def test_triangle_inequality() -> None:
 
 
 def test_bad_meshes_raise() -> None:
-    vertices, faces = inertia.box_mesh([1.0, 1.0, 1.0])
+    vertices, faces = meshes.box_mesh([1.0, 1.0, 1.0])
     with pytest.raises(ValueError, match="signed volume"):
         inertia.from_mesh(vertices, faces[:, ::-1])  # all faces inward
     with pytest.raises(ValueError, match="closed"):
@@ -401,9 +402,9 @@ def test_bad_meshes_raise() -> None:
         (lambda: inertia.from_points([[0, 0, 0, -1.0], [1, 0, 0, 2.0]]), "negative"),
         (lambda: inertia.from_points([[0, 0, 0, 0.0]]), "zero total mass"),
         (lambda: inertia.from_points([[0, 0, float("nan"), 1.0]]), "points"),
-        (lambda: inertia.from_mesh(*inertia.box_mesh([1, 1, 1]), density=0.0), "density"),
-        (lambda: inertia.icosphere_mesh(1.0, -1), "subdivisions"),
-        (lambda: inertia.icosphere_mesh(1.0, 1.5), "subdivisions"),
+        (lambda: inertia.from_mesh(*meshes.box_mesh([1, 1, 1]), density=0.0), "density"),
+        (lambda: meshes.icosphere_mesh(1.0, -1), "subdivisions"),
+        (lambda: meshes.icosphere_mesh(1.0, 1.5), "subdivisions"),
         (lambda: inertia.principal_axes(np.eye(2)), "inertia"),
         (lambda: inertia.check_triangle_inequality([1.0, 2.0]), "moments"),
         (lambda: MassProperties(1.0, [0, 0], np.eye(3)), "center_of_mass"),
