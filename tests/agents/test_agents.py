@@ -98,7 +98,8 @@ def test_config_validation_errors(tmp_path):
     good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
     cases = {
         "unknown_key": ({**good, "learning_rat": 1}, "learning_rat"),
-        "bad_type": ({**good, "total_timesteps": "1e6"}, "total_timesteps"),
+        # (1e6 unquoted is the number 1000000 now: rigid_env.config_files reads it as YAML 1.2)
+        "bad_type": ({**good, "total_timesteps": "a million"}, "total_timesteps"),
         "bad_algo": ({**good, "algo": "dqn"}, "algo"),
         "bad_hyper": ({**good, "hyperparams": {"n_stepz": 3}}, "hyperparams.n_stepz"),
         "bad_env": ({**good, "env_id": "RigidEnv/Nope-v0"}, "env_id"),
