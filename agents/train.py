@@ -194,6 +194,31 @@ def _check_unchanged(cfg: TrainConfig, run_dir: Path) -> None:
         )
 
 
+def _new_model(cfg: TrainConfig, env: Any, run_dir: Path, verbose: int) -> Any:
+    """A fresh model; what SB3 itself refuses (``batch_size: 1`` for PPO, ...) in one line."""
+    algo_cls = algorithm_class(cfg.algo)
+    try:
+        return algo_cls(
+            cfg.policy,
+            env,
+            seed=cfg.seed,
+            device=cfg.device,
+            verbose=verbose,
+            tensorboard_log=str(run_dir / "tb"),
+            policy_kwargs=_policy_kwargs(cfg),
+            **cfg.hyperparams.model_dump(exclude_none=True),
+        )
+    except (AssertionError, ValueError, TypeError) as exc:
+        env.close()
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ConfigError(
+            cfg.run_name,
+            "hyperparams",
+            f"{algo_cls.__name__} refuses them ({reason})",
+            "fix the values in the config",
+        ) from None
+
+
 def _load(cfg: TrainConfig, snap: Snapshot) -> tuple[Any, Any]:
     """``(model, training env)`` from a snapshot; raises whatever a broken file raises."""
     env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True, norm_stats=snap.norm)
@@ -279,16 +304,7 @@ def train(
             print(f"resuming {run_dir} from {snap.model} ({snap.steps} steps)")
     else:
         env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
-        model = algorithm_class(cfg.algo)(
-            cfg.policy,
-            env,
-            seed=cfg.seed,
-            device=cfg.device,
-            verbose=verbose,
-            tensorboard_log=str(run_dir / "tb"),
-            policy_kwargs=_policy_kwargs(cfg),
-            **cfg.hyperparams.model_dump(exclude_none=True),
-        )
+        model = _new_model(cfg, env, run_dir, verbose)
     eval_env = make_vec_env(cfg, 1, cfg.eval.seed, training=False)
     # The run starts here, so a start-up failure above leaves no trace that blocks a rerun.
     run_dir.mkdir(parents=True, exist_ok=True)
