@@ -287,6 +287,8 @@ def train(
         )
     if trained:
         _check_unchanged(cfg, run_dir)
+        for partial in run_dir.rglob(".tmp-*"):  # half-written by a killed run: never renamed
+            partial.unlink(missing_ok=True)
     final = _read_json(run_dir / "model.json") if trained else None
     if final is not None and int(final.get("num_timesteps", 0)) >= cfg.total_timesteps:
         print(

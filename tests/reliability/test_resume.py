@@ -108,6 +108,7 @@ def test_history_and_best_model_survive_kills_and_resumes(tmp_path):
     target = newest + 768
     assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", target) == 0
 
+    assert list(run.rglob(".tmp-*")) == []  # files half-written by the kills are gone
     final = _history(run)
     kept = dict(zip(final["timesteps"].tolist(), _means(final["results"]), strict=True))
     gone = list(
