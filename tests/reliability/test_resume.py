@@ -105,8 +105,13 @@ def test_history_and_best_model_survive_kills_and_resumes(tmp_path):
     zip_before = (run / "eval" / "best_model.zip").read_bytes()
 
     newest = max(int(p.name.split("_")[1]) for p in (run / "checkpoints").glob("*.json"))
+    count = _obs_count(run / "checkpoints" / f"model_vecnormalize_{newest}_steps.pkl")
     target = newest + 768
     assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", target) == 0
+    # Continued from the checkpoint, not restarted: its step count and its VecNormalize
+    # statistics go on (768 new samples, plus the first observation of each of the 2 envs).
+    assert json.loads((run / "model.json").read_text())["num_timesteps"] == target
+    assert _obs_count(run / "vecnormalize.pkl") == pytest.approx(count + 768 + 2)
 
     assert list(run.rglob(".tmp-*")) == []  # files half-written by the kills are gone
     final = _history(run)
