@@ -1,25 +1,28 @@
-"""Training callbacks whose files survive a kill: every file is complete or absent.
+"""Training callbacks whose files survive a kill: every set of files is whole, old or new.
 
-A *snapshot* is a model and its companions written as a set: ``<name>.zip``, the
-``VecNormalize`` statistics, the replay buffer (off-policy algorithms) and, last, a JSON
-sidecar that says which files belong to it and what the model was trained on. Each file is
-written under a temporary name and renamed into place (``os.replace`` is atomic), so a
-``kill -9`` at any moment leaves the previous set whole; a sidecar present means the set is
-complete. ``agents.evaluate`` reads the sidecar to find the statistics of any model a run
-wrote (final, best or checkpoint).
+A *snapshot* is a model and its companions: ``<name>.zip``, the ``VecNormalize`` statistics,
+the replay buffer (off-policy algorithms) and a JSON sidecar ``<name>.json`` that says which
+files belong to it and what the model was trained on. The files are written whole into a
+staging folder, then the sidecar is renamed into place (``os.replace`` is atomic: this is the
+commit), then the staged files are renamed over the old ones and the sidecar loses its
+``staged`` key. A ``kill -9`` before the commit leaves the previous set as it was; one after
+it leaves a sidecar with ``staged``, which :func:`finish_snapshots` completes (``agents.train``
+calls it before anything else reads the run). ``agents.evaluate`` reads the sidecar to find
+the statistics of any model a run wrote (final, best or checkpoint).
 
 The evaluation history ``eval/evaluations.npz`` (SB3's ``timesteps``, ``results``,
 ``ep_lengths``, plus ``successes``) and the best model survive resumes: on resume from a
 checkpoint at step S the entries of steps after S, which describe models that no longer
-exist, move to ``abandoned_timesteps`` / ``abandoned_results`` / ``abandoned_ep_lengths``
-(nothing is dropped, and the main arrays stay one increasing line for plotting); the best
-model is replaced only by a better one, whichever training segment it came from.
+exist, move to ``abandoned_timesteps`` / ``abandoned_results`` / ``abandoned_ep_lengths`` /
+``abandoned_successes`` (nothing is dropped, and the main arrays stay one increasing line for
+plotting); the best model is replaced only by a better one, whichever segment it came from.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import sys
 import zipfile
 from collections.abc import Callable
@@ -71,21 +74,24 @@ def save_snapshot(
     buffer_path: Path | None,
     meta: dict[str, Any],
 ) -> dict[str, Any]:
-    """Save ``model`` (+ the ``VecNormalize`` statistics of its env, + its replay buffer) and
-    then the sidecar ``zip_path.with_suffix(".json")``; returns the sidecar's content.
+    """Save ``model`` (+ the ``VecNormalize`` statistics of its env, + its replay buffer) with
+    its sidecar ``zip_path.with_suffix(".json")`` as one set; returns the sidecar's content.
 
     Args:
         meta: what the model was trained on (``env_id``, ``algo``, ``env_kwargs``, ...).
     """
-    zip_path.parent.mkdir(parents=True, exist_ok=True)
-    writers: dict[Path, Callable[[Path], Any]] = {zip_path: model.save}
+    folder = zip_path.parent
+    stage = folder / f".tmp-stage-{zip_path.stem}-{int(model.num_timesteps)}"
+    shutil.rmtree(stage, ignore_errors=True)
+    stage.mkdir(parents=True)
+    model.save(stage / zip_path.name)
     norm_env = model.get_vec_normalize_env()
     if norm_path is not None and norm_env is not None:
-        writers[norm_path] = norm_env.save
+        norm_env.save(stage / norm_path.name)
     else:
         norm_path = None
     if buffer_path is not None and getattr(model, "replay_buffer", None) is not None:
-        writers[buffer_path] = model.save_replay_buffer
+        model.save_replay_buffer(stage / buffer_path.name)
     else:
         buffer_path = None
     side = {
@@ -94,9 +100,37 @@ def save_snapshot(
         "vecnormalize": norm_path.name if norm_path is not None else None,
         "replay_buffer": buffer_path.name if buffer_path is not None else None,
     }
-    write_atomic(writers)
-    write_json_atomic(zip_path.with_suffix(".json"), side)
+    sidecar = zip_path.with_suffix(".json")
+    write_json_atomic(sidecar, {**side, "staged": stage.name})  # the commit
+    finish_snapshot(sidecar)
     return side
+
+
+def finish_snapshot(sidecar: Path) -> None:
+    """Complete a committed save (idempotent): move its staged files into place."""
+    try:
+        side = json.loads(sidecar.read_text())
+    except (OSError, ValueError):
+        return
+    if not isinstance(side, dict) or "staged" not in side:
+        return
+    stage = sidecar.parent / str(side.pop("staged"))
+    if stage.is_dir():
+        for path in stage.iterdir():
+            os.replace(path, sidecar.parent / path.name)
+        stage.rmdir()
+    write_json_atomic(sidecar, side)
+
+
+def finish_snapshots(run_dir: Path) -> None:
+    """Complete every committed save in a run, then drop what uncommitted ones left."""
+    for sidecar in run_dir.rglob("*.json"):
+        finish_snapshot(sidecar)
+    for partial in sorted(run_dir.rglob(".tmp-*"), reverse=True):
+        if partial.is_dir():
+            shutil.rmtree(partial, ignore_errors=True)
+        else:
+            partial.unlink(missing_ok=True)
 
 
 def zip_timesteps(zip_path: Path) -> int | None:

@@ -12,7 +12,8 @@ file of its ``VecNormalize`` statistics. A model without a sidecar (from elsewhe
 statistics from ``<model>_vecnormalize.pkl``, ``model_vecnormalize_<N>_steps.pkl`` (checkpoint
 ``model_<N>_steps.zip``) or ``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
 A sidecar that names statistics which are missing, corrupted or for another observation shape
-is an error, never a silent evaluation on raw observations.
+is an error, never a silent evaluation on raw observations. A save that a kill interrupted
+after its commit (sidecar with ``staged``) is evaluated from its staging folder.
 
 SB3 model files are pickles: load only files you trust.
 
@@ -200,6 +201,9 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             "`python -m agents.train` or use agents/pretrained/*.zip"
         )
     meta = read_sidecar(model_path)
+    staged = model_path.parent / str((meta or {}).get("staged", ""))
+    if meta is not None and "staged" in meta and staged.is_dir():
+        model_path = staged / model_path.name  # saved whole, not yet moved in (a killed run)
     algo = None
     if meta is not None:
         if meta.get("env_id") not in (None, env_id):

@@ -33,6 +33,7 @@ import yaml
 from agents.callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
+    finish_snapshots,
     save_snapshot,
     warn,
     write_atomic,
@@ -286,9 +287,8 @@ def train(
             "pass --resume to continue it, or choose another --seed or --runs-dir",
         )
     if trained:
+        finish_snapshots(run_dir)  # saves a kill interrupted: completed, or dropped if uncommitted
         _check_unchanged(cfg, run_dir)
-        for partial in run_dir.rglob(".tmp-*"):  # half-written by a killed run: never renamed
-            partial.unlink(missing_ok=True)
     final = _read_json(run_dir / "model.json") if trained else None
     if final is not None and int(final.get("num_timesteps", 0)) >= cfg.total_timesteps:
         print(

@@ -257,3 +257,36 @@ def test_every_model_a_run_writes_names_its_statistics(finished_run, capsys):
         assert _obs_count(stats) == pytest.approx(steps + 2, abs=1e-3), model
     evaluate(run / "eval" / "best_model.zip", "RigidEnv/Detumble-v0", 2, 0, only=["model"])
     assert capsys.readouterr().err == ""
+
+
+def test_a_save_killed_after_its_commit_is_completed(finished_run, tmp_path, capsys):
+    """Items 1 and 4. The moment between a snapshot's commit (its sidecar renamed into place)
+    and the renames of its staged files: the next --resume completes that save, drops an
+    uncommitted one, and meanwhile agents.evaluate reads the committed set."""
+    from agents.evaluate import find_normalization, load_policy, read_sidecar
+
+    config, runs = _copy_run(finished_run, tmp_path)
+    ev = runs / RUN / "eval"
+    ckpt = runs / RUN / "checkpoints"
+    stage = ev / ".tmp-stage-best_model-256"  # as save_snapshot stages the best model
+    stage.mkdir()
+    shutil.copy(ckpt / "model_256_steps.zip", stage / "best_model.zip")
+    shutil.copy(ckpt / "model_vecnormalize_256_steps.pkl", stage / "best_model_vecnormalize.pkl")
+    side = json.loads((ckpt / "model_256_steps.json").read_text())
+    side |= {"mean_reward": 1e9, "vecnormalize": "best_model_vecnormalize.pkl"}
+    (ev / "best_model.json").write_text(json.dumps({**side, "staged": stage.name}))
+    uncommitted = ckpt / ".tmp-stage-model_768_steps-768"
+    uncommitted.mkdir()
+    (uncommitted / "model_768_steps.zip").write_bytes(b"half a model")
+
+    meta = read_sidecar(ev / "best_model.zip")
+    assert (
+        find_normalization(stage / "best_model.zip", meta) == stage / "best_model_vecnormalize.pkl"
+    )
+    load_policy(ev / "best_model.zip", "RigidEnv/Detumble-v0")  # the staged, committed model
+
+    assert _train(config, "--runs-dir", runs, "--resume") == 0  # finished: only the repair
+    assert (ev / "best_model.zip").read_bytes() == (ckpt / "model_256_steps.zip").read_bytes()
+    assert "staged" not in json.loads((ev / "best_model.json").read_text())
+    assert list((runs / RUN).rglob(".tmp-*")) == []
+    assert "finished" in capsys.readouterr().out
