@@ -8,7 +8,8 @@ it runs), ``tb/`` (TensorBoard), ``checkpoints/`` (model, ``VecNormalize`` stati
 buffer every ``checkpoint_freq`` steps), ``eval/`` (evaluation history ``evaluations.npz`` and
 the best model) and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``replay_buffer.pkl``).
 Every model comes with a JSON sidecar naming its statistics and environment, for
-``agents.evaluate``; every file is written whole or not at all (see :mod:`agents.callbacks`).
+``agents.evaluate``; each set of files is written whole or not at all (see
+:mod:`agents.callbacks`).
 
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
 count, statistics and replay buffer; a checkpoint that does not load is skipped with a warning.
