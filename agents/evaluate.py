@@ -27,7 +27,6 @@ table when none does), ``numerical_errors``.
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import pickle
@@ -42,6 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from agents._cli import OneLineParser, integer
 from agents.controllers import CONTROLLERS
 from agents.env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
@@ -389,7 +389,7 @@ def record_video(
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m agents.evaluate", description="Evaluate a policy beside analytic baselines."
     )
     parser.add_argument("model", help="SB3 model .zip, or 'none' for the controllers only")
@@ -403,8 +403,10 @@ def main(argv: list[str] | None = None) -> int:
         ('{"randomization": {"inertia": 0.2}}') or KEY=VALUE pairs (dt=0.02 integrator=rk4
         randomization.inertia=0.2)""",
     )
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=12345, help="episode k uses seed + k (>= 0)")
+    parser.add_argument("--episodes", type=integer, default=100)
+    parser.add_argument(
+        "--seed", type=integer, default=12345, help="episode k uses seed + k (>= 0)"
+    )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--video", type=Path, help="record one episode (.gif or .mp4)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing --video")

@@ -20,7 +20,6 @@ anything but ``total_timesteps`` and ``device`` is refused.
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
@@ -31,6 +30,7 @@ from typing import Any
 
 import yaml
 
+from agents._cli import OneLineParser, integer
 from agents.callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
@@ -336,7 +336,7 @@ def train(
             reset_num_timesteps=start is None,
             tb_log_name="run",
         )
-    # The final model's sidecar, model.json, is written last: its presence marks the run done.
+    # The final set; its sidecar model.json (the commit) marks the run done.
     save_snapshot(
         model,
         run_dir / "model.zip",
@@ -351,13 +351,11 @@ def train(
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.train", description=__doc__.split("\n")[0]
-    )
+    parser = OneLineParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
     parser.add_argument("config", help="training config YAML (configs/agents/*.yaml)")
-    parser.add_argument("--seed", type=int, help="override the config's seed")
-    parser.add_argument("--total-timesteps", type=int, help="override total_timesteps")
-    parser.add_argument("--n-envs", type=int, help="override n_envs")
+    parser.add_argument("--seed", type=integer, help="override the config's seed")
+    parser.add_argument("--total-timesteps", type=integer, help="override total_timesteps")
+    parser.add_argument("--n-envs", type=integer, help="override n_envs")
     parser.add_argument(
         "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
     )

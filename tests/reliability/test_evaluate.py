@@ -250,3 +250,22 @@ def test_cli_error_is_one_line_in_a_fresh_process(tmp_path):
     proc = run_module("agents.evaluate", str(model), "--env", DETUMBLE, "--episodes", "2")
     assert proc.returncode == 2 and proc.stdout == ""
     assert_one_line_error(proc.stderr, ERR, "m_vecnormalize.pkl")
+
+
+@pytest.mark.parametrize(
+    ("flags", "words"),
+    [(["--episodes", "x"], ["--episodes", "integer"]), (["--bogus"], ["--bogus", "--help"])],
+)
+def test_flag_syntax_errors_are_one_line(capsys, flags, words):
+    """A flag argparse rejects is one line too, not its usage block."""
+    with pytest.raises(SystemExit) as exc:
+        ev.main(["none", "--env", DETUMBLE, *flags])
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, ERR, *words)
+
+
+def test_episodes_in_exponent_notation(capsys):
+    assert (
+        ev.main(["none", "--env", DETUMBLE, "--episodes", "4e0", "--only", "zero", "--json"]) == 0
+    )
+    assert json.loads(capsys.readouterr().out)["episodes"] == 4

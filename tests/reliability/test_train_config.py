@@ -142,3 +142,12 @@ def test_python_api_raises_config_error(tmp_path: Path):
     with pytest.raises(ConfigError) as exc:
         load_config({**TINY, "hyperparams": {**HYPER, "gamma": 0}})
     assert str(exc.value).startswith("<config>: hyperparams.gamma: ")
+
+
+def test_flag_syntax_errors_are_one_line(tmp_path, capsys):
+    config = ROOT / "configs" / "agents" / "ppo_detumble.yaml"
+    with pytest.raises(SystemExit) as exc:
+        train_main([str(config), "--total-timesteps", "lots", "--runs-dir", str(tmp_path)])
+    assert exc.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, ERR, "--total-timesteps", "'lots'")
+    assert not any(tmp_path.iterdir())
