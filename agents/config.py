@@ -1,78 +1,122 @@
-"""Training configuration: YAML -> validated frozen dataclasses (unknown keys are errors)."""
+"""Training configuration: YAML -> frozen pydantic models (unknown keys and bad values are errors).
+
+Reading and the one-line errors (``file: field.path: problem; fix``) are
+:mod:`rigid_env.config_files`'; the algorithm's keyword arguments are :mod:`agents.algorithms`'.
+"""
 
 from __future__ import annotations
 
-import dataclasses
-import inspect
 import os
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Any
+import re
+from typing import Any, Literal
 
-import yaml
+import gymnasium as gym
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from agents.algorithms import Hyperparams, PolicyKwargs, check_arguments
+from agents.algorithms import algorithm_class as algorithm_class  # re-exported
+from agents.env_kwargs import check_env_kwargs
+from rigid_env.config_files import (
+    ConfigFileError,
+    FieldError,
+    NonNegativeInt,
+    PositiveFloat,
+    PositiveInt,
+    load_model,
+)
 
 ALGOS = ("ppo", "sac", "td3", "tqc")
+ConfigError = ConfigFileError
+"""A training configuration is wrong; the message names the file, the field and the fix."""
+_FROZEN = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
 
-class ConfigError(ValueError):
-    """A training configuration is wrong; the message names the file, the field and the fix."""
-
-
-@dataclass(frozen=True)
-class NormalizeConfig:
+class NormalizeConfig(BaseModel):
     """``VecNormalize`` settings."""
 
+    model_config = _FROZEN
     obs: bool = True
     """Normalise observations by running mean and variance."""
     reward: bool = True
     """Scale rewards by the running std of the discounted return."""
-    clip_obs: float = 10.0
-    """Clip normalised observations to +- this."""
+    clip_obs: PositiveFloat = 10.0
+    """Clip normalised observations to +- this, > 0."""
 
 
-@dataclass(frozen=True)
-class EvalConfig:
-    """Periodic evaluation (``EvalCallback``) on seeds disjoint from training."""
+class EvalConfig(BaseModel):
+    """Periodic evaluation on seeds disjoint from training."""
 
-    freq: int = 25_000
-    """Environment steps between evaluations (summed over the training envs)."""
-    episodes: int = 20
-    """Episodes per evaluation."""
-    seed: int = 1_000_000
-    """Seed of the evaluation env (training uses ``seed`` .. ``seed + n_envs - 1``)."""
+    model_config = _FROZEN
+    freq: PositiveInt = 25_000
+    """Environment steps between evaluations (summed over the training envs), >= 1."""
+    episodes: PositiveInt = 20
+    """Episodes per evaluation, >= 1."""
+    seed: NonNegativeInt = 1_000_000
+    """Seed of the evaluation env, >= 0 (training uses seed .. seed + n_envs - 1)."""
 
 
-@dataclass(frozen=True)
-class TrainConfig:
+class TrainConfig(BaseModel):
     """One training run: algorithm x task x seed."""
 
+    model_config = _FROZEN
     env_id: str
-    """Registered id, e.g. ``RigidEnv/Detumble-v0``."""
-    algo: str
-    """One of ppo, sac, td3, tqc (tqc needs sb3-contrib)."""
-    total_timesteps: int
-    """Environment steps to train for (summed over envs)."""
-    seed: int = 0
-    """Seed of the policy, the algorithm and the training envs."""
-    n_envs: int = 8
-    """Parallel environments in the native SB3 adapter."""
-    env_kwargs: dict[str, Any] = field(default_factory=dict)
-    """Keyword arguments of the environment (as for ``gym.make``)."""
-    policy: str = "MlpPolicy"
-    """SB3 policy class name."""
-    policy_kwargs: dict[str, Any] = field(default_factory=dict)
-    """Policy keyword arguments (``net_arch``, ``log_std_init``, ...); ``activation_fn`` by
-    name: ``tanh`` or ``relu``."""
-    hyperparams: dict[str, Any] = field(default_factory=dict)
+    """Registered id, e.g. RigidEnv/Detumble-v0."""
+    algo: Literal["ppo", "sac", "td3", "tqc"]
+    """The algorithm (tqc needs sb3-contrib)."""
+    total_timesteps: PositiveInt
+    """Environment steps to train for (summed over envs), >= 1."""
+    seed: NonNegativeInt = 0
+    """Seed of the policy, the algorithm and the training envs, >= 0."""
+    n_envs: PositiveInt = 8
+    """Parallel environments in the native SB3 adapter, >= 1."""
+    env_kwargs: dict[str, Any] = Field(default_factory=dict)
+    """Keyword arguments of the environment (as for gym.make); checked by building it once."""
+    policy: Literal["MlpPolicy"] = "MlpPolicy"
+    """SB3 policy class name (the observations are flat vectors)."""
+    policy_kwargs: PolicyKwargs = Field(default_factory=PolicyKwargs)
+    """Policy keyword arguments."""
+    hyperparams: Hyperparams = Field(default_factory=Hyperparams)
     """Keyword arguments of the SB3 algorithm, checked against its signature."""
-    normalize: NormalizeConfig = field(default_factory=NormalizeConfig)
+    normalize: NormalizeConfig = Field(default_factory=NormalizeConfig)
     """Observation/reward normalisation."""
-    eval: EvalConfig = field(default_factory=EvalConfig)
+    eval: EvalConfig = Field(default_factory=EvalConfig)
     """Evaluation during training."""
-    checkpoint_freq: int = 100_000
-    """Environment steps between checkpoints (model, VecNormalize, replay buffer)."""
+    checkpoint_freq: PositiveInt = 100_000
+    """Environment steps between checkpoints (model, VecNormalize, replay buffer), >= 1."""
     device: str = "cpu"
-    """Torch device."""
+    """Torch device: cpu, cuda, cuda:N, mps or auto."""
+
+    @field_validator("env_id")
+    @classmethod
+    def _registered(cls, env_id: str) -> str:
+        if env_id not in gym.registry:
+            known = ", ".join(k for k in gym.registry if k.startswith("RigidEnv/"))
+            raise ValueError(f"unknown id {env_id!r}; known: {known}")
+        return env_id
+
+    @field_validator("device")
+    @classmethod
+    def _known_device(cls, name: str) -> str:
+        if not re.fullmatch(r"cpu|auto|mps|cuda(:\d+)?", name):
+            raise ValueError(f"unknown device {name!r}; use cpu, cuda, cuda:N, mps or auto")
+        if name.startswith("cuda"):
+            import torch
+
+            index = int(name.partition(":")[2] or 0)
+            if index >= torch.cuda.device_count():
+                raise ValueError(f"no CUDA device {index} on this machine; use cpu or auto")
+        return name
+
+    @model_validator(mode="after")
+    def _fits_algorithm_and_env(self) -> TrainConfig:
+        check_arguments(self.algo, self.policy, self.hyperparams, self.policy_kwargs)
+        try:
+            check_env_kwargs(self.env_id, self.env_kwargs).close()
+        except ValueError as exc:
+            field, _, text = str(exc).partition(": ")
+            problem, _, fix = text.partition("; ")
+            raise FieldError(f"env_kwargs.{field}", problem, fix or "fix the value") from None
+        return self
 
     @property
     def task(self) -> str:
@@ -84,133 +128,22 @@ class TrainConfig:
         """``<task>__<algo>__<seed>``."""
         return f"{self.task}__{self.algo}__{self.seed}"
 
+    @property
+    def gamma(self) -> float:
+        """The discount factor the algorithm uses (SB3's default 0.99 unless given)."""
+        return 0.99 if self.hyperparams.gamma is None else self.hyperparams.gamma
+
     def to_dict(self) -> dict[str, Any]:
-        """Plain dict (YAML-ready)."""
-        return dataclasses.asdict(self)
-
-
-def _err(source: str, path: str, problem: str) -> ConfigError:
-    return ConfigError(f"{source}: {path}: {problem}")
-
-
-def _build(cls: type, data: Any, source: str, path: str) -> Any:
-    if not isinstance(data, dict):
-        raise _err(source, path or "(top level)", f"expected a mapping, got {type(data).__name__}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - set(fields))
-    if unknown:
-        raise _err(
-            source,
-            f"{path + '.' if path else ''}{unknown[0]}",
-            f"unknown key; allowed keys: {', '.join(fields)}",
-        )
-    kwargs: dict[str, Any] = {}
-    hints = {f.name: f.type for f in dataclasses.fields(cls)}
-    for name, value in data.items():
-        where = f"{path + '.' if path else ''}{name}"
-        hint = str(hints[name])
-        if hint in ("NormalizeConfig", "EvalConfig"):
-            kwargs[name] = _build(
-                {"NormalizeConfig": NormalizeConfig, "EvalConfig": EvalConfig}[hint],
-                value,
-                source,
-                where,
-            )
-            continue
-        expected = {"str": str, "int": int, "float": (int, float), "bool": bool}.get(hint)
-        if hint.startswith("dict"):
-            expected = dict
-        if expected is not None and (
-            not isinstance(value, expected) or (expected is int and isinstance(value, bool))
-        ):
-            hint_txt = (
-                " (write floats as 1.0e-4: YAML reads 1e-4 as a string)"
-                if isinstance(value, str)
-                else ""
-            )
-            raise _err(source, where, f"expected {hint}, got {value!r}{hint_txt}")
-        kwargs[name] = value
-    missing = [
-        n
-        for n, f in fields.items()
-        if n not in kwargs
-        and f.default is dataclasses.MISSING
-        and f.default_factory is dataclasses.MISSING
-    ]
-    if missing:
-        raise _err(source, f"{path + '.' if path else ''}{missing[0]}", "required key is missing")
-    return cls(**kwargs)
-
-
-def validate(cfg: TrainConfig, source: str) -> None:
-    """Check values that types alone do not (ranges, names, algorithm keyword arguments)."""
-    if cfg.algo not in ALGOS:
-        raise _err(source, "algo", f"unknown {cfg.algo!r}; choose one of {', '.join(ALGOS)}")
-    import gymnasium as gym
-
-    import rigid_env  # noqa: F401
-
-    if cfg.env_id not in gym.registry:
-        known = ", ".join(k for k in gym.registry if k.startswith("RigidEnv/"))
-        raise _err(source, "env_id", f"unknown id {cfg.env_id!r}; known: {known}")
-    for name in ("total_timesteps", "n_envs", "checkpoint_freq"):
-        if getattr(cfg, name) < 1:
-            raise _err(source, name, f"must be >= 1, got {getattr(cfg, name)}")
-    if cfg.eval.freq < 1 or cfg.eval.episodes < 1:
-        raise _err(source, "eval", "freq and episodes must be >= 1")
-    algo_cls = algorithm_class(cfg.algo)
-    params = inspect.signature(algo_cls.__init__).parameters
-    reserved = {"policy", "env", "seed", "device", "policy_kwargs", "verbose", "tensorboard_log"}
-    for key in cfg.hyperparams:
-        if key in reserved:
-            raise _err(source, f"hyperparams.{key}", "is set by the trainer; use the top-level key")
-        if key not in params:
-            raise _err(
-                source,
-                f"hyperparams.{key}",
-                f"not a {algo_cls.__name__} argument; see its documentation",
-            )
-    act = cfg.policy_kwargs.get("activation_fn")
-    if act is not None and act not in ("tanh", "relu"):
-        raise _err(source, "policy_kwargs.activation_fn", f"use 'tanh' or 'relu', got {act!r}")
-
-
-def algorithm_class(algo: str) -> type:
-    """The SB3 algorithm class for a config name."""
-    if algo == "tqc":
-        try:
-            from sb3_contrib import TQC
-        except ImportError as exc:
-            raise ConfigError("algo: tqc needs sb3-contrib; pip install sb3-contrib") from exc
-        return TQC
-    import stable_baselines3 as sb3
-
-    return {"ppo": sb3.PPO, "sac": sb3.SAC, "td3": sb3.TD3}[algo]
+        """Plain dict (YAML-ready), without the keys left to SB3's defaults."""
+        return self.model_dump(mode="json", exclude_none=True)
 
 
 def load_config(
     source: str | os.PathLike[str] | dict[str, Any], overrides: dict[str, Any] | None = None
 ) -> TrainConfig:
-    """Read, merge ``overrides`` (top-level keys), build and validate a :class:`TrainConfig`.
+    """Read, merge ``overrides`` (top-level keys) and validate a :class:`TrainConfig`.
 
     Raises:
         ConfigError: one line naming the file, the field and the fix.
     """
-    if isinstance(source, dict):
-        name, data = "<config>", dict(source)
-    else:
-        name = str(source)
-        path = Path(source)
-        if not path.is_file():
-            raise ConfigError(f"{name}: file not found; give the path of a YAML training config")
-        try:
-            data = yaml.safe_load(path.read_text())
-        except yaml.YAMLError as exc:
-            mark = getattr(exc, "problem_mark", None)
-            where = f" at line {mark.line + 1}" if mark is not None else ""
-            raise ConfigError(f"{name}: YAML syntax error{where}; fix the file") from None
-    data = dict(data or {})
-    data.update(overrides or {})
-    cfg = _build(TrainConfig, data, name, "")
-    validate(cfg, name)
-    return cfg
+    return load_model(TrainConfig, source, overrides)

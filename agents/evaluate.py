@@ -1,11 +1,19 @@
 """Evaluate a trained policy beside the analytic, zero and random controllers on the same seeds.
 
     python -m agents.evaluate MODEL.zip --env RigidEnv/Detumble-v0 --episodes 100 --seed 12345
-                              [--json] [--video out.gif] [--only model,pd,zero,random]
+                              [--env-kwargs JSON|KEY=VALUE ...] [--json] [--video out.gif]
+                              [--force] [--only model,pd,zero,random]
 
-``MODEL`` may also be ``none`` (controllers only). A model's ``VecNormalize`` statistics are
-read from ``<model>_vecnormalize.pkl`` or ``vecnormalize.pkl`` beside it, and its environment id
-from ``<model>.json`` / ``model.json`` when present.
+``MODEL`` may also be ``none`` (controllers only). What a model was trained on comes from its
+JSON sidecar ``<model>.json`` (``agents.train`` writes one beside every model it saves: the
+final ``model.zip``, ``eval/best_model.zip``, each checkpoint): the env id, the ``env_kwargs``
+(the base that ``--env-kwargs`` is merged over; every policy runs with the merged set) and the
+file of its ``VecNormalize`` statistics. A model without a sidecar (from elsewhere) gets its
+statistics from ``<model>_vecnormalize.pkl``, ``model_vecnormalize_<N>_steps.pkl`` (checkpoint
+``model_<N>_steps.zip``) or ``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
+A sidecar that names statistics which are missing, corrupted or for another observation shape
+is an error, never a silent evaluation on raw observations. A save that a kill interrupted
+after its commit (sidecar with ``staged``) is evaluated from its staging folder.
 
 SB3 model files are pickles: load only files you trust.
 
@@ -13,14 +21,18 @@ Episode ``k`` of every policy uses seed ``seed + k`` (the environment's reset dr
 policies face exactly the same initial spins and targets. Metrics per policy:
 ``success_rate`` (``info["success"]`` at the episode's last step), ``mean_final_angular_speed``
 [rad/s], ``mean_fuel`` [N s], ``mean_return``, ``mean_time_to_success`` [s] (first step with
-``success``, over the episodes that got there).
+``success``, averaged over the episodes that end in success; ``null`` in JSON and ``-`` in the
+table when none does), ``numerical_errors``.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import os
+import pickle
+import re
 import sys
+import tempfile
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -29,7 +41,9 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from agents._cli import OneLineParser, integer
 from agents.controllers import CONTROLLERS
+from agents.env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
@@ -71,40 +85,127 @@ def rollout(
         numerical[ended] = info["numerical_error"][ended]
         done |= ended
     env.close()
-    reached = ~np.isnan(first_success)
+    # An episode that touched success and lost it again has no time to success.
     return {
         "episodes": n,
         "success_rate": float(success.mean()),
         "mean_final_angular_speed": float(final_speed.mean()),
         "mean_fuel": float(fuel.mean()),
         "mean_return": float(returns.mean()),
-        "mean_time_to_success": float(first_success[reached].mean()) if reached.any() else None,
+        "mean_time_to_success": float(first_success[success].mean()) if success.any() else None,
         "numerical_errors": int(numerical.sum()),
     }
 
 
-def _sidecar(model_path: Path, suffix: str) -> Path | None:
-    """``<stem><suffix>`` beside the model, else the run folder's ``model.json`` /
-    ``vecnormalize.pkl`` (as agents.train writes them)."""
-    stem = model_path.with_suffix("")
-    fallback = "model.json" if suffix == ".json" else suffix.lstrip("_")
-    for cand in (Path(f"{stem}{suffix}"), model_path.parent / fallback):
-        if cand.exists():
-            return cand
-    return None
+def read_sidecar(model_path: Path) -> dict[str, Any] | None:
+    """The model's JSON sidecar (``<stem>.json``; ``model.json`` for ``model.zip``), or None.
+
+    Raises:
+        EvaluationError: the sidecar is not valid JSON or has wrong fields.
+    """
+    path = model_path.with_suffix(".json")
+    if not path.exists():
+        return None
+    try:
+        meta = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise EvaluationError(
+            f"{path}: not a valid JSON sidecar ({exc}); restore it, or delete it to evaluate "
+            "the model without its record"
+        ) from None
+    problems = [
+        f"{key} must be {kind}"
+        for key, kind, ok in (
+            ("env_id", "a string", lambda v: isinstance(v, str)),
+            ("env_kwargs", "a mapping", lambda v: isinstance(v, dict)),
+            ("algo", "one of ppo, sac, td3", lambda v: v in ("ppo", "sac", "td3")),
+            ("vecnormalize", "a file name or null", lambda v: v is None or isinstance(v, str)),
+        )
+        if not isinstance(meta, dict) or (key in meta and not ok(meta[key]))
+    ]
+    if problems:
+        raise EvaluationError(
+            f"{path}: {problems[0]}; fix the sidecar agents.train wrote, or delete it"
+        )
+    return meta
 
 
-def load_policy(model_path: Path, env_id: str) -> Policy:
-    """A deterministic policy function from an SB3 zip (+ VecNormalize statistics)."""
+def find_normalization(model_path: Path, meta: dict[str, Any] | None) -> Path | None:
+    """The ``VecNormalize`` statistics a run wrote for ``model_path`` (None: there are none).
+
+    Raises:
+        EvaluationError: the sidecar names statistics that are not there.
+    """
+    if meta is not None and "vecnormalize" in meta:
+        if meta["vecnormalize"] is None:
+            return None
+        path = model_path.parent / meta["vecnormalize"]
+        if not path.exists():
+            raise EvaluationError(
+                f"{path}: missing; {model_path.name} was trained on normalised observations "
+                "and evaluating it without these statistics would be wrong; restore the file"
+            )
+        return path
+    stem = model_path.with_suffix("").name
+    candidates = [model_path.parent / f"{stem}_vecnormalize.pkl"]
+    m = re.fullmatch(r"(.*)_(\d+)_steps", stem)
+    if m is not None:
+        candidates.append(model_path.parent / f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl")
+    if stem == "model":
+        candidates.append(model_path.parent / "vecnormalize.pkl")
+    found = next((p for p in candidates if p.exists()), None)
+    if found is None:
+        print(
+            f"agents.evaluate: warning: {model_path}: no sidecar and no VecNormalize statistics "
+            f"({candidates[0].name}); evaluating on raw observations",
+            file=sys.stderr,
+        )
+    return found
+
+
+def _load_normalization(path: Path, obs_shape: tuple[int, ...]) -> Any:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    try:
+        with open(path, "rb") as fh:
+            norm = pickle.load(fh)  # trusted: written by agents.train
+    except Exception as exc:  # a truncated or foreign pickle raises almost anything
+        raise EvaluationError(
+            f"{path}: not readable VecNormalize statistics ({type(exc).__name__}); "
+            "restore the file agents.train wrote for this model"
+        ) from None
+    if not isinstance(norm, VecNormalize):
+        raise EvaluationError(
+            f"{path}: holds a {type(norm).__name__}, not VecNormalize statistics; "
+            "restore the file agents.train wrote for this model"
+        )
+    shape = tuple(np.shape(norm.obs_rms.mean)) if norm.norm_obs else obs_shape
+    if shape != obs_shape:
+        raise EvaluationError(
+            f"{path}: statistics for observations of shape {shape}, the model sees {obs_shape}; "
+            "use the statistics saved with this model"
+        )
+    return norm
+
+
+def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None = None) -> Policy:
+    """A deterministic policy function from an SB3 zip (+ its ``VecNormalize`` statistics).
+
+    Raises:
+        EvaluationError: the model or its companions are missing or wrong, or the model was
+            trained on another env or on observations of another shape.
+    """
     if not model_path.exists():
         raise EvaluationError(
             f"{model_path}: model file not found; train one with "
             "`python -m agents.train` or use agents/pretrained/*.zip"
         )
-    meta_path = _sidecar(model_path, ".json")
+    meta = read_sidecar(model_path)
+    staged = model_path.parent / str((meta or {}).get("staged", ""))
+    if meta is not None and "staged" in meta and staged.is_dir():
+        model_path = staged / model_path.name  # saved whole, not yet moved in (a killed run)
     algo = None
-    if meta_path is not None:
-        meta = json.loads(meta_path.read_text())
+    if meta is not None:
         if meta.get("env_id") not in (None, env_id):
             raise EvaluationError(
                 f"{model_path}: trained on {meta['env_id']}, not {env_id}; "
@@ -114,9 +215,8 @@ def load_policy(model_path: Path, env_id: str) -> Policy:
     from stable_baselines3 import PPO, SAC, TD3
 
     classes = {"ppo": PPO, "sac": SAC, "td3": TD3}
-    order = [classes[algo]] if algo in classes else list(classes.values())
     model = None
-    for cls in order:
+    for cls in [classes[algo]] if algo in classes else list(classes.values()):
         try:
             model = cls.load(str(model_path), device="cpu")
             break
@@ -124,25 +224,24 @@ def load_policy(model_path: Path, env_id: str) -> Policy:
             continue
     if model is None:
         raise EvaluationError(f"{model_path}: not a loadable SB3 PPO/SAC/TD3 model file")
-    probe = gym.make(env_id)
+    kwargs = env_kwargs or {}
+    probe = _probe(env_id, kwargs)
     if (
         model.observation_space.shape != probe.observation_space.shape
         or model.action_space.shape != probe.action_space.shape
     ):
+        recorded = f" (its sidecar records env_kwargs {meta['env_kwargs']})" if meta else ""
         raise EvaluationError(
-            f"{model_path}: observation/action shapes {model.observation_space.shape}"
-            f"/{model.action_space.shape} do not match {env_id}'s "
-            f"{probe.observation_space.shape}/{probe.action_space.shape}; "
-            "pass the --env it was trained on"
+            f"{model_path}: observes {model.observation_space.shape} and acts "
+            f"{model.action_space.shape}, but {env_id} with env_kwargs {kwargs} gives "
+            f"{probe.observation_space.shape} and {probe.action_space.shape}; use the env and "
+            f"env_kwargs it was trained with{recorded}"
         )
     probe.close()
-    norm = None
-    norm_path = _sidecar(model_path, "_vecnormalize.pkl")
-    if norm_path is not None:
-        import pickle
-
-        with open(norm_path, "rb") as fh:
-            norm = pickle.load(fh)  # trusted: written by agents.train
+    norm_path = find_normalization(model_path, meta)
+    norm = (
+        None if norm_path is None else _load_normalization(norm_path, model.observation_space.shape)
+    )
 
     def policy(obs: np.ndarray) -> np.ndarray:
         if norm is not None and norm.norm_obs:
@@ -157,6 +256,22 @@ def load_policy(model_path: Path, env_id: str) -> Policy:
     return policy
 
 
+def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
+    try:
+        return check_env_kwargs(env_id, env_kwargs)
+    except ValueError as exc:
+        raise EvaluationError(f"env_kwargs: {exc}") from None
+
+
+def resolve_env_kwargs(
+    model: Path | None, env_kwargs: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The env kwargs an evaluation runs with: the model's recorded ones (sidecar), with
+    ``env_kwargs`` merged over them."""
+    meta = read_sidecar(model) if model is not None and model.exists() else None
+    return merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
+
+
 def evaluate(
     model: Path | None,
     env_id: str,
@@ -165,24 +280,36 @@ def evaluate(
     only: list[str] | None = None,
     env_kwargs: dict[str, Any] | None = None,
 ) -> dict[str, dict[str, Any]]:
-    """Metrics per policy name (``model`` plus the controllers)."""
+    """Metrics per policy name (``model`` plus the controllers), every policy on the env with
+    the model's recorded ``env_kwargs`` and ``env_kwargs`` merged over them.
+
+    Raises:
+        EvaluationError: one line, for any input that cannot give a true result.
+    """
+    if episodes < 1:
+        raise EvaluationError(f"--episodes: must be an integer >= 1, got {episodes}")
+    if seed < 0:
+        raise EvaluationError(f"--seed: must be an integer >= 0, got {seed}")
     names = only or (["model"] if model is not None else []) + list(CONTROLLERS)
+    unknown = [n for n in names if n != "model" and n not in CONTROLLERS]
+    if unknown:
+        raise EvaluationError(
+            f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
+        )
+    kwargs = resolve_env_kwargs(model, env_kwargs)
+    _probe(env_id, kwargs).close()
     results: dict[str, dict[str, Any]] = {}
     probe = gym.make_vec(
-        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **kwargs
     )
     for name in names:
         if name == "model":
             if model is None:
                 continue
-            policy = load_policy(model, env_id)
-        elif name in CONTROLLERS:
-            policy = CONTROLLERS[name](probe)
+            policy = load_policy(model, env_id, kwargs)
         else:
-            raise EvaluationError(
-                f"--only: unknown policy {name!r}; use model, {', '.join(CONTROLLERS)}"
-            )
-        results[name] = rollout(env_id, policy, episodes, seed, env_kwargs)
+            policy = CONTROLLERS[name](probe)
+        results[name] = rollout(env_id, policy, episodes, seed, kwargs)
     probe.close()
     return results
 
@@ -202,10 +329,38 @@ def markdown_table(results: dict[str, dict[str, Any]]) -> str:
     return "\n".join(lines)
 
 
-def record_video(model: Path | None, env_id: str, seed: int, path: Path) -> None:
-    """One episode of the model (or the PD controller without a model) as a GIF or MP4."""
-    env = gym.make(env_id, render_mode="rgb_array")
-    policy = load_policy(model, env_id) if model is not None else CONTROLLERS["pd"](env)
+def check_video_path(path: Path, force: bool) -> None:
+    """Refuse a ``--video`` path that cannot be written, before any work is done.
+
+    Raises:
+        EvaluationError: wrong suffix, an existing file without ``force``, or a folder that
+            cannot be created or written.
+    """
+    if path.suffix.lower() not in (".gif", ".mp4"):
+        raise EvaluationError(f"--video: {path}: give a .gif or .mp4 file name")
+    if path.is_dir():
+        raise EvaluationError(f"--video: {path} is a folder; give a file name such as out.gif")
+    if path.exists() and not force:
+        raise EvaluationError(f"--video: {path} exists; pass --force to overwrite it")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise EvaluationError(
+            f"--video: cannot write {path} ({reason}); choose a folder you can write to"
+        ) from None
+
+
+def record_video(
+    model: Path | None, env_id: str, seed: int, path: Path, env_kwargs: dict[str, Any] | None = None
+) -> None:
+    """One episode of the model (or the PD controller without a model) as a GIF or an MP4,
+    written to exactly ``path`` (complete or not at all)."""
+    kwargs = resolve_env_kwargs(model, env_kwargs)
+    env = gym.make(env_id, render_mode="rgb_array", **kwargs)
+    policy = load_policy(model, env_id, kwargs) if model is not None else CONTROLLERS["pd"](env)
     obs, _ = env.reset(seed=seed)
     frames = [env.render()]
     done = False
@@ -214,51 +369,89 @@ def record_video(model: Path | None, env_id: str, seed: int, path: Path) -> None
         frames.append(env.render())
         done = terminated or truncated
     env.close()
-    path.parent.mkdir(parents=True, exist_ok=True)
     fps = env.metadata.get("render_fps", 20)
-    if path.suffix.lower() == ".gif":
-        from PIL import Image
+    with tempfile.TemporaryDirectory(dir=path.parent, prefix=".video-") as tmp:
+        if path.suffix.lower() == ".gif":
+            from PIL import Image
 
-        images = [Image.fromarray(f) for f in frames]
-        images[0].save(
-            path, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0
-        )
-    else:
-        from gymnasium.utils.save_video import save_video
+            out = Path(tmp) / path.name
+            images = [Image.fromarray(f) for f in frames]
+            images[0].save(
+                out, save_all=True, append_images=images[1:], duration=int(1000 / fps), loop=0
+            )
+        else:
+            from gymnasium.utils.save_video import save_video
 
-        save_video(frames, str(path.parent), fps=fps, name_prefix=path.stem)
+            save_video(frames, tmp, fps=fps, name_prefix="video")
+            out = next(Path(tmp).glob("*.mp4"))
+        os.replace(out, path)
 
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(
+    parser = OneLineParser(
         prog="python -m agents.evaluate", description="Evaluate a policy beside analytic baselines."
     )
     parser.add_argument("model", help="SB3 model .zip, or 'none' for the controllers only")
     parser.add_argument("--env", required=True, help="environment id, e.g. RigidEnv/Detumble-v0")
-    parser.add_argument("--episodes", type=int, default=100)
-    parser.add_argument("--seed", type=int, default=12345, help="episode k uses seed + k")
+    parser.add_argument(
+        "--env-kwargs",
+        nargs="+",
+        default=[],
+        metavar="JSON|KEY=VALUE",
+        help="""environment keyword arguments over the model's recorded ones: a JSON object
+        ('{"randomization": {"inertia": 0.2}}') or KEY=VALUE pairs (dt=0.02 integrator=rk4
+        randomization.inertia=0.2)""",
+    )
+    parser.add_argument("--episodes", type=integer, default=100)
+    parser.add_argument(
+        "--seed", type=integer, default=12345, help="episode k uses seed + k (>= 0)"
+    )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--video", type=Path, help="record one episode (.gif or .mp4)")
+    parser.add_argument("--force", action="store_true", help="overwrite an existing --video")
     parser.add_argument("--only", help="comma-separated subset of: model,pd,zero,random")
     args = parser.parse_args(argv)
     model = None if args.model.lower() == "none" else Path(args.model)
     try:
         if args.env not in gym.registry:
-            raise EvaluationError(f"--env: unknown id {args.env!r}")
-        if args.episodes < 1:
-            raise EvaluationError("--episodes: must be >= 1")
-        only = args.only.split(",") if args.only else None
-        results = evaluate(model, args.env, args.episodes, args.seed, only)
+            known = ", ".join(k for k in gym.registry if k.startswith("RigidEnv/"))
+            raise EvaluationError(f"--env: unknown id {args.env!r}; use one of {known}")
+        try:
+            env_kwargs = parse_env_kwargs(args.env_kwargs)
+        except ValueError as exc:
+            raise EvaluationError(f"--env-kwargs: {exc}") from None
         if args.video is not None:
-            record_video(model, args.env, args.seed, args.video)
+            check_video_path(args.video, args.force)
+        only = args.only.split(",") if args.only else None
+        results = evaluate(model, args.env, args.episodes, args.seed, only, env_kwargs)
+        used = resolve_env_kwargs(model, env_kwargs)
     except EvaluationError as exc:
         print(f"agents.evaluate: error: {exc}", file=sys.stderr)
         return 2
     if args.json:
-        print(json.dumps(results if len(results) > 1 else next(iter(results.values())), indent=2))
+        shown = {name: {**r, "env_kwargs": used} for name, r in results.items()}
+        print(json.dumps(shown if len(shown) > 1 else next(iter(shown.values())), indent=2))
     else:
+        if used:
+            print(f"env_kwargs: {json.dumps(used)}")
         print(markdown_table(results))
+    sys.stdout.flush()
+    if args.video is not None:
+        try:
+            record_video(model, args.env, args.seed, args.video, env_kwargs)
+        except ImportError as exc:
+            print(
+                f"agents.evaluate: error: --video: needs {exc.name}; "
+                "pip install -e '.[render]' (results above are complete)",
+                file=sys.stderr,
+            )
+            return 1
+        except (OSError, EvaluationError) as exc:
+            text = " ".join(str(exc).split())
+            print(f"agents.evaluate: error: --video: {text}", file=sys.stderr)
+            return 1
+        print(f"wrote {args.video}")
     return 0
 
 

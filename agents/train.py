@@ -1,28 +1,50 @@
 """Train an SB3 agent on a RigidEnv task from a YAML config.
 
     python -m agents.train configs/agents/ppo_detumble.yaml [--seed S] [--total-timesteps N]
-                           [--runs-dir runs] [--resume] [--no-progress]
+                           [--n-envs K] [--runs-dir runs] [--resume] [--no-progress]
 
-A run goes to ``runs/<task>__<algo>__<seed>/``: ``config.yaml`` (the full resolved config),
-``tb/`` (TensorBoard), ``checkpoints/`` (model, ``VecNormalize`` statistics and replay buffer
-every ``checkpoint_freq`` steps), ``eval/`` (EvalCallback log and best model) and the final
-``model.zip`` + ``vecnormalize.pkl``. ``--resume`` continues from the newest checkpoint with
-its step count and normalisation statistics.
+A run goes to ``runs/<task>__<algo>__<seed>/``: ``config.yaml`` (the full resolved config, as
+it runs), ``tb/`` (TensorBoard), ``checkpoints/`` (model, ``VecNormalize`` statistics and replay
+buffer every ``checkpoint_freq`` steps), ``eval/`` (evaluation history ``evaluations.npz`` and
+the best model) and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``replay_buffer.pkl``).
+Every model comes with a JSON sidecar naming its statistics and environment, for
+``agents.evaluate``; each set of files is written whole or not at all (see
+:mod:`agents.callbacks`).
+
+``--resume`` continues from the newest complete checkpoint (or the final model) with its step
+count, statistics and replay buffer; a checkpoint that does not load is skipped with a warning.
+The evaluation history and the best model are kept. A finished run is left alone unless
+``--total-timesteps`` asks for more. A config that differs from the run's ``config.yaml`` in
+anything but ``total_timesteps`` and ``device`` is refused.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import re
 import sys
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import yaml
 
+from agents._cli import OneLineParser, integer
+from agents.callbacks import (
+    CheckpointSnapshots,
+    DurableEvaluation,
+    finish_snapshots,
+    save_snapshot,
+    warn,
+    write_atomic,
+    zip_timesteps,
+)
 from agents.config import ConfigError, TrainConfig, algorithm_class, load_config
+from rigid_env.config_files import read_yaml
+
+#: Keys a resumed run may change: the budget and where it runs (both recorded as they run).
+RESUMABLE_CHANGES = ("total_timesteps", "device")
 
 
 def make_vec_env(
@@ -37,16 +59,15 @@ def make_vec_env(
     venv.seed(seed)
     venv = VecMonitor(venv)
     if cfg.normalize.obs or cfg.normalize.reward:
-        if norm_stats is not None and norm_stats.exists():
+        if norm_stats is not None:
             venv = VecNormalize.load(str(norm_stats), venv)
         else:
-            gamma = float(cfg.hyperparams.get("gamma", 0.99))
             venv = VecNormalize(
                 venv,
                 norm_obs=cfg.normalize.obs,
                 norm_reward=cfg.normalize.reward,
                 clip_obs=cfg.normalize.clip_obs,
-                gamma=gamma,
+                gamma=cfg.gamma,
             )
         venv.training = training
         if not training:
@@ -57,28 +78,182 @@ def make_vec_env(
 def _policy_kwargs(cfg: TrainConfig) -> dict[str, Any]:
     import torch
 
-    kw = dict(cfg.policy_kwargs)
+    kw = cfg.policy_kwargs.model_dump(exclude_none=True)
     if "activation_fn" in kw:
         kw["activation_fn"] = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[kw["activation_fn"]]
     return kw
 
 
-def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
-    """The newest *complete* checkpoint ``(model zip, steps)``, or None.
+@dataclass(frozen=True)
+class Snapshot:
+    """A saved model and its companions (absent ones ``None``)."""
 
-    SB3's ``CheckpointCallback`` writes the model, then the replay buffer, then the
-    ``VecNormalize`` statistics; a run killed between those writes leaves a newer model
-    without its companions. A checkpoint counts only when it has every kind of companion file
-    that any checkpoint of the run has."""
-    models: dict[int, Path] = {}
-    for p in ckpt_dir.glob("model_*_steps.zip"):
-        m = re.search(r"model_(\d+)_steps\.zip$", p.name)
-        if m:
-            models[int(m.group(1))] = p
+    steps: int
+    model: Path
+    norm: Path | None
+    buffer: Path | None
+
+
+def _checkpoints(ckpt_dir: Path) -> list[Snapshot]:
+    """The complete checkpoints in ``ckpt_dir``, newest first.
+
+    One written with its JSON sidecar is complete when the sidecar exists (it is written
+    last). One written by SB3's ``CheckpointCallback`` (model, then replay buffer, then
+    statistics, no sidecar) counts only when it has every kind of companion file that any
+    checkpoint of the run has."""
     kinds = [k for k in ("vecnormalize", "replay_buffer") if any(ckpt_dir.glob(f"model_{k}_*.pkl"))]
-    for steps in sorted(models, reverse=True):
-        if all((ckpt_dir / f"model_{k}_{steps}_steps.pkl").exists() for k in kinds):
-            return models[steps], steps
+    found: list[Snapshot] = []
+    for p in ckpt_dir.glob("model_*_steps.zip"):
+        m = re.fullmatch(r"model_(\d+)_steps\.zip", p.name)
+        if m is None:
+            continue
+        n = int(m.group(1))
+        side = {k: ckpt_dir / f"model_{k}_{n}_steps.pkl" for k in ("vecnormalize", "replay_buffer")}
+        if p.with_suffix(".json").exists() or all(side[k].exists() for k in kinds):
+            there = {k: v if v.exists() else None for k, v in side.items()}
+            found.append(Snapshot(n, p, there["vecnormalize"], there["replay_buffer"]))
+    return sorted(found, key=lambda s: s.steps, reverse=True)
+
+
+def _snapshots(run_dir: Path) -> list[Snapshot]:
+    """The run's complete snapshots, newest first: checkpoints and the final model (first of
+    equal steps: it is the same state)."""
+    found = _checkpoints(run_dir / "checkpoints")
+    final = _read_json(run_dir / "model.json")
+    steps = None if final is None else final.get("num_timesteps")
+    if steps is not None and zip_timesteps(run_dir / "model.zip") == steps:
+        norm, buffer = run_dir / "vecnormalize.pkl", run_dir / "replay_buffer.pkl"
+        found.append(
+            Snapshot(
+                int(steps),
+                run_dir / "model.zip",
+                norm if norm.exists() else None,
+                buffer if buffer.exists() else None,
+            )
+        )
+    return sorted(found, key=lambda s: (s.steps, s.model.name == "model.zip"), reverse=True)
+
+
+def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
+    """The newest complete checkpoint ``(model zip, steps)`` in ``ckpt_dir``, or None."""
+    snaps = _checkpoints(ckpt_dir)
+    return (snaps[0].model, snaps[0].steps) if snaps else None
+
+
+def _read_json(path: Path) -> dict[str, Any] | None:
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError):
+        return None
+    return data if isinstance(data, dict) else None
+
+
+def _has_training(run_dir: Path) -> bool:
+    """Whether ``run_dir`` holds anything trained (a start-up failure leaves at most a
+    ``config.yaml``, which a new start may replace)."""
+    return any(
+        [
+            (run_dir / "model.zip").exists(),
+            any((run_dir / "checkpoints").glob("model_*_steps.zip")),
+            (run_dir / "eval" / "evaluations.npz").exists(),
+            (run_dir / "eval" / "best_model.zip").exists(),
+        ]
+    )
+
+
+def _changed_fields(old: Any, new: Any, prefix: str = "") -> list[str]:
+    """Dotted paths where two config dicts differ, with both values."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        return [
+            change
+            for key in sorted(set(old) | set(new), key=str)
+            for change in _changed_fields(old.get(key), new.get(key), f"{prefix}{key}.")
+        ]
+    if old == new:
+        return []
+    shown = ["not set" if v is None else repr(v) for v in (old, new)]
+    return [f"{prefix[:-1]} (run: {shown[0]}, now: {shown[1]})"]
+
+
+def _check_unchanged(cfg: TrainConfig, run_dir: Path) -> None:
+    """Refuse a resume whose config differs from the one the run was trained with."""
+    recorded_path = run_dir / "config.yaml"
+    if not recorded_path.exists():
+        return
+    recorded = load_config(recorded_path).to_dict()
+    current = cfg.to_dict()
+    for key in RESUMABLE_CHANGES:
+        recorded.pop(key, None)
+        current.pop(key, None)
+    changes = _changed_fields(recorded, current)
+    if changes:
+        raise ConfigError(
+            str(run_dir),
+            "--resume",
+            f"the config differs from the run's config.yaml in {'; '.join(changes)}",
+            "resume with the run's own config.yaml, or start a new run with another --seed "
+            "or --runs-dir (only total_timesteps and device may change on resume)",
+        )
+
+
+def _new_model(cfg: TrainConfig, env: Any, run_dir: Path, verbose: int) -> Any:
+    """A fresh model; what SB3 itself refuses (``batch_size: 1`` for PPO, ...) in one line."""
+    algo_cls = algorithm_class(cfg.algo)
+    try:
+        return algo_cls(
+            cfg.policy,
+            env,
+            seed=cfg.seed,
+            device=cfg.device,
+            verbose=verbose,
+            tensorboard_log=str(run_dir / "tb"),
+            policy_kwargs=_policy_kwargs(cfg),
+            **cfg.hyperparams.model_dump(exclude_none=True),
+        )
+    except (AssertionError, ValueError, TypeError) as exc:
+        env.close()
+        reason = " ".join(str(exc).split()) or type(exc).__name__
+        raise ConfigError(
+            cfg.run_name,
+            "hyperparams",
+            f"{algo_cls.__name__} refuses them ({reason})",
+            "fix the values in the config",
+        ) from None
+
+
+def _load(cfg: TrainConfig, snap: Snapshot) -> tuple[Any, Any]:
+    """``(model, training env)`` from a snapshot; raises whatever a broken file raises."""
+    env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True, norm_stats=snap.norm)
+    try:
+        model = algorithm_class(cfg.algo).load(str(snap.model), env=env, device=cfg.device)
+        if snap.buffer is not None and hasattr(model, "load_replay_buffer"):
+            model.load_replay_buffer(str(snap.buffer))
+    except BaseException:
+        env.close()
+        raise
+    return model, env
+
+
+def _resume_point(cfg: TrainConfig, run_dir: Path) -> tuple[Any, Any, Snapshot] | None:
+    """The newest snapshot that loads, with a warning for each one skipped."""
+    snaps = _snapshots(run_dir)
+    problems = []
+    for snap in snaps:
+        try:
+            model, env = _load(cfg, snap)
+        except Exception as exc:  # a file cut short by a kill, or not a model at all
+            problem = f"{snap.model.name} does not load ({type(exc).__name__})"
+            problems.append(problem)
+            warn(f"{run_dir}: {problem}; falling back to the previous checkpoint")
+            continue
+        return model, env, snap
+    if snaps:
+        raise ConfigError(
+            str(run_dir),
+            "--resume",
+            f"no checkpoint loads ({'; '.join(problems)})",
+            "start a new run with another --seed or --runs-dir",
+        )
     return None
 
 
@@ -93,130 +268,103 @@ def train(
     """Train and save; returns the run directory.
 
     Args:
+        resume: continue the run in ``runs_dir`` (see the module docstring); a finished run
+            with at least ``cfg.total_timesteps`` steps is left as it is.
         callbacks: extra SB3 callbacks, called after the built-in ones (checkpoints,
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
+
+    Raises:
+        ConfigError: the run exists and ``resume`` is not set; the config differs from the
+            run's; no checkpoint of the run loads.
     """
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
-
     run_dir = runs_dir / cfg.run_name
-    ckpt_dir = run_dir / "checkpoints"
-    if run_dir.exists() and not resume and (run_dir / "config.yaml").exists():
+    trained = _has_training(run_dir)
+    if trained and not resume:
         raise ConfigError(
-            f"{run_dir}: a run already exists; pass --resume to continue it, "
-            "or choose another --seed or --runs-dir"
+            str(run_dir),
+            "",
+            "a run already exists",
+            "pass --resume to continue it, or choose another --seed or --runs-dir",
         )
-    run_dir.mkdir(parents=True, exist_ok=True)
-    (run_dir / "config.yaml").write_text(yaml.safe_dump(cfg.to_dict(), sort_keys=False))
-
-    algo_cls = algorithm_class(cfg.algo)
-    start = _latest_checkpoint(ckpt_dir) if resume else None
-    if resume and start is None:
-        raise ConfigError(f"{ckpt_dir}: no checkpoint to resume from; start without --resume")
-    norm_path = None
+    if trained:
+        finish_snapshots(run_dir)  # saves a kill interrupted: completed, or dropped if uncommitted
+        _check_unchanged(cfg, run_dir)
+    final = _read_json(run_dir / "model.json") if trained else None
+    if final is not None and int(final.get("num_timesteps", 0)) >= cfg.total_timesteps:
+        print(
+            f"{run_dir}: finished ({final['num_timesteps']} steps, total_timesteps "
+            f"{cfg.total_timesteps}); nothing to do. To train further, pass --resume "
+            "--total-timesteps N with N larger"
+        )
+        return run_dir
+    start = _resume_point(cfg, run_dir) if trained else None
+    if trained and start is None:
+        warn(f"{run_dir}: no checkpoint yet; starting at step 0, keeping eval/ history and best")
     if start is not None:
-        norm_path = ckpt_dir / f"model_vecnormalize_{start[1]}_steps.pkl"
-    env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True, norm_stats=norm_path)
-    eval_env = make_vec_env(cfg, 1, cfg.eval.seed, training=False)
-    if start is not None:
-        model = algo_cls.load(str(start[0]), env=env, device=cfg.device)
-        buffer = ckpt_dir / f"model_replay_buffer_{start[1]}_steps.pkl"
-        if buffer.exists() and hasattr(model, "load_replay_buffer"):
-            model.load_replay_buffer(str(buffer))
+        model, env, snap = start
+        if verbose:
+            print(f"resuming {run_dir} from {snap.model} ({snap.steps} steps)")
     else:
-        model = algo_cls(
-            cfg.policy,
-            env,
-            seed=cfg.seed,
-            device=cfg.device,
-            verbose=verbose,
-            tensorboard_log=str(run_dir / "tb"),
-            policy_kwargs=_policy_kwargs(cfg),
-            **cfg.hyperparams,
-        )
-    # Share the training normalisation statistics with the evaluation env.
-    if hasattr(env, "obs_rms"):
-        eval_env.obs_rms = env.obs_rms
-    per_env = max(1, cfg.eval.freq // cfg.n_envs)
-    callbacks = CallbackList(
-        [
-            CheckpointCallback(
-                save_freq=max(1, cfg.checkpoint_freq // cfg.n_envs),
-                save_path=str(ckpt_dir),
-                name_prefix="model",
-                save_replay_buffer=True,
-                save_vecnormalize=True,
-            ),
-            _SyncNormalization(eval_env),
-            EvalCallback(
-                eval_env,
-                n_eval_episodes=cfg.eval.episodes,
-                eval_freq=per_env,
-                log_path=str(run_dir / "eval"),
-                best_model_save_path=str(run_dir / "eval"),
-                deterministic=True,
-                verbose=verbose,
-            ),
-            *callbacks,
-        ]
-    )
-    remaining = cfg.total_timesteps - (model.num_timesteps if start is not None else 0)
+        env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
+        model = _new_model(cfg, env, run_dir, verbose)
+    eval_env = make_vec_env(cfg, 1, cfg.eval.seed, training=False)
+    # The run starts here, so a start-up failure above leaves no trace that blocks a rerun.
+    run_dir.mkdir(parents=True, exist_ok=True)
+    config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)
+    write_atomic({run_dir / "config.yaml": lambda p: p.write_text(config_text)})
+    meta = {"env_id": cfg.env_id, "algo": cfg.algo, "env_kwargs": cfg.env_kwargs}
+    builtin = [
+        CheckpointSnapshots(
+            run_dir / "checkpoints", max(1, cfg.checkpoint_freq // cfg.n_envs), meta
+        ),
+        DurableEvaluation(
+            eval_env,
+            run_dir / "eval",
+            max(1, cfg.eval.freq // cfg.n_envs),
+            cfg.eval.episodes,
+            meta,
+            resumed_from=start[2].steps if start is not None else (0 if trained else None),
+        ),
+    ]
+    remaining = cfg.total_timesteps - model.num_timesteps
     if remaining > 0:
         model.learn(
             total_timesteps=remaining,
-            callback=callbacks,
+            callback=[*builtin, *callbacks],
             progress_bar=progress,
             reset_num_timesteps=start is None,
             tb_log_name="run",
         )
-    model.save(str(run_dir / "model.zip"))
-    if hasattr(env, "save"):
-        env.save(str(run_dir / "vecnormalize.pkl"))
-    (run_dir / "model.json").write_text(
-        json.dumps(
-            {
-                "env_id": cfg.env_id,
-                "algo": cfg.algo,
-                "env_kwargs": cfg.env_kwargs,
-                "num_timesteps": int(model.num_timesteps),
-            },
-            indent=2,
-        )
+    # The final set; its sidecar model.json (the commit) marks the run done.
+    save_snapshot(
+        model,
+        run_dir / "model.zip",
+        run_dir / "vecnormalize.pkl",
+        run_dir / "replay_buffer.pkl",
+        meta,
     )
     env.close()
     eval_env.close()
     return run_dir
 
 
-class _SyncNormalization:
-    """Callback-like object copying the training ``obs_rms`` into the eval env before each eval."""
-
-    def __new__(cls, eval_env: Any) -> Any:
-        from stable_baselines3.common.callbacks import BaseCallback
-
-        class Sync(BaseCallback):
-            def _on_step(self) -> bool:
-                train_env = self.model.get_env()
-                if hasattr(train_env, "obs_rms") and hasattr(eval_env, "obs_rms"):
-                    eval_env.obs_rms = train_env.obs_rms
-                return True
-
-        return Sync()
-
-
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.train", description=__doc__.split("\n")[0]
-    )
+    parser = OneLineParser(prog="python -m agents.train", description=__doc__.split("\n")[0])
     parser.add_argument("config", help="training config YAML (configs/agents/*.yaml)")
-    parser.add_argument("--seed", type=int, help="override the config's seed")
-    parser.add_argument("--total-timesteps", type=int, help="override total_timesteps")
-    parser.add_argument("--n-envs", type=int, help="override n_envs")
+    parser.add_argument("--seed", type=integer, help="override the config's seed")
+    parser.add_argument("--total-timesteps", type=integer, help="override total_timesteps")
+    parser.add_argument("--n-envs", type=integer, help="override n_envs")
     parser.add_argument(
         "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
     )
-    parser.add_argument("--resume", action="store_true", help="continue from the newest checkpoint")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue the run from its newest checkpoint (total_timesteps: the run's own "
+        "unless --total-timesteps is given)",
+    )
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", type=int, default=0)
     args = parser.parse_args(argv)
@@ -231,6 +379,10 @@ def main(argv: list[str] | None = None) -> int:
     }
     try:
         cfg = load_config(args.config, overrides)
+        if args.resume and args.total_timesteps is None:
+            recorded = _recorded_budget(args.runs_dir / cfg.run_name)
+            if recorded is not None and "total_timesteps" in recorded:
+                cfg = load_config(args.config, {**overrides, **recorded})
         progress = not args.no_progress
         if progress:
             try:
@@ -244,8 +396,19 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2
-    print(f"saved {run_dir / 'model.zip'}")
+    print(f"model: {run_dir / 'model.zip'}")
     return 0
+
+
+def _recorded_budget(run_dir: Path) -> dict[str, Any] | None:
+    """The ``total_timesteps`` recorded in a run's ``config.yaml`` (``None`` if no run)."""
+    path = run_dir / "config.yaml"
+    if not path.exists():
+        return None
+    data = read_yaml(path)
+    if not isinstance(data, dict) or "total_timesteps" not in data:
+        return None
+    return {"total_timesteps": data["total_timesteps"]}
 
 
 if __name__ == "__main__":

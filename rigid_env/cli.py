@@ -23,7 +23,9 @@ import argparse
 import importlib
 import math
 import os
+import shutil
 import sys
+import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -77,9 +79,15 @@ def _int_at_least(low: int) -> Callable[[str], int]:
         try:
             k = int(text)
         except ValueError:
-            raise argparse.ArgumentTypeError(
-                f"expected an integer >= {low}, got {text!r}"
-            ) from None
+            try:  # 1e6, 2.5e3: an integer written in exponent notation
+                x = float(text)
+            except ValueError:
+                x = math.nan
+            if not (math.isfinite(x) and x.is_integer()):
+                raise argparse.ArgumentTypeError(
+                    f"expected an integer >= {low}, got {text!r}"
+                ) from None
+            k = int(x)
         if k < low:
             raise argparse.ArgumentTypeError(f"must be an integer >= {low}, got {k}")
         return k
@@ -291,6 +299,14 @@ def _fail(exc: BaseException, status: int) -> int:
 # --------------------------------------------------------------------------------------------
 
 
+#: Float64 numbers recorded per step of one body: t, position (3), velocity (3), orientation (4),
+#: angular_velocity_body (3), angular_velocity_world (3), energy, angular_momentum_world (3).
+_NUMBERS_PER_STEP = 21
+#: Steps simulated per call while filling the trajectory, so that memory holds the trajectory's
+#: arrays and one chunk of the core's per-step records, never a list of the whole run.
+_CHUNK_STEPS = 65_536
+
+
 def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     scene = load_scene(args.scene)
     world = scene.build_world(1, integrator=args.integrator, dt=args.dt, substeps=args.substeps)
@@ -304,18 +320,98 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
         raise UsageError(
             f"--out: {out} exists; pass --force to overwrite it, or choose another file"
         )
-    out.parent.mkdir(parents=True, exist_ok=True)
+    _check_writable_folder(out)
+    size = 8 * _NUMBERS_PER_STEP * (args.steps + 1)
+    _check_room(args.steps, size, out.parent)
+    if size > 256 * 2**20:
+        print(f"simulating {args.steps} steps: the trajectory takes {_bytes(size)}", flush=True)
 
     start = time.perf_counter()
     # A diverging run may overflow the recorded energy a step before the state itself turns
     # non-finite; the world's guard then reports it in one line, without NumPy warnings.
     with np.errstate(over="ignore", invalid="ignore"):
-        traj = simulate(world, args.steps, action)
+        arrays = _simulate_chunked(world, args.steps, action)
     wall = time.perf_counter() - start
-    arrays = {key: (val if key == "t" else val[:, 0]) for key, val in traj.items()}
     _write_npz(out, arrays)
     print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall, out))
     return 0
+
+
+def _simulate_chunked(
+    world: Any, steps: int, action: NDArray[np.float64] | None
+) -> dict[str, NDArray[np.float64]]:
+    """:func:`simulate` of body 0 into arrays allocated once at their final size ``(steps + 1,
+    ...)``, ``_CHUNK_STEPS`` steps at a time (the same steps as one call, bit for bit)."""
+    t0 = world.time
+    arrays: dict[str, NDArray[np.float64]] = {}
+    done = 0
+    while True:
+        n = min(_CHUNK_STEPS, steps - done)
+        chunk = simulate(world, n, action)
+        rows = slice(0, n + 1) if done == 0 else slice(1, n + 1)  # row 0 repeats the last one
+        for key, val in chunk.items():
+            if key == "t":
+                continue
+            if key not in arrays:
+                arrays[key] = np.empty((steps + 1, *val.shape[2:]), dtype=val.dtype)
+            arrays[key][done + rows.start : done + n + 1] = val[rows, 0]
+        done += n
+        if done == steps:
+            break
+    arrays["t"] = t0 + world.dt * np.arange(steps + 1)
+    return {"t": arrays.pop("t"), **arrays}
+
+
+def _check_writable_folder(out: Path) -> None:
+    """Create ``out``'s folder and make sure a file can be written there, before simulating."""
+    folder = out.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{out.name}.", suffix=".probe"):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise UsageError(
+            f"--out: cannot write {out} ({reason} in {folder}); choose a folder you can "
+            "write to, or change its permissions"
+        ) from None
+
+
+def _check_room(steps: int, size: int, folder: Path) -> None:
+    """Refuse a run whose trajectory cannot fit in the free memory or on the disk."""
+    memory = _available_memory()
+    disk = shutil.disk_usage(folder).free
+    for room, where in ((memory, "memory available"), (disk, f"free on the disk of {folder}")):
+        if room is not None and size > room:
+            most = max(room // (8 * _NUMBERS_PER_STEP) - 1, 1)
+            raise UsageError(
+                f"--steps: {steps} steps make a trajectory of {_bytes(size)} "
+                f"({8 * _NUMBERS_PER_STEP} bytes a step), more than the {_bytes(room)} {where}; "
+                f"give at most --steps {most}"
+            )
+
+
+def _available_memory() -> int | None:
+    """Bytes of memory available to a new allocation (Linux ``MemAvailable``), or None."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (AttributeError, ValueError, OSError):
+        return None
+
+
+def _bytes(n: float) -> str:
+    for unit in ("bytes", "KB", "MB", "GB", "TB", "PB"):
+        if n < 1000 or unit == "PB":
+            return f"{n:.0f} {unit}" if unit == "bytes" else f"{n:.1f} {unit}"
+        n /= 1000
+    raise AssertionError  # unreachable
 
 
 def _check_action(values: list[float] | None, action_dim: int) -> NDArray[np.float64] | None:
@@ -336,12 +432,22 @@ def _check_action(values: list[float] | None, action_dim: int) -> NDArray[np.flo
 
 
 def _write_npz(out: Path, arrays: dict[str, Any]) -> None:
-    """Write next to ``out`` and rename into place, so a failed write leaves no partial file."""
+    """Write next to ``out`` and rename into place, so a failed write leaves no partial file.
+
+    Raises:
+        UsageError: the write failed (a full disk, permissions), naming ``out``.
+    """
     tmp = out.with_name(f".{out.name}.{os.getpid()}.tmp")
     try:
         with open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
         os.replace(tmp, out)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise UsageError(
+            f"--out: writing {out} failed ({reason}); nothing was written: free space or "
+            "choose another folder"
+        ) from None
     finally:
         if tmp.exists():
             tmp.unlink()

@@ -37,6 +37,21 @@ def machine_description() -> str:
     )
 
 
+def refuse_overwrite(paths: Sequence[Path], force: bool) -> None:
+    """Stop before a benchmark runs if it would overwrite earlier results without ``--force``.
+
+    Raises:
+        ValueError: one line naming the files and the fix.
+    """
+    there = [p for p in paths if p.exists()]
+    if there and not force:
+        names = ", ".join(p.name for p in there)
+        raise ValueError(
+            f"--out: {there[0].parent} holds earlier results ({names}); pass --force to "
+            "overwrite them, or choose another --out"
+        )
+
+
 def interleaved_medians(
     jobs: Sequence[Callable[[], int]], repeats: int
 ) -> list[tuple[float, float]]:

@@ -1,7 +1,7 @@
 """Work-precision benchmark: what accuracy costs in time, for every registered integrator.
 
-    rigid-env bench accuracy [--out DIR] [--quick]
-    python -m rigid_env.bench.accuracy [--out DIR] [--quick]
+    rigid-env bench accuracy [--out DIR] [--quick] [--force]
+    python -m rigid_env.bench.accuracy [--out DIR] [--quick] [--force]
 
 For each benchmark scene (``configs/scenes/bench_*.yaml``) and each integrator in
 :data:`rigid_env.core.integrators.INTEGRATORS`, a sweep over the step ``dt``:
@@ -49,7 +49,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.bench._common import SCENE_DIR, interleaved_medians, machine_description
+from rigid_env.bench._common import (
+    SCENE_DIR,
+    interleaved_medians,
+    machine_description,
+    refuse_overwrite,
+)
 from rigid_env.bench.reference import (
     REF_ATOL,
     REF_RTOL,
@@ -580,7 +585,7 @@ def plot(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    """Add ``--out DIR`` and ``--quick`` to ``parser``."""
+    """Add ``--out DIR``, ``--quick`` and ``--force`` to ``parser``."""
     parser.add_argument(
         "--out",
         type=Path,
@@ -594,6 +599,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="reduced sweep (3 step sizes, 1 s horizon) that finishes within a minute",
     )
+    parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -606,6 +612,9 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise OSError(f"--out: {out} is a file; give a directory")
+    refuse_overwrite(
+        [out / "work_precision.png", out / "accuracy.csv", out / "accuracy.md"], args.force
+    )
     out.mkdir(parents=True, exist_ok=True)
     machine = machine_description()
     print(f"accuracy benchmark ({sweep.name} sweep) on {machine}", flush=True)

@@ -1,6 +1,6 @@
 """Speed: throughput of the core, the environments and training, beside their peers.
 
-    rigid-env bench speed [--out DIR] [--quick] [--only core,env,vec,effects,ppo]
+    rigid-env bench speed [--out DIR] [--quick] [--force] [--only core,env,vec,effects,ppo]
                           [--repeats K] [--clock wall|cpu]
     python -m rigid_env.bench.speed --quick
 
@@ -62,7 +62,7 @@ from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
 import rigid_env.envs  # noqa: F401  (registers the RigidEnv ids)
-from rigid_env.bench._common import cpu_model
+from rigid_env.bench._common import cpu_model, refuse_overwrite
 from rigid_env.core import (
     INTEGRATORS,
     AngularDamping,
@@ -1691,6 +1691,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="wall: time.perf_counter (default); cpu: CPU time of the timing "
         "thread, steadier on a busy machine (PPO always uses wall time)",
     )
+    parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
     parser.add_argument("--smoke", action="store_true", help=argparse.SUPPRESS)
 
 
@@ -1707,6 +1708,7 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError(
             f"--out: {out} is a file; give a folder for speed.png, speed.md and speed.csv"
         )
+    refuse_overwrite([out / "speed.md", out / "speed.csv", out / "speed.png"], args.force)
     out.mkdir(parents=True, exist_ok=True)
     sections = [s for s in SECTIONS if s in args.only]
     flags = " --quick" if args.quick else " --smoke" if args.smoke else ""

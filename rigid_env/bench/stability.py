@@ -23,11 +23,13 @@ import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.special import ellipj, ellipkinc
 
+from rigid_env.bench._common import refuse_overwrite
 from rigid_env.core.effects import ForceEffect, Gravity, QuadraticDrag, StepMap, Thrusters
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import (
@@ -921,11 +923,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="run the test-suite's shorter lengths instead of the full ones",
     )
     parser.add_argument("--out", default=None, help="also write the Markdown to this file")
+    parser.add_argument("--force", action="store_true", help="overwrite --out if it exists")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the cases and print the tables; exit status 1 if a bound is missed."""
     lengths = CI_LENGTHS if args.quick else FULL_LENGTHS
+    if args.out:
+        if Path(args.out).is_dir():
+            raise ValueError(
+                f"--out: {args.out} is a folder; give a file name such as stability.md"
+            )
+        refuse_overwrite([Path(args.out)], args.force)
     start = time.perf_counter()
 
     def log(msg: str) -> None:
@@ -952,7 +961,12 @@ def main(argv: Sequence[str] | None = None) -> int:
         description=__doc__.splitlines()[0] if __doc__ else None,
     )
     add_arguments(parser)
-    return run(parser.parse_args(argv))
+    args = parser.parse_args(argv)
+    try:
+        return run(args)
+    except (OSError, ValueError) as exc:
+        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
+        return 2
 
 
 if __name__ == "__main__":

@@ -3,11 +3,8 @@
 from __future__ import annotations
 
 import json
-import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import gymnasium as gym
@@ -98,7 +95,8 @@ def test_config_validation_errors(tmp_path):
     good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
     cases = {
         "unknown_key": ({**good, "learning_rat": 1}, "learning_rat"),
-        "bad_type": ({**good, "total_timesteps": "1e6"}, "total_timesteps"),
+        # (1e6 unquoted is the number 1000000 now: rigid_env.config_files reads it as YAML 1.2)
+        "bad_type": ({**good, "total_timesteps": "a million"}, "total_timesteps"),
         "bad_algo": ({**good, "algo": "dqn"}, "algo"),
         "bad_hyper": ({**good, "hyperparams": {"n_stepz": 3}}, "hyperparams.n_stepz"),
         "bad_env": ({**good, "env_id": "RigidEnv/Nope-v0"}, "env_id"),
@@ -154,75 +152,6 @@ def test_training_smoke_run(algo, tmp_path):
     resolved = yaml.safe_load((run / "config.yaml").read_text())
     assert resolved["total_timesteps"] == 300 and resolved["algo"] == algo
     assert (run / "tb").is_dir()
-
-
-def test_checkpoint_kill_and_resume(tmp_path):
-    """Kill training right after a checkpoint; --resume continues from its step count with the
-    saved VecNormalize statistics (their sample count keeps growing, never restarts)."""
-    cfg = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
-    cfg.update(
-        total_timesteps=100_000,
-        n_envs=2,
-        checkpoint_freq=256,
-        hyperparams={**cfg["hyperparams"], "n_steps": 64, "batch_size": 64, "n_epochs": 1},
-        eval={"freq": 100_000, "episodes": 1, "seed": 99},
-    )
-    path = tmp_path / "cfg.yaml"
-    path.write_text(yaml.safe_dump(cfg))
-    run = tmp_path / "runs" / "Detumble__ppo__0"
-    proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "agents.train",
-            str(path),
-            "--runs-dir",
-            str(tmp_path / "runs"),
-            "--no-progress",
-        ],
-        cwd=ROOT,
-        stdout=subprocess.DEVNULL,
-        stderr=subprocess.PIPE,
-        start_new_session=True,
-    )
-    deadline = time.time() + 180
-    ckpt = run / "checkpoints" / "model_vecnormalize_512_steps.pkl"
-    while not ckpt.exists() and time.time() < deadline and proc.poll() is None:
-        time.sleep(0.2)
-    time.sleep(0.5)  # let the write finish
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait()
-    assert ckpt.exists(), proc.stderr.read().decode()[-2000:] if proc.stderr else ""
-    assert not (run / "model.zip").exists()  # really killed mid-run
-
-    import pickle
-
-    from agents.train import _latest_checkpoint
-
-    _, latest_steps = _latest_checkpoint(run / "checkpoints")
-    with open(run / "checkpoints" / f"model_vecnormalize_{latest_steps}_steps.pkl", "rb") as fh:
-        count_at_ckpt = pickle.load(fh).obs_rms.count
-    target = latest_steps + 512
-    out = _run(
-        [
-            "-m",
-            "agents.train",
-            str(path),
-            "--runs-dir",
-            str(tmp_path / "runs"),
-            "--resume",
-            "--total-timesteps",
-            str(target),
-            "--no-progress",
-        ]
-    )
-    assert out.returncode == 0, out.stderr[-2000:]
-    meta = json.loads((run / "model.json").read_text())
-    assert meta["num_timesteps"] == target  # continued, not restarted (would be 2x)
-    with open(run / "vecnormalize.pkl", "rb") as fh:
-        count_after = pickle.load(fh).obs_rms.count
-    # 512 new observations, plus the 2 (n_envs) first observations of the resumed reset.
-    assert count_after == pytest.approx(count_at_ckpt + 512 + 2, abs=1e-6)
 
 
 def test_evaluate_cli_errors(tmp_path, capsys):

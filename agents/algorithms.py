@@ -1,0 +1,115 @@
+"""The SB3 algorithms by name, and their keyword arguments as frozen pydantic models.
+
+A training config's ``hyperparams`` and ``policy_kwargs`` load into :class:`Hyperparams` and
+:class:`PolicyKwargs`; :func:`check_arguments` then holds every key given against the chosen
+algorithm's and policy's signatures, so a key SB3 would reject (or silently ignore) is an error
+in the config file rather than in the middle of a run.
+"""
+
+from __future__ import annotations
+
+import inspect
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict
+
+from rigid_env.config_files import (
+    FieldError,
+    Finite,
+    Fraction,
+    NonNegativeFloat,
+    NonNegativeInt,
+    PositiveFloat,
+    PositiveInt,
+)
+
+_RESERVED = {"policy", "env", "seed", "device", "policy_kwargs", "verbose", "tensorboard_log"}
+"""Arguments the trainer sets itself (from the config's top-level keys)."""
+
+
+class PolicyKwargs(BaseModel):
+    """Policy keyword arguments; the trainer passes only those given."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+    net_arch: list[PositiveInt] | dict[Literal["pi", "vf", "qf"], list[PositiveInt]] | None = None
+    """Hidden layer widths, e.g. [64, 64] (or {pi: [64, 64], vf: [64, 64]} for two networks)."""
+    activation_fn: Literal["tanh", "relu"] | None = None
+    """Activation between hidden layers, by name."""
+    log_std_init: Finite | None = None
+    """Initial log standard deviation of a Gaussian policy (PPO, SAC)."""
+    ortho_init: bool | None = None
+    """Orthogonal initialisation of the weights (PPO)."""
+    n_critics: PositiveInt | None = None
+    """Number of Q networks (SAC, TD3), >= 1."""
+    share_features_extractor: bool | None = None
+    """One features extractor for actor and critic."""
+
+
+class Hyperparams(BaseModel):
+    """Keyword arguments of the SB3 algorithm: the common ones typed and bounded here, any
+    other checked by name against the algorithm's signature (SB3 checks its value)."""
+
+    model_config = ConfigDict(frozen=True, extra="allow", use_attribute_docstrings=True)
+    learning_rate: PositiveFloat | None = None
+    """Learning rate of the optimiser, > 0."""
+    gamma: Fraction | None = None
+    """Discount factor, in (0, 1]."""
+    gae_lambda: Fraction | None = None
+    """GAE's bias-variance factor, in (0, 1]."""
+    clip_range: PositiveFloat | None = None
+    """PPO's clipping of the probability ratio, > 0."""
+    vf_coef: NonNegativeFloat | None = None
+    """Weight of the value loss, >= 0."""
+    max_grad_norm: PositiveFloat | None = None
+    """Gradient-norm clip, > 0."""
+    tau: Fraction | None = None
+    """Soft target-update factor, in (0, 1]."""
+    n_steps: PositiveInt | None = None
+    """Steps per env and rollout (PPO), >= 1."""
+    batch_size: PositiveInt | None = None
+    """Minibatch size, >= 1."""
+    n_epochs: PositiveInt | None = None
+    """Passes over each rollout (PPO), >= 1."""
+    buffer_size: PositiveInt | None = None
+    """Replay buffer capacity in transitions, >= 1."""
+    learning_starts: NonNegativeInt | None = None
+    """Steps collected before the first gradient step, >= 0."""
+
+
+def algorithm_class(algo: str) -> type:
+    """The SB3 algorithm class for a config name (ppo, sac, td3; tqc from sb3-contrib)."""
+    if algo == "tqc":
+        try:
+            from sb3_contrib import TQC
+        except ImportError:
+            raise FieldError("algo", "tqc needs sb3-contrib", "pip install sb3-contrib") from None
+        return TQC
+    import stable_baselines3 as sb3
+
+    return {"ppo": sb3.PPO, "sac": sb3.SAC, "td3": sb3.TD3}[algo]
+
+
+def check_arguments(
+    algo: str, policy: str, hyperparams: Hyperparams, policy_kwargs: PolicyKwargs
+) -> None:
+    """Every key given is one the algorithm (or its ``policy``) takes.
+
+    Raises:
+        FieldError: naming ``hyperparams.<key>`` or ``policy_kwargs.<key>``.
+    """
+    algo_cls = algorithm_class(algo)
+    taken = inspect.signature(algo_cls.__init__).parameters
+    for key in hyperparams.model_dump(exclude_none=True):
+        if key in _RESERVED:
+            raise FieldError(f"hyperparams.{key}", "is set by the trainer", "use the top-level key")
+        if key not in taken:
+            raise FieldError(
+                f"hyperparams.{key}", f"not a {algo_cls.__name__} argument", "see its documentation"
+            )
+    policy_cls = algo_cls.policy_aliases[policy]
+    taken = inspect.signature(policy_cls.__init__).parameters
+    for key in policy_kwargs.model_dump(exclude_none=True):
+        if key not in taken:
+            raise FieldError(
+                f"policy_kwargs.{key}", f"not taken by {algo_cls.__name__}'s policy", "remove it"
+            )

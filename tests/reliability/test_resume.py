@@ -1,0 +1,292 @@
+"""Training runs lose nothing to a kill, a resume, a finished run or a failed start (items 1-4).
+
+The kill case is a real ``SIGKILL`` of a training subprocess; the others call
+``agents.train.main`` in this process (no interpreter start-up per case) on tiny budgets.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pickle
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from reliability_helpers import ROOT, assert_one_line_error, write_config
+
+from agents.train import main as train_main
+
+RUN = "Detumble__ppo__0"
+ERR = "agents.train: error: "
+
+
+def _history(run: Path) -> dict[str, np.ndarray]:
+    with np.load(run / "eval" / "evaluations.npz") as data:
+        return {k: data[k] for k in data.files}
+
+
+def _means(results: np.ndarray) -> list[float]:
+    return [float(np.mean(r)) for r in results]
+
+
+def _obs_count(path: Path) -> float:
+    with open(path, "rb") as fh:
+        return float(pickle.load(fh).obs_rms.count)
+
+
+def _train(*args: str) -> int:
+    return train_main([*map(str, args), "--no-progress"])
+
+
+def _start_killable(config: Path, runs: Path, *extra: str) -> subprocess.Popen[bytes]:
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "agents.train",
+            str(config),
+            "--runs-dir",
+            str(runs),
+            "--no-progress",
+            *extra,
+        ],
+        cwd=ROOT,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        start_new_session=True,
+        env={**os.environ, "SDL_VIDEODRIVER": "dummy"},
+    )
+
+
+def _kill_after_evaluation_past_checkpoint(
+    proc: subprocess.Popen[bytes], run: Path, min_evals: int
+) -> dict[str, np.ndarray]:
+    """SIGKILL the run once its history has ``min_evals`` entries and the newest one is of a
+    step after the newest checkpoint (so that resuming abandons it); returns the history."""
+    deadline = time.time() + 180
+    log = run / "eval" / "evaluations.npz"
+    while time.time() < deadline and proc.poll() is None:
+        if log.exists():
+            history = _history(run)
+            ckpts = [int(p.name.split("_")[1]) for p in (run / "checkpoints").glob("*.json")]
+            times = history["timesteps"]
+            if len(times) >= min_evals and ckpts and times[-1] > max(ckpts):
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+                return _history(run)
+        time.sleep(0.05)
+    err = proc.stderr.read().decode()[-2000:] if proc.stderr else ""
+    os.killpg(proc.pid, signal.SIGKILL)
+    raise AssertionError(f"the run never reached the kill point: {err}")
+
+
+def test_history_and_best_model_survive_kills_and_resumes(tmp_path):
+    """Item 1. Kill -9 mid-run twice, resume each time, then finish: every evaluation made is
+    still in eval/evaluations.npz (those of the killed segments past their checkpoint in
+    abandoned_*), the main arrays increase, and the best model is the best ever evaluated:
+    never replaced by a worse one, and only by a better one."""
+    # Evaluations every 256 steps, checkpoints every 768: most kills strand an evaluation.
+    config = write_config(
+        tmp_path, total_timesteps=100_000, checkpoint_freq=768, eval={"freq": 256, "episodes": 1}
+    )
+    runs, run = tmp_path / "runs", tmp_path / "runs" / RUN
+    seen: list[dict[str, np.ndarray]] = []
+    for extra, min_evals in (((), 4), (("--resume",), 8)):
+        proc = _start_killable(config, runs, *extra)
+        seen.append(_kill_after_evaluation_past_checkpoint(proc, run, min_evals))
+        assert not (run / "model.json").exists()  # really killed mid-run
+    best_before = json.loads((run / "eval" / "best_model.json").read_text())
+    zip_before = (run / "eval" / "best_model.zip").read_bytes()
+
+    newest = max(int(p.name.split("_")[1]) for p in (run / "checkpoints").glob("*.json"))
+    count = _obs_count(run / "checkpoints" / f"model_vecnormalize_{newest}_steps.pkl")
+    target = newest + 768
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", target) == 0
+    # Continued from the checkpoint, not restarted: its step count and its VecNormalize
+    # statistics go on (768 new samples, plus the first observation of each of the 2 envs).
+    assert json.loads((run / "model.json").read_text())["num_timesteps"] == target
+    assert _obs_count(run / "vecnormalize.pkl") == pytest.approx(count + 768 + 2)
+
+    assert list(run.rglob(".tmp-*")) == []  # files half-written by the kills are gone
+    final = _history(run)
+    kept = dict(zip(final["timesteps"].tolist(), _means(final["results"]), strict=True))
+    gone = list(
+        zip(final["abandoned_timesteps"].tolist(), _means(final["abandoned_results"]), strict=True)
+    )
+    assert np.all(np.diff(final["timesteps"]) > 0)
+    assert final["timesteps"][-1] == target
+    for history in seen:  # each evaluation ever made: kept in place, or kept as abandoned
+        for t, mean in zip(history["timesteps"].tolist(), _means(history["results"]), strict=True):
+            assert kept.get(t) == mean or (t, mean) in gone, (t, mean)
+    assert len(gone) >= 2  # both kills stranded an evaluation past their checkpoint
+
+    best = json.loads((run / "eval" / "best_model.json").read_text())
+    assert best["mean_reward"] >= best_before["mean_reward"]
+    last_segment = [m for t, m in kept.items() if t > newest]  # evaluated by the final resume
+    assert last_segment and max(last_segment) <= best["mean_reward"]  # none better went unsaved
+    if best["mean_reward"] == best_before["mean_reward"]:
+        assert (run / "eval" / "best_model.zip").read_bytes() == zip_before
+    assert best["mean_reward"] in [m for _, m in gone] + list(kept.values())
+    assert best["vecnormalize"] == "best_model_vecnormalize.pkl"
+    assert (run / "eval" / best["vecnormalize"]).exists()  # what agents.evaluate reads
+
+
+@pytest.fixture(scope="module")
+def finished_run(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """A finished tiny run (512 steps, checkpoints at 256 and 512)."""
+    folder = tmp_path_factory.mktemp("finished")
+    config = write_config(folder)
+    assert _train(config, "--runs-dir", folder / "runs") == 0
+    return folder
+
+
+def _copy_run(finished: Path, tmp_path: Path) -> tuple[Path, Path]:
+    shutil.copytree(finished, tmp_path, dirs_exist_ok=True)
+    return tmp_path / "tiny.yaml", tmp_path / "runs"
+
+
+def test_finished_run_is_left_alone(finished_run, tmp_path, capsys):
+    """Item 2. --resume on a finished run trains nothing, rewrites nothing and says so."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
+    assert _train(config, "--runs-dir", runs, "--resume") == 0
+    out = capsys.readouterr().out
+    assert "finished (512 steps" in out and "--total-timesteps" in out
+    assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
+
+
+def test_more_steps_continue_from_the_final_model(finished_run, tmp_path):
+    """Item 2. --resume --total-timesteps beyond a finished run continues from model.zip (its
+    VecNormalize sample count goes on from the final one), not from an older checkpoint."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    for path in (run / "checkpoints").glob("*_512_steps.*"):
+        path.unlink()  # the final state only in model.zip, beside an older checkpoint
+    count_final = _obs_count(run / "vecnormalize.pkl")
+    assert count_final != _obs_count(run / "checkpoints" / "model_vecnormalize_256_steps.pkl")
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 0
+    assert json.loads((run / "model.json").read_text())["num_timesteps"] == 768
+    # 256 new observations, plus the first observation of each of the 2 envs after reset.
+    assert _obs_count(run / "vecnormalize.pkl") == pytest.approx(count_final + 256 + 2)
+    assert "total_timesteps: 768" in (run / "config.yaml").read_text()  # what it ran with
+
+
+def test_changed_config_on_resume_is_refused(finished_run, tmp_path, capsys):
+    """Item 3. A resume with another learning rate would record a value the model does not
+    use: it is refused, naming the field and both values, and config.yaml stays as it was."""
+    _, runs = _copy_run(finished_run, tmp_path)
+    recorded = (runs / RUN / "config.yaml").read_text()
+    changed = write_config(
+        tmp_path,
+        "changed.yaml",
+        hyperparams={"n_steps": 64, "batch_size": 64, "n_epochs": 1, "learning_rate": 0.05},
+    )
+    code = _train(changed, "--runs-dir", runs, "--resume", "--total-timesteps", 1024)
+    assert code == 2
+    line = assert_one_line_error(capsys.readouterr().err, ERR, "hyperparams.learning_rate", "0.05")
+    assert "--seed or --runs-dir" in line
+    assert (runs / RUN / "config.yaml").read_text() == recorded
+
+
+def test_failed_start_leaves_nothing_that_blocks_a_rerun(tmp_path, capsys):
+    """Item 4. A start that SB3 refuses (PPO's batch_size 1) is one line and leaves no run
+    folder; a folder that an older version left with only config.yaml blocks neither a plain
+    rerun nor --resume."""
+    bad = write_config(tmp_path, "bad.yaml", hyperparams={"n_steps": 64, "batch_size": 1})
+    runs = tmp_path / "runs"
+    assert _train(bad, "--runs-dir", runs) == 2
+    assert_one_line_error(capsys.readouterr().err, ERR, "hyperparams", "batch_size")
+    assert not (runs / RUN / "config.yaml").exists()
+
+    (runs / RUN).mkdir(parents=True, exist_ok=True)
+    (runs / RUN / "config.yaml").write_text("left: by a failed start\n")
+    good = write_config(tmp_path, total_timesteps=256)
+    assert _train(good, "--runs-dir", runs) == 0
+    assert json.loads((runs / RUN / "model.json").read_text())["num_timesteps"] == 256
+
+    shutil.rmtree(runs / RUN / "checkpoints")
+    (runs / RUN).joinpath("model.json").unlink()  # as if killed before its first checkpoint
+    assert _train(good, "--runs-dir", runs, "--resume") == 0
+    assert "no checkpoint yet; starting at step 0" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("broken", ["model_768_steps.zip", "model_vecnormalize_768_steps.pkl"])
+def test_corrupted_newest_checkpoint_falls_back_with_a_warning(tmp_path, capsys, broken):
+    """Item 4. A newest checkpoint cut short (as by a kill during its write) is skipped with
+    one warning line; training resumes from the previous one (its VecNormalize count goes on
+    from that checkpoint's)."""
+    config = write_config(tmp_path, total_timesteps=768)
+    runs = tmp_path / "runs"
+    assert _train(config, "--runs-dir", runs) == 0
+    ckpt = runs / RUN / "checkpoints"
+    (runs / RUN / "model.json").unlink()  # not finished: the run died after its checkpoint
+    data = (ckpt / broken).read_bytes()
+    (ckpt / broken).write_bytes(data[: len(data) // 2])
+    capsys.readouterr()
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 1024) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert "model_768_steps.zip does not load" in err and "falling back" in err
+    count_512 = _obs_count(ckpt / "model_vecnormalize_512_steps.pkl")
+    assert _obs_count(runs / RUN / "vecnormalize.pkl") == pytest.approx(count_512 + 512 + 2)
+
+
+def test_every_model_a_run_writes_names_its_statistics(finished_run, capsys):
+    """Item 6. The final model, the best model and each checkpoint have a sidecar that names
+    the statistics saved with them, which agents.evaluate then uses (no warning)."""
+    from agents.evaluate import evaluate, find_normalization, read_sidecar
+
+    run = finished_run / "runs" / RUN
+    models = [run / "model.zip", run / "eval" / "best_model.zip"]
+    models += sorted((run / "checkpoints").glob("model_*_steps.zip"))
+    assert len(models) == 4
+    for model in models:
+        meta = read_sidecar(model)
+        assert meta is not None and meta["env_id"] == "RigidEnv/Detumble-v0", model
+        stats = find_normalization(model, meta)
+        assert stats is not None and stats.exists() and stats.parent == model.parent
+        steps = meta["num_timesteps"]
+        # The statistics of that very model: one sample a step, plus the 2 envs' first reset.
+        assert _obs_count(stats) == pytest.approx(steps + 2, abs=1e-3), model
+    evaluate(run / "eval" / "best_model.zip", "RigidEnv/Detumble-v0", 2, 0, only=["model"])
+    assert capsys.readouterr().err == ""
+
+
+def test_a_save_killed_after_its_commit_is_completed(finished_run, tmp_path, capsys):
+    """Items 1 and 4. The moment between a snapshot's commit (its sidecar renamed into place)
+    and the renames of its staged files: the next --resume completes that save, drops an
+    uncommitted one, and meanwhile agents.evaluate reads the committed set."""
+    from agents.evaluate import find_normalization, load_policy, read_sidecar
+
+    config, runs = _copy_run(finished_run, tmp_path)
+    ev = runs / RUN / "eval"
+    ckpt = runs / RUN / "checkpoints"
+    stage = ev / ".tmp-stage-best_model-256"  # as save_snapshot stages the best model
+    stage.mkdir()
+    shutil.copy(ckpt / "model_256_steps.zip", stage / "best_model.zip")
+    shutil.copy(ckpt / "model_vecnormalize_256_steps.pkl", stage / "best_model_vecnormalize.pkl")
+    side = json.loads((ckpt / "model_256_steps.json").read_text())
+    side |= {"mean_reward": 1e9, "vecnormalize": "best_model_vecnormalize.pkl"}
+    (ev / "best_model.json").write_text(json.dumps({**side, "staged": stage.name}))
+    uncommitted = ckpt / ".tmp-stage-model_768_steps-768"
+    uncommitted.mkdir()
+    (uncommitted / "model_768_steps.zip").write_bytes(b"half a model")
+
+    meta = read_sidecar(ev / "best_model.zip")
+    assert (
+        find_normalization(stage / "best_model.zip", meta) == stage / "best_model_vecnormalize.pkl"
+    )
+    load_policy(ev / "best_model.zip", "RigidEnv/Detumble-v0")  # the staged, committed model
+
+    assert _train(config, "--runs-dir", runs, "--resume") == 0  # finished: only the repair
+    assert (ev / "best_model.zip").read_bytes() == (ckpt / "model_256_steps.zip").read_bytes()
+    assert "staged" not in json.loads((ev / "best_model.json").read_text())
+    assert list((runs / RUN).rglob(".tmp-*")) == []
+    assert "finished" in capsys.readouterr().out
