@@ -82,6 +82,33 @@ class Randomization:
         return self.mass > 0.0 or self.inertia > 0.0
 
 
+def as_randomization(value: Randomization | dict[str, float] | None) -> Randomization:
+    """A :class:`Randomization` from itself, a dict of its fields or None (none), or a
+    one-line ``ValueError`` naming the bad key or type."""
+    if value is None:
+        return Randomization()
+    if isinstance(value, Randomization):
+        return value
+    if not isinstance(value, dict):
+        raise ValueError(
+            f"randomization: expected a dict with keys mass, inertia, thrust, sensor_noise, "
+            f"got {type(value).__name__} {value!r}"
+        )
+    known = {"mass", "inertia", "thrust", "sensor_noise"}
+    unknown = sorted(set(map(str, value)) - known)
+    if unknown:
+        raise ValueError(
+            f"randomization.{unknown[0]}: unknown key; use mass, inertia, thrust, sensor_noise"
+        )
+    for key in ("mass", "inertia", "thrust"):
+        if key in value:
+            bounded(f"randomization.{key}", value[key], "relative half-width", 0.0, 1.0,
+                    high_open=True)  # fmt: skip
+    if "sensor_noise" in value:
+        bounded("randomization.sensor_noise", value["sensor_noise"], "rad/s")
+    return Randomization(**{k: float(v) for k, v in value.items()})
+
+
 def random_unit_vectors(rng: np.random.Generator, n: int | None = None) -> FloatArray:
     """Directions uniform on the sphere, (3,) or (n, 3)."""
     if n is None:
@@ -99,11 +126,35 @@ def random_quaternion(rng: np.random.Generator) -> FloatArray:
     return q / math.sqrt(w * w + x * x + y * y + z * z)
 
 
-def positive(name: str, value: float, unit: str) -> float:
-    """``value`` as a float, or a one-line ``ValueError`` naming the argument."""
-    if not (np.isfinite(value) and value > 0.0):
-        raise ValueError(f"{name}: must be a finite number > 0 [{unit}], got {value}")
-    return float(value)
+def bounded(
+    name: str,
+    value: Any,
+    unit: str,
+    low: float = 0.0,
+    high: float = math.inf,
+    *,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> float:
+    """``value`` as a float inside ``[low, high]`` (ends excluded where ``*_open``), or a
+    one-line ``ValueError`` naming the argument, its unit and its range: a task's keyword
+    arguments are all checked when the env is made, never late or silently."""
+    ok = isinstance(value, int | float | np.integer | np.floating) and not isinstance(value, bool)
+    x = float(value) if ok else math.nan
+    inside = (
+        math.isfinite(x)
+        and (x > low if low_open else x >= low)
+        and (x < high if high_open else x <= high)
+    )
+    if not inside:
+        lo, hi = ("(" if low_open else "[") + f"{low:g}", f"{high:g}" + (")" if high_open else "]")
+        raise ValueError(f"{name}: must be a finite number in {lo}, {hi} [{unit}], got {value!r}")
+    return x
+
+
+def positive(name: str, value: Any, unit: str) -> float:
+    """``value`` as a finite float > 0, or a one-line ``ValueError`` naming the argument."""
+    return bounded(name, value, unit, 0.0, low_open=True)
 
 
 def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray, FloatArray]:
@@ -168,9 +219,7 @@ class TaskBatch:
             )
         self.dt = self.world.dt
         self.rotation_repr = rotation_repr
-        if isinstance(randomization, dict):
-            randomization = Randomization(**randomization)
-        self.randomization = randomization or Randomization()
+        self.randomization = as_randomization(randomization)
         self.base_model = self.world.model
         # Per-component force at |u| = 1 [N], for the fuel measure.
         actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
@@ -444,7 +493,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.task = self.task_cls(1, **kwargs)
         self.observation_space = self.task.single_observation_space
         self.action_space = self.task.single_action_space
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.task.dt))}
         self.render_mode = render_mode
         self._renderer: Any = None
         self._has_reset = False
@@ -528,7 +577,7 @@ class RigidBodyVectorEnv(VectorEnv):
         self.single_action_space = self.task.single_action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.task.dt))}
         self.render_mode = render_mode
         self._renderer: Any = None
         self._rngs: list[np.random.Generator] = []

@@ -12,6 +12,7 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    bounded,
     positive,
     random_tumble,
 )
@@ -61,8 +62,8 @@ class DetumbleTask(TaskBatch):
     ) -> None:
         self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
         self.success_threshold = positive("success_threshold", success_threshold, "rad/s")
-        self.fuel_weight = float(fuel_weight)
-        self.success_bonus = float(success_bonus)
+        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
+        self.success_bonus = bounded("success_bonus", success_bonus, "reward")
         super().__init__(num_envs, **kwargs)
 
     def angular_velocity_scale(self) -> float:

@@ -15,6 +15,7 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    bounded,
     positive,
     random_quaternion,
     random_tumble,
@@ -75,9 +76,10 @@ class ReorientTask(TaskBatch):
         **kwargs: Any,
     ) -> None:
         self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
-        self.success_angle = float(success_angle)
-        self.success_spin = float(success_spin)
-        self.fuel_weight = float(fuel_weight)
+        self.success_angle = bounded("success_angle", success_angle, "rad", 0.0, np.pi,
+                                     low_open=True)  # fmt: skip
+        self.success_spin = positive("success_spin", success_spin, "rad/s")
+        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
         super().__init__(num_envs, **kwargs)
 
     def angular_velocity_scale(self) -> float:

@@ -14,6 +14,7 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    bounded,
     positive,
     random_quaternion,
 )
@@ -84,10 +85,11 @@ class SpinStabilizeTask(TaskBatch):
         **kwargs: Any,
     ) -> None:
         self.target_spin = positive("target_spin", target_spin, "rad/s")
-        self.max_initial_tilt = float(max_initial_tilt)
-        self.success_angle = float(success_angle)
-        self.fuel_weight = float(fuel_weight)
-        self.hold_time = float(hold_time)
+        self.max_initial_tilt = bounded("max_initial_tilt", max_initial_tilt, "rad", 0.0, np.pi)
+        self.success_angle = bounded("success_angle", success_angle, "rad", 0.0, np.pi,
+                                     low_open=True)  # fmt: skip
+        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
+        self.hold_time = bounded("hold_time", hold_time, "s")
         self.hold_steps = 1
         super().__init__(num_envs, **kwargs)
         self.hold_steps = max(1, round(self.hold_time / self.dt))

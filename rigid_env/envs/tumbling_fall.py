@@ -12,6 +12,7 @@ from rigid_env.envs.base import (
     RigidBodyEnv,
     RigidBodyVectorEnv,
     TaskBatch,
+    bounded,
     positive,
     random_tumble,
 )
@@ -68,14 +69,18 @@ class TumblingFallTask(TaskBatch):
         success_bonus: float = 10.0,
         **kwargs: Any,
     ) -> None:
-        lo, hi = drop_height
-        if not (0.0 < lo <= hi):
-            raise ValueError(f"drop_height: need 0 < low <= high [m], got {drop_height}")
+        pair = drop_height if isinstance(drop_height, tuple | list) else ()
+        if len(pair) != 2:
+            raise ValueError(
+                f"drop_height: expected (low, high) [m] with 0 < low <= high, got {drop_height!r}"
+            )
+        lo = positive("drop_height[0]", pair[0], "m")
+        hi = bounded("drop_height[1]", pair[1], "m", lo)
         self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
-        self.drop_height = (float(lo), float(hi))
-        self.success_threshold = float(success_threshold)
-        self.fuel_weight = float(fuel_weight)
-        self.success_bonus = float(success_bonus)
+        self.drop_height = (lo, hi)
+        self.success_threshold = positive("success_threshold", success_threshold, "rad/s")
+        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
+        self.success_bonus = bounded("success_bonus", success_bonus, "reward")
         super().__init__(num_envs, **kwargs)
 
     def angular_velocity_scale(self) -> float:
