@@ -29,7 +29,8 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
-from agents.controllers import CONTROLLERS
+
+from .controllers import CONTROLLERS
 
 Policy = Callable[[np.ndarray], np.ndarray]
 

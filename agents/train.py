@@ -22,7 +22,7 @@ from typing import Any
 
 import yaml
 
-from agents.config import ConfigError, TrainConfig, algorithm_class, load_config
+from .config import ConfigError, TrainConfig, algorithm_class, load_config
 
 
 def make_vec_env(
@@ -31,7 +31,7 @@ def make_vec_env(
     """The native SB3 adapter with ``VecMonitor`` and (optionally) ``VecNormalize``."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from agents.vec_adapter import RigidBodySB3VecEnv
+    from .vec_adapter import RigidBodySB3VecEnv
 
     venv = RigidBodySB3VecEnv(cfg.env_id, num_envs=n_envs, **cfg.env_kwargs)
     venv.seed(seed)

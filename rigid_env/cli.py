@@ -32,10 +32,10 @@ from numpy.typing import NDArray
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError, simulate
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import SceneError, load_scene
 
 PROG = "rigid-env"
-SCENE_DIR = Path(__file__).resolve().parents[1] / "configs" / "scenes"
 BENCHMARKS = {
     "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
     "speed": "throughput: body-steps per second against batch size, peers in the same run",

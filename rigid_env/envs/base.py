@@ -34,19 +34,15 @@ from rigid_env.core.rotation import canonical, quat_to_sixd
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import kinetic_energy
 from rigid_env.envs.rewards import fuel_rate, weighted_sum
+from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
-SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
 
 
 def default_scene_path(name: str) -> Path:
-    """Path of a scene shipped in ``configs/scenes`` (also found when installed as a package)."""
-    for base in (SCENE_DIR, Path(__file__).resolve().parent / "scenes"):
-        p = base / f"{name}.yaml"
-        if p.exists():
-            return p
-    raise FileNotFoundError(f"scene: {name}.yaml not found in {SCENE_DIR}")
+    """Path of a scene shipped in ``configs/scenes`` (in the checkout or the installed wheel)."""
+    return scene_path(name)
 
 
 @dataclass(frozen=True)
