@@ -576,6 +576,13 @@ def _canonical_rows(q: FloatArray, out: NDArray[np.float32]) -> None:
         np.multiply(q[:, k], sign, out=out[k], casting="same_kind")
 
 
+def _masked(value: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[Any]:
+    """(N, ...) ``value`` with the rows outside ``mask`` set to 0 (False for bools)."""
+    out = np.zeros_like(value)
+    out[mask] = value[mask]
+    return out
+
+
 def _single_info(info: dict[str, NDArray[Any]]) -> dict[str, Any]:
     return {k: (v[0].copy() if v.ndim > 1 else v[0].item()) for k, v in info.items()}
 
@@ -686,11 +693,20 @@ class RigidBodyVectorEnv(VectorEnv):
         self._renderer: Any = None
         self._rngs: list[np.random.Generator] = []
         self._autoreset = np.zeros(self.num_envs, dtype=bool)
+        self._obs: NDArray[np.float32] | None = None  # the observation last returned
 
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ):
-        """Reset every sub-environment; an int ``seed`` seeds sub-env ``i`` with ``seed + i``."""
+        """Reset every sub-environment, or only those of ``options["reset_mask"]``.
+
+        An int ``seed`` seeds sub-env ``i`` with ``seed + i``, a list with ``seed[i]``; None
+        continues each env's generator. With a ``reset_mask`` ((N,) bool array, at least one
+        True; Gymnasium's ``SyncVectorEnv`` semantics) only the masked envs are reset (and
+        seeded); the others keep their state, generator and pending autoreset, their rows of
+        the observation are those last returned, and the infos hold the masked envs only
+        (``info["_key"]`` is the mask, the other entries 0).
+        """
         super().reset(seed=seed if isinstance(seed, int) else None)
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
@@ -700,11 +716,48 @@ class RigidBodyVectorEnv(VectorEnv):
             if len(seed) != self.num_envs:
                 raise ValueError(f"seed: expected {self.num_envs} seeds, got {len(seed)}")
             seeds = list(seed)
+        mask = self._reset_mask(options)
+        if mask is not None:
+            return self._reset_masked(mask, seeds)
         if not self._rngs or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
         self.task.reset_envs(np.arange(self.num_envs), self._rngs)
         self._autoreset[:] = False
-        return self.task.observe(self._rngs), self._vector_info(self.task.infos())
+        self._obs = self.task.observe(self._rngs)
+        return self._obs, self._vector_info(self.task.infos())
+
+    def _reset_mask(self, options: dict[str, Any] | None) -> NDArray[np.bool_] | None:
+        """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it (same errors)."""
+        if options is None or "reset_mask" not in options:
+            return None
+        mask = options["reset_mask"]
+        key = "options['reset_mask']"
+        if not isinstance(mask, np.ndarray):
+            raise TypeError(f"{key}: must be a numpy array, got {type(mask).__name__}")
+        if mask.shape != (self.num_envs,):
+            raise ValueError(f"{key}: must have shape ({self.num_envs},), got {mask.shape}")
+        if mask.dtype != np.bool_:
+            raise TypeError(f"{key}: must have dtype bool, got {mask.dtype}")
+        if not mask.any():
+            raise ValueError(f"{key}: must have at least one True entry (the envs to reset)")
+        if self._obs is None:
+            raise ValueError(f"{key}: reset every sub-environment first (reset without a mask)")
+        return mask
+
+    def _reset_masked(self, mask: NDArray[np.bool_], seeds: list[int | None]):
+        """:meth:`reset` of the envs in ``mask`` only."""
+        idx = np.flatnonzero(mask)
+        for i in idx:
+            if seeds[i] is not None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+        rngs = [self._rngs[i] for i in idx]
+        self.task.reset_envs(idx, rngs)
+        self._autoreset[idx] = False
+        assert self._obs is not None  # checked by _reset_mask
+        obs = self._obs.copy()
+        obs[idx] = self.task.observe(rngs, idx)
+        self._obs = obs
+        return obs, self._vector_info(self.task.infos(), mask)
 
     def step(self, actions: ArrayLike):
         """Step all sub-environments; see the class docstring for autoreset."""
@@ -723,12 +776,19 @@ class RigidBodyVectorEnv(VectorEnv):
             terminated[idx] = False
             truncated[idx] = False
         self._autoreset = terminated | truncated
-        obs = self.task.observe(self._rngs)
+        self._obs = obs = self.task.observe(self._rngs)
         return obs, reward, terminated, truncated, self._vector_info(self.task.infos())
 
-    def _vector_info(self, info: dict[str, NDArray[Any]]) -> dict[str, Any]:
+    def _vector_info(
+        self, info: dict[str, NDArray[Any]], mask: NDArray[np.bool_] | None = None
+    ) -> dict[str, Any]:
+        """Gymnasium's vector infos: each key with its ``_key`` mask (all envs, or ``mask``
+        with the other entries set to 0, as ``SyncVectorEnv`` leaves them)."""
         out: dict[str, Any] = {}
-        mask = np.ones(self.num_envs, dtype=bool)
+        if mask is None:
+            mask = np.ones(self.num_envs, dtype=bool)
+        else:
+            info = {k: _masked(v, mask) for k, v in info.items()}
         for k, v in info.items():
             out[k] = v
             out[f"_{k}"] = mask

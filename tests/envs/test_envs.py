@@ -325,3 +325,82 @@ def test_step_before_reset_is_an_error():
     env = gym.make("RigidEnv/Detumble-v0")
     with pytest.raises((RuntimeError, gym.error.ResetNeeded)):
         env.step(np.zeros(6, np.float32))
+
+
+def _assert_same_reset(ours: tuple, ref: tuple) -> None:
+    """Observations and vector infos (every key and its ``_key`` mask) bit for bit."""
+    (obs, info), (ref_obs, ref_info) = ours, ref
+    assert np.array_equal(obs, ref_obs)
+    assert set(info) == set(ref_info)
+    for key, value in ref_info.items():
+        assert info[key].dtype == value.dtype and np.array_equal(info[key], value), key
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reset_mask_equals_sync_vector_env(env_id):
+    """``reset(options={"reset_mask": m})`` resets only the masked sub-envs, as Gymnasium's
+    SyncVectorEnv over single envs does: the same observations (the masked rows new, the others
+    as last returned) and infos (the masked envs only); the others keep their state, generator
+    (sensor noise draws from it every step) and pending autoreset, so every later step agrees
+    too. Seeds: an int gives masked env i ``seed + i``, a list its entries, None continues the
+    envs' own generators."""
+    n, limit = 5, 5
+    kwargs = {"max_episode_steps": limit, "randomization": {"sensor_noise": 0.01, "mass": 0.1}}
+    ours = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    ref = gym.vector.SyncVectorEnv([lambda: gym.make(env_id, **kwargs) for _ in range(n)])
+    _assert_same_reset(ours.reset(seed=10), ref.reset(seed=10))
+    rng = np.random.default_rng(2)
+    # (steps before the masked reset, mask, seed): the second reset comes right after the
+    # time limit ended envs 1, 3 and 4 (env 1 is reset by the mask, 3 and 4 by autoreset).
+    rounds = [
+        (3, [True, False, True, False, False], None),
+        (2, [False, True, True, False, False], 100),
+        (4, [True, True, False, False, True], [7, None, 8, 9, None]),
+        (3, [False, False, False, True, False], None),
+    ]
+    pending_seen = [False, False]  # a masked env / an unmasked env awaited its autoreset
+    for steps, mask, seed in rounds:
+        for _ in range(steps):
+            a = rng.uniform(-1.0, 1.0, size=(n, 6)).astype(np.float32)
+            got, want = ours.step(a), ref.step(a)
+            for x, y in zip(got[:4], want[:4], strict=True):
+                assert np.array_equal(x, y)
+            pending = got[2] | got[3]
+        mask = np.array(mask)
+        pending_seen = [
+            pending_seen[0] or pending[mask].any(),
+            pending_seen[1] or pending[~mask].any(),
+        ]
+        _assert_same_reset(
+            ours.reset(seed=seed, options={"reset_mask": mask.copy()}),
+            ref.reset(seed=seed, options={"reset_mask": mask.copy()}),
+        )
+    assert pending_seen == [True, True]
+    for _ in range(2 * limit):  # afterwards: the same steps, autoresets and noise
+        a = rng.uniform(-1.0, 1.0, size=(n, 6)).astype(np.float32)
+        got, want = ours.step(a), ref.step(a)
+        for x, y in zip(got[:4], want[:4], strict=True):
+            assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize(
+    ("mask", "error"),
+    [
+        ([True, False, True], TypeError),  # a list, not an array
+        (np.ones(2, dtype=bool), ValueError),  # wrong shape
+        (np.ones(3, dtype=int), TypeError),  # wrong dtype
+        (np.zeros(3, dtype=bool), ValueError),  # nothing to reset
+    ],
+)
+def test_bad_reset_mask_is_refused_like_sync_vector_env(mask, error):
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="reset every sub-environment first"):
+        venv.reset(options={"reset_mask": np.ones(3, dtype=bool)})  # before any reset
+    venv.reset(seed=0)
+    with pytest.raises(error, match="reset_mask") as exc:
+        venv.reset(options={"reset_mask": mask})
+    assert "\n" not in str(exc.value)
+    ref = gym.vector.SyncVectorEnv([lambda: gym.make("RigidEnv/Detumble-v0")] * 3)
+    ref.reset(seed=0)
+    with pytest.raises(error):
+        ref.reset(options={"reset_mask": mask})
