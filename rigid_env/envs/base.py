@@ -681,6 +681,11 @@ class RigidBodyVectorEnv(VectorEnv):
         render_mode: str | None = None,
         **kwargs: Any,
     ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} "
+                "(a vector env renders sub-environment 0 as an RGB array)"
+            )
         self.task = self.task_cls(num_envs, **kwargs)
         self.num_envs = self.task.n
         self.max_episode_steps = max_episode_steps

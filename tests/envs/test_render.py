@@ -129,6 +129,27 @@ def test_vector_env_renders_sub_env_0():
     assert frame.shape == (H, W, 3) and frame.dtype == np.uint8
 
 
+@pytest.mark.parametrize("bad", ["human", "rgb", "RGB_ARRAY"])
+def test_vector_env_refuses_render_modes_it_does_not_have(bad):
+    """Only ``metadata["render_modes"]`` (``rgb_array``), at construction, in one line."""
+    with pytest.raises(ValueError, match="render_mode") as exc:
+        gym.make_vec(
+            "RigidEnv/Detumble-v0",
+            num_envs=2,
+            vectorization_mode="vector_entry_point",
+            render_mode=bad,
+        )
+    assert "\n" not in str(exc.value) and "rgb_array" in str(exc.value)
+
+
+@pytest.mark.filterwarnings("ignore:.*render_mode")  # gym.make warns before we refuse
+@pytest.mark.parametrize("bad", ["rgb", "ansi"])
+def test_single_env_refuses_render_modes_it_does_not_have(bad):
+    with pytest.raises(ValueError, match="render_mode") as exc:
+        gym.make("RigidEnv/Detumble-v0", render_mode=bad)
+    assert "\n" not in str(exc.value)
+
+
 def test_renderer_size_and_bad_arguments():
     task = DetumbleTask(2)
     frame = TaskRenderer(task, "rgb_array", fps=20, width=321, height=200).render(1)
