@@ -181,6 +181,7 @@ class TaskBatch:
         """Mean ``|u_k|`` of the last command, the fuel term of the rewards: a float for one
         env, (N,) for a batch (as :meth:`speed`)."""
         self.success = np.zeros(self.n, dtype=bool)
+        self._last_finite: dict[str, Any] = {}  # per float diagnostic, see keep_finite
         self._last_action = np.zeros((self.n, self.action_dim))
         self._last_one: list[float] | None = None  # a single env's last command, not yet stored
         self.target = np.zeros((self.n, self.target_dim))
@@ -484,14 +485,25 @@ class TaskBatch:
         q, w = values[6:10], values[10:13]
         mass, inertia = self.world.dynamics.model_columns[:2]
         success = bool(self.success[0])
+        speed = float(self.speed())
+        energy = kinetic_energy_columns(mass, inertia, values[3:6], w)
+        w_world = rotate(q, w)
+        if not all(map(math.isfinite, (speed, energy, *w_world))):
+            return _single_info(self.infos())  # keep_finite on the batch's arrays
+        last = self._last_finite
+        last["angular_speed"], last["energy"], last["angular_velocity_world"] = (
+            speed,
+            energy,
+            w_world,
+        )
         return {
-            "angular_speed": float(self.speed()),
-            "energy": kinetic_energy_columns(mass, inertia, values[3:6], w),
+            "angular_speed": speed,
+            "energy": energy,
             "fuel": float(self.fuel[0]),
             "success": success,
             "is_success": success,
             "numerical_error": bool(self.world.failed[0]),
-            "angular_velocity_world": np.array(rotate(q, w)),
+            "angular_velocity_world": np.array(w_world),
         }
 
     def speed(self) -> Any:
@@ -529,24 +541,50 @@ class TaskBatch:
         return self._columns(self.target)[1]
 
     def infos(self) -> dict[str, NDArray[Any]]:
-        """Per-env diagnostics: angular speed, energy, fuel, success, episode step."""
+        """Per-env diagnostics: angular speed, energy, fuel, success, episode step; every float
+        finite (:meth:`keep_finite`)."""
         s = self.world.state
         with np.errstate(over="ignore"):
             energy = kinetic_energy(self.world.model, s)
-        return {
-            "angular_speed": self.angular_speed(),
-            "energy": energy,
-            "fuel": self.fuel.copy(),
-            "success": self.success.copy(),
-            "is_success": self.success.copy(),  # SB3 EvalCallback logs this key
-            "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": _stack3(
-                rotate([s.q[:, k] for k in range(4)], [s.w[:, k] for k in range(3)])
-            ),
-        }
+        return self.keep_finite(
+            {
+                "angular_speed": self.angular_speed(),
+                "energy": energy,
+                "fuel": self.fuel.copy(),
+                "success": self.success.copy(),
+                "is_success": self.success.copy(),  # SB3 EvalCallback logs this key
+                "numerical_error": self.world.failed.copy(),
+                "angular_velocity_world": _stack3(
+                    rotate([s.q[:, k] for k in range(4)], [s.w[:, k] for k in range(3)])
+                ),
+            }
+        )
+
+    def keep_finite(self, info: dict[str, NDArray[Any]]) -> dict[str, NDArray[Any]]:
+        """``info`` with each env's overflowed float diagnostic (:data:`FINITE_INFO`) replaced by
+        the last finite value reported for that env, in place.
+
+        A body on its way to a numerical failure can have a finite state whose ``|w|^2`` or
+        energy exceeds the largest double (1.8e308); the world then freezes it at that state
+        (``numerical_error``). Its info repeats the last finite values instead of ``inf``, so
+        loggers that average them stay finite (an env that never had a finite value reports the
+        largest double).
+        """
+        last = self._last_finite
+        for key in FINITE_INFO:
+            value = info[key]
+            ok = np.isfinite(value) if value.ndim == 1 else np.isfinite(value).all(axis=1)
+            if not ok.all():
+                before = last.get(key, np.finfo(np.float64).max)
+                ok = ok if value.ndim == 1 else ok[:, None]
+                info[key] = value = np.where(ok, value, before)
+            last[key] = value
+        return info
 
 
 _NUMPY_VALUES = (np.ndarray, np.generic)
+#: Float diagnostics of the infos, kept finite by :meth:`TaskBatch.keep_finite`.
+FINITE_INFO = ("angular_speed", "energy", "angular_velocity_world")
 _STATE_OFFSET = {"x": 0, "v": 3, "q": 6, "w": 10}
 _NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
 

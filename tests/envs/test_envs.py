@@ -178,6 +178,53 @@ def test_diverging_body_ends_only_its_own_episode():
     assert np.array_equal(obs[[0, 1, 3]], r_obs[[0, 1, 3]])
 
 
+FLOAT_INFO = ("angular_speed", "energy", "angular_velocity_world")
+
+
+def test_infos_stay_finite_while_a_body_diverges():
+    """A diverging body's |w|^2 and energy overflow (its state, ~1e228, is still finite) a step
+    before the world freezes it: its info then repeats its last finite values, never inf, in
+    the vector env, the single env and the SB3 adapter; the other bodies report their own."""
+    from agents.vec_adapter import RigidBodySB3VecEnv
+
+    kwargs = dict(integrator="explicit_euler", dt=0.5)
+    venv = gym.make_vec(
+        "RigidEnv/Detumble-v0", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
+    )
+    single = gym.make("RigidEnv/Detumble-v0", **kwargs)
+    sb3 = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=4, **kwargs)
+    _, last = venv.reset(seed=0)
+    single.reset(seed=3)  # replays sub-env 3 (seed + 3), the one that diverges
+    sb3.seed(0)
+    sb3.reset()
+    for env in (venv.unwrapped.task, single.unwrapped.task, sb3.task):
+        env.world.state.w[-1 if env.n > 1 else 0] = [300.0, 300.0, 300.0]  # rad/s: diverges
+    overflowed = 0
+    for _ in range(60):
+        w = venv.unwrapped.task.world.state.w.copy()
+        _, _, _, trunc, info = venv.step(np.zeros((4, 6), np.float32))
+        with np.errstate(over="ignore"):
+            raw = np.sqrt(np.sum(venv.unwrapped.task.world.state.w**2, axis=1))
+        for key in FLOAT_INFO:
+            assert np.isfinite(info[key]).all(), key
+        if not np.isfinite(raw[3]):  # |w|^2, hence the energy, overflowed
+            overflowed += 1
+            for key in ("angular_speed", "energy"):
+                assert info[key][3] == last[key][3], key
+        assert np.array_equal(info["angular_speed"][:3], raw[:3])
+        assert np.all(np.abs(w[:3]) < 10.0)  # the others stay tame
+        _, _, _, s_trunc, s_info = single.step(np.zeros(6, np.float32))
+        _, _, _, sb3_infos = sb3.step(np.zeros((4, 6), np.float32))
+        for key in FLOAT_INFO:
+            assert np.isfinite(s_info[key]).all() and np.isfinite(sb3_infos[3][key]).all(), key
+            assert np.array_equal(s_info[key], info[key][3]), key
+            assert np.array_equal(sb3_infos[3][key], info[key][3]), key
+        last = info
+        if trunc[3]:
+            break
+    assert trunc[3] and s_trunc and info["numerical_error"][3] and overflowed >= 1
+
+
 def test_single_env_reports_numerical_error_as_truncation():
     env = gym.make("RigidEnv/Detumble-v0", integrator="explicit_euler", dt=0.5)
     env.reset(seed=0)
@@ -291,6 +338,26 @@ def test_domain_randomization_draws_from_env_generator_only():
     assert len(masses) == 5
     with pytest.raises(ValueError, match=r"randomization\.mass"):
         gym.make("RigidEnv/Detumble-v0", randomization={"mass": 1.5})
+
+
+@pytest.mark.parametrize(
+    ("env_id", "matters"),
+    [
+        ("RigidEnv/Detumble-v0", False),
+        ("RigidEnv/SpinStabilize-v0", False),
+        ("RigidEnv/Reorient-v0", False),
+        ("RigidEnv/TumblingFall-v0", True),
+    ],
+)
+def test_mass_randomization_matters_only_where_forces_move_the_centre_of_mass(env_id, matters):
+    """Pure couples and no gravity: the mass enters only the translation, which nothing
+    observes or rewards, so a first episode with ``randomization={"mass": 0.5}`` equals one
+    without (its draw comes after the initial state's). Drag under gravity does feel it."""
+    actions = np.random.default_rng(4).uniform(-1, 1, size=(40, 6)).astype(np.float32)
+    plain = rollout_single(env_id, 9, actions)
+    heavy = rollout_single(env_id, 9, actions, randomization={"mass": 0.5})
+    same = np.array_equal(plain[0], heavy[0]) and np.array_equal(plain[1], heavy[1])
+    assert same != matters
 
 
 def test_thruster_torque_reaches_body_as_r_cross_f():
