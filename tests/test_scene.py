@@ -222,7 +222,24 @@ BAD_SCENES = [
     ),
     ("missing-body", _delete("body"), "body", ["missing required key"]),
     ("missing-mass", _delete("body.mass"), "body.mass", ["missing required key", "kg"]),
-    ("missing-shape", _delete("body.shape"), "body.shape", ["missing required key"]),
+    (
+        "missing-shape",
+        _delete("body.shape"),
+        "body.shape",
+        ["missing required key", "body.mass and body.inertia"],
+    ),
+    (
+        "no-shape-no-mass",
+        _set("body", {"inertia": [1.0, 2.0, 2.5]}),
+        "body.mass",
+        ["missing required key"],
+    ),
+    (
+        "no-shape-not-physical",
+        _set("body", {"mass": 1.0, "inertia": [1.0, 1.0, 3.0]}),
+        "body.inertia",
+        ["triangle inequality"],
+    ),
     (
         "missing-max-force",
         _delete("actuators.thrusters[0].max_force"),
@@ -300,6 +317,30 @@ def test_bad_scene_names_file_field_and_problem(tmp_path, case, fn, field, words
         assert word in msg, (word, msg)
     assert "\n" not in msg and "; " in msg  # one line, with a fix after the problem
     assert info.value.path == field
+
+
+def test_body_given_by_mass_and_inertia_alone():
+    """``body: {mass, inertia}`` without a shape (MuJoCo's inertial without a geometry): centre
+    of mass at the origin, principal axes along x, y, z; the same physics as any shape with
+    those mass properties, bit for bit; round trip through the file form."""
+    inertia = [0.02, 0.03, 0.04]
+    bare = mutate(_set("body", {"mass": 2.0, "inertia": inertia}))
+    boxed = mutate(
+        _set("body", {"mass": 2.0, "shape": {"box": [0.3, 0.2, 0.1]}, "inertia": inertia})
+    )
+    scene, reference = load_scene(bare), load_scene(boxed)
+    assert scene.body.shape is None and scene.to_dict()["body"] == {"mass": 2.0, "inertia": inertia}
+    assert load_scene(scene.to_dict()) == scene
+    assert np.array_equal(scene.inertia, inertia)
+    assert np.array_equal(scene.frame_origin, np.zeros(3))
+    assert np.array_equal(scene.frame_axes, np.eye(3))
+    assert "no shape" in scene.summary()
+    a, b = scene.build_world(2), reference.build_world(2)
+    for _ in range(20):
+        a.step(np.full((2, 1), 0.5))
+        b.step(np.full((2, 1), 0.5))
+    for name in ("x", "v", "q", "w"):
+        assert np.array_equal(getattr(a.state, name), getattr(b.state, name)), name
 
 
 def test_bad_dict_scene_uses_name_for_errors():
