@@ -87,6 +87,12 @@ TRIANGLE_RTOL = 1.0e-9
 DEGENERATE_MOMENT_RTOL = 1.0e-12
 # body.mass of a `points` shape must equal the sum of the point masses to this relative error.
 POINT_MASS_RTOL = 1.0e-9
+# Magnitudes a non-zero scene number may have. The simulator multiplies up to three of them in
+# one term (an energy 1/2 I w^2, a torque r x F, a squared norm d.d), and products of three
+# numbers in [1e-100, 1e100] stay finite and normal in float64 (1e300 < 1.8e308, 1e-300 >
+# 2.2e-308); beyond, a normalised direction or an energy comes out 0, inf or NaN.
+MAX_MAGNITUDE = 1.0e100
+MIN_MAGNITUDE = 1.0e-100
 
 SHAPE_KINDS = ("box", "sphere", "cylinder", "ellipsoid", "capsule", "points")
 _SHAPE_FORMS = (
@@ -809,6 +815,19 @@ class _Reader:
         x = float(node)
         if not math.isfinite(x):
             self.fail(path, f"must be finite, got {x}", f"give a finite number{unit_s}")
+        if abs(x) > MAX_MAGNITUDE or 0.0 < abs(x) < MIN_MAGNITUDE:
+            size = "large" if abs(x) > MAX_MAGNITUDE else "small"
+            self.fail(
+                path,
+                f"{x!r} is too {size} to compute with (non-zero magnitudes must lie in "
+                f"[{MIN_MAGNITUDE:g}, {MAX_MAGNITUDE:g}] so that products stay finite)",
+                (
+                    "rescale the scene's units (e.g. g and mm instead of kg and m)"
+                    if unit
+                    else "scale it to moderate entries (a direction is normalised)"
+                )
+                + (", or write 0.0 for a negligible value" if size == "small" else ""),
+            )
         if low is not None and (x <= low if low_open else x < low):
             op = ">" if low_open else ">="
             self.fail(path, f"must be {op} {low:g}, got {x!r}", fix or f"give a number{unit_s}")

@@ -240,6 +240,37 @@ BAD_SCENES = [
         "body.inertia",
         ["triangle inequality"],
     ),
+    # Numbers a float64 simulation cannot compute with (products of three overflow or underflow).
+    (
+        "inertia-overflows",
+        _set("body", {"mass": 2.0, "inertia": [1.0e308, 1.0e308, 1.0e308]}),
+        "body.inertia[0]",
+        ["1e+308 is too large", "[1e-100, 1e+100]", "rescale"],
+    ),
+    (
+        "direction-overflows",
+        _set("actuators.thrusters[0].direction", [1.0e200, 1.0e200, 0.0]),
+        "actuators.thrusters[0].direction[0]",
+        ["1e+200 is too large", "moderate"],
+    ),
+    (
+        "direction-underflows",
+        _set("actuators.thrusters[0].direction", [1.0e-320, 0.0, 0.0]),
+        "actuators.thrusters[0].direction[0]",
+        ["is too small", "write 0.0"],
+    ),
+    (
+        "mass-underflows",
+        _set("body.mass", 1.0e-150),
+        "body.mass",
+        ["1e-150 is too small", "kg"],
+    ),
+    (
+        "velocity-overflows",
+        _set("initial.angular_velocity", [0.0, -3.0e120, 0.0]),
+        "initial.angular_velocity[1]",
+        ["-3e+120 is too large"],
+    ),
     (
         "missing-max-force",
         _delete("actuators.thrusters[0].max_force"),
@@ -317,6 +348,23 @@ def test_bad_scene_names_file_field_and_problem(tmp_path, case, fn, field, words
         assert word in msg, (word, msg)
     assert "\n" not in msg and "; " in msg  # one line, with a fix after the problem
     assert info.value.path == field
+
+
+def test_overflowing_scene_is_refused_by_simulate_in_one_line(tmp_path, capsys):
+    """The inertia that once simulated with exit 0 and wrote inf/NaN energy: refused at load."""
+    from rigid_env.cli import main
+
+    path = write(tmp_path, mutate(_set("body.inertia", [1.0e308, 1.0e308, 1.0e308])))
+    out = tmp_path / "out.npz"
+    assert main(["simulate", str(path), "--steps", "3", "--out", str(out)]) != 0
+    err = capsys.readouterr().err.strip()
+    assert str(path) in err and "body.inertia[0]" in err and "\n" not in err
+    assert not out.exists()
+
+
+def test_magnitude_limits_are_inclusive_and_zero_stays_allowed():
+    data = mutate(_set("initial.angular_velocity", [1.0e100, -1.0e-100, 0.0]))
+    assert load_scene(data).initial.angular_velocity == (1.0e100, -1.0e-100, 0.0)
 
 
 def test_body_given_by_mass_and_inertia_alone():
