@@ -74,3 +74,30 @@ def random_walk(steps: int, per_step: float) -> float:
     square-root growth, ``sqrt(steps) * per_step`` (Higham, section 2.8). A *typical* value, not
     a bound: a test using it multiplies it by its own stated margin."""
     return math.sqrt(steps) * per_step
+
+
+def flow_growth(flow, y0, t, rel: float = 1.0e-8) -> float:
+    """How much the flow ``flow(y0, t) -> (T, n)`` amplifies a perturbation of ``y0``: the
+    largest ``|flow(y0 + d) - flow(y0)| / |d|`` over ``t``, ``d`` of relative size ``rel`` in a
+    fixed generic direction (the fastest-growing direction dominates any generic one after a
+    short while, up to a factor that the tests' margins cover)."""
+    y0 = [float(v) for v in y0]
+    direction = [0.6, -0.48, 0.64, 0.0, 0.0, 0.0][: len(y0)]
+    size = rel * math.sqrt(sum(v * v for v in y0))
+    kicked = [v + size * d for v, d in zip(y0, direction, strict=True)]
+    base, moved = flow(y0, t), flow(kicked, t)
+    return float(abs(moved - base).max()) / size
+
+
+def ivp_global_atol(steps: float, rtol: float, atol: float, y_scale: float, growth: float) -> float:
+    """Bound on the global error of an adaptive solver (``solve_ivp``'s DOP853) that took
+    ``steps`` steps at tolerances ``rtol``, ``atol`` on a solution of size ``y_scale``: each step
+    keeps its local error estimate below ``atol + rtol |y|``; a local error grows at most as a
+    perturbation of the initial value does (``growth``, :func:`flow_growth`); the steps' errors
+    add up at most linearly; a factor 10 covers the local estimate being an estimate (DOP853's
+    embedded error estimator, Hairer, Norsett & Wanner, *Solving ODEs I*, section II.10).
+
+    This is what a BLAS changes here: the solver's error norms go through it, so a step that
+    one machine accepts another may reject; the bound holds for any such sequence of steps.
+    """
+    return 10.0 * steps * (atol + rtol * y_scale) * growth

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy import special
+from scipy.integrate import solve_ivp
 
 from rigid_env.bench.reference import (
     euler_ivp,
@@ -19,11 +20,31 @@ from rigid_env.core.integrators import free_rotation_exact
 from rigid_env.core.rotation import quat_angle_between, quat_normalize, quat_rotate
 from rigid_env.core.state import BodyModel, State
 
-from roundoff import EPS, U
+from roundoff import EPS, U, flow_growth, ivp_global_atol
 
 # Agreement of the elliptic solution with solve_ivp (DOP853, rtol = atol = 1e-13) over 10 s:
-# the two agree to ~3e-13 rad/s on these cases; 1e-10 rad/s leaves room for the solver.
+# the two agree to ~3e-13 rad/s on most cases, to 2e-11 (one machine) or 1.3e-10 (OpenBLAS's
+# Prescott kernels) near the separatrix, where the solver's own global error grows with the
+# flow's sensitivity: the bound is ivp_global_atol (see ivp_agreement below). 1e-10 rad/s
+# stays the bound for the orientation, whose comparison never comes near the separatrix.
 IVP_AGREEMENT = 1.0e-10
+IVP_TOL = 1.0e-13
+
+
+def ivp_agreement(inertia, w0, t) -> float:
+    """ivp_global_atol of DOP853 on this body over ``t`` (its steps counted by one solve over
+    the whole span; euler_ivp restarts at every output time, which adds at most one step per
+    output), with the growth of a perturbation measured on the elliptic solution."""
+    inertia_a = np.asarray(inertia, dtype=np.float64)
+
+    def euler(_t, w):
+        return np.cross(inertia_a * w, w) / inertia_a
+
+    run = solve_ivp(euler, (0.0, float(t[-1])), w0, method="DOP853", rtol=IVP_TOL, atol=IVP_TOL)
+    steps = run.nfev / 12 + len(t)
+    growth = flow_growth(lambda y, tt: torque_free_angular_velocity(inertia, y, tt), w0, t)
+    scale = float(np.abs(run.y).max())
+    return ivp_global_atol(steps, IVP_TOL, IVP_TOL, scale, growth)
 
 
 def invariant_rtol(inertia, w0, t_max: float) -> float:
@@ -79,8 +100,8 @@ def _branch(inertia, w0) -> str:
 def test_elliptic_angular_velocity_matches_solve_ivp(inertia, w0, branch):
     assert _branch(inertia, w0) == branch  # the case exercises the branch it claims
     exact = torque_free_angular_velocity(inertia, w0, T)
-    ivp = euler_ivp(inertia, w0, T)
-    assert np.max(np.abs(exact - ivp)) < IVP_AGREEMENT
+    ivp = euler_ivp(inertia, w0, T, rtol=IVP_TOL, atol=IVP_TOL)
+    assert np.max(np.abs(exact - ivp)) < ivp_agreement(inertia, w0, T)
 
 
 @pytest.mark.parametrize(("inertia", "w0", "branch"), CASES)
