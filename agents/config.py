@@ -13,9 +13,6 @@ from typing import Any, Literal
 import gymnasium as gym
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from agents.algorithms import Hyperparams, PolicyKwargs, check_arguments
-from agents.algorithms import algorithm_class as algorithm_class  # re-exported
-from agents.env_kwargs import check_env_kwargs
 from rigid_env.config_files import (
     ConfigFileError,
     FieldError,
@@ -24,6 +21,10 @@ from rigid_env.config_files import (
     PositiveInt,
     load_model,
 )
+
+from .algorithms import Hyperparams, PolicyKwargs, check_arguments
+from .algorithms import algorithm_class as algorithm_class  # re-exported
+from .env_kwargs import check_env_kwargs
 
 ALGOS = ("ppo", "sac", "td3", "tqc")
 ConfigError = ConfigFileError

@@ -34,9 +34,10 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from agents.controllers import CONTROLLERS
-from agents.evaluate import Policy, load_policy, rollout
 from rigid_env.envs import TASKS
+
+from .controllers import CONTROLLERS
+from .evaluate import Policy, load_policy, rollout
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
 DEMO_SEED = 20261201
@@ -331,7 +332,7 @@ def run(
     out = DEFAULT_OUT if out is None else Path(out)
     check_out(out, tasks, force)
     _check_render_extras()
-    from agents.side_by_side import record_side_by_side
+    from .side_by_side import record_side_by_side
 
     log(f"seeds {seed}..{seed + episodes - 1} ({episodes} episodes per task and policy)")
     rows: list[Row] = []

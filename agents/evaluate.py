@@ -41,9 +41,10 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
-from agents._cli import OneLineParser, integer
-from agents.controllers import CONTROLLERS
-from agents.env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
+
+from ._cli import OneLineParser, integer
+from .controllers import CONTROLLERS
+from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
 Policy = Callable[[np.ndarray], np.ndarray]
 

@@ -32,7 +32,7 @@ def main(argv: list[str] | None = None) -> int:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from agents.evaluate import evaluate
+    from .evaluate import evaluate
 
     runs = []
     for run in args.runs:

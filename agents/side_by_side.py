@@ -22,7 +22,7 @@ import gymnasium as gym
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.evaluate import Policy
+from .evaluate import Policy
 
 Frame = NDArray[np.uint8]
 

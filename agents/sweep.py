@@ -70,7 +70,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.config import ConfigError, TrainConfig, load_config
+from .config import ConfigError, TrainConfig, load_config
 
 #: Metrics a sweep can optimise, with their direction.
 METRICS: dict[str, str] = {
@@ -489,7 +489,7 @@ def make_report_callback(
     vector env) and passes the metrics, ``timesteps`` and ``extra`` to ``report``."""
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from agents.evaluate import rollout
+    from .evaluate import rollout
 
     every = max(1, cfg.eval.freq // cfg.n_envs)  # EvalCallback's schedule
 
@@ -532,8 +532,8 @@ def run_trial(
     """
     import torch
 
-    from agents.evaluate import evaluate
-    from agents.train import train
+    from .evaluate import evaluate
+    from .train import train
 
     if report is None:
         from ray import tune  # Ray >= 2.41: tune.report (ray.train.report is Ray Train's)

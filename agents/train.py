@@ -30,8 +30,10 @@ from typing import Any
 
 import yaml
 
-from agents._cli import OneLineParser, integer
-from agents.callbacks import (
+from rigid_env.config_files import read_yaml
+
+from ._cli import OneLineParser, integer
+from .callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
     finish_snapshots,
@@ -40,8 +42,7 @@ from agents.callbacks import (
     write_atomic,
     zip_timesteps,
 )
-from agents.config import ConfigError, TrainConfig, algorithm_class, load_config
-from rigid_env.config_files import read_yaml
+from .config import ConfigError, TrainConfig, algorithm_class, load_config
 
 #: Keys a resumed run may change: the budget and where it runs (both recorded as they run).
 RESUMABLE_CHANGES = ("total_timesteps", "device")
@@ -53,7 +54,7 @@ def make_vec_env(
     """The native SB3 adapter with ``VecMonitor`` and (optionally) ``VecNormalize``."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from agents.vec_adapter import RigidBodySB3VecEnv
+    from .vec_adapter import RigidBodySB3VecEnv
 
     venv = RigidBodySB3VecEnv(cfg.env_id, num_envs=n_envs, **cfg.env_kwargs)
     venv.seed(seed)

@@ -11,10 +11,14 @@ SB3's semantics, as its ``DummyVecEnv`` over single envs gives them:
 
 All sub-envs step in one compiled call; only the few envs that finished are reset one by one
 (each from its own generator, which is what makes it match ``DummyVecEnv`` bit for bit).
+
+With ``render_mode="rgb_array"``, :meth:`~RigidBodySB3VecEnv.get_images` draws every sub-env
+(SB3's ``render()`` tiles them, and ``VecVideoRecorder`` records that).
 """
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -25,6 +29,8 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices,
 
 from rigid_env.envs.base import TaskBatch
 
+RENDER_MODES = (None, "rgb_array")
+
 
 class RigidBodySB3VecEnv(VecEnv):
     """``num_envs`` copies of a registered ``RigidEnv`` task as one SB3 ``VecEnv``.
@@ -33,14 +39,28 @@ class RigidBodySB3VecEnv(VecEnv):
         env_id: registered id, e.g. ``"RigidEnv/Detumble-v0"``.
         num_envs: number of sub-environments.
         max_episode_steps: time limit; the registry's value if None.
+        render_mode: None or ``"rgb_array"`` (:meth:`get_images` draws every sub-env).
         **kwargs: passed to the task, as to ``gym.make(env_id, **kwargs)``.
+
+    Raises:
+        ValueError: an id that is not ours, or a ``render_mode`` other than those above.
     """
 
     def __init__(
-        self, env_id: str, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
+        self,
+        env_id: str,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        render_mode: str | None = None,
+        **kwargs: Any,
     ) -> None:
         import rigid_env  # noqa: F401  (registers the ids)
 
+        if render_mode not in RENDER_MODES:
+            raise ValueError(
+                f"render_mode: {render_mode!r} is not one of {RENDER_MODES}; "
+                "SB3 shows or records the rgb_array frames"
+            )
         spec = gym.spec(env_id)
         entry = spec.vector_entry_point
         if not isinstance(entry, str) or not entry.startswith("rigid_env."):
@@ -49,10 +69,12 @@ class RigidBodySB3VecEnv(VecEnv):
         self.env_id = env_id
         self.task: TaskBatch = vec_cls.task_cls(num_envs, **kwargs)
         self.max_episode_steps = max_episode_steps or spec.max_episode_steps
-        self.render_mode = None
+        self.render_mode = render_mode
+        self._renderer: Any = None
         super().__init__(
             num_envs, self.task.single_observation_space, self.task.single_action_space
         )
+        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
         self._rngs: list[np.random.Generator] = [
             seeding.np_random(None)[0] for _ in range(num_envs)
         ]
@@ -70,10 +92,24 @@ class RigidBodySB3VecEnv(VecEnv):
         return self.task.observe()
 
     def step_async(self, actions: np.ndarray) -> None:
-        self._actions = actions
+        """Take the commands, (num_envs, A) real numbers (one row per sub-env, as SB3's
+        policies give them); any other shape or complex numbers raise a one-line
+        ``ValueError`` (never reshaped or cast silently)."""
+        act = np.asarray(actions)
+        if np.iscomplexobj(act):
+            raise ValueError(
+                "actions: complex numbers; send real thruster commands in [-1, 1] "
+                "(the imaginary part would be dropped)"
+            )
+        expected = (self.num_envs, self.task.action_dim)
+        if act.shape != expected:
+            raise ValueError(
+                f"actions: expected shape {expected} (num_envs, actuators), got {act.shape}"
+            )
+        self._actions = act
 
     def step_wait(self) -> VecEnvStepReturn:
-        self.task.check_action(np.asarray(self._actions).reshape(self.num_envs, -1))
+        self.task.check_action(self._actions)
         reward, terminated, failed = self.task.step(self._rngs)
         reward = reward.astype(np.float32)
         truncated = failed.copy()
@@ -99,7 +135,10 @@ class RigidBodySB3VecEnv(VecEnv):
         return obs, reward, done, infos
 
     def close(self) -> None:
-        pass
+        """Close the renderer, if any."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         """The attribute of the task (shared by every sub-env), once per index."""
@@ -128,7 +167,20 @@ class RigidBodySB3VecEnv(VecEnv):
         return [False for _ in self._indices(indices)]
 
     def get_images(self) -> Sequence[np.ndarray | None]:
-        return [None] * self.num_envs
+        """An RGB frame (H, W, 3) uint8 of every sub-env (``render_mode="rgb_array"``)."""
+        if self.render_mode != "rgb_array":
+            warnings.warn(
+                f"get_images: render_mode is {self.render_mode!r}; pass render_mode='rgb_array'",
+                stacklevel=2,
+            )
+            return [None] * self.num_envs
+        if self._renderer is None:
+            from rigid_env.render import TaskRenderer
+
+            self._renderer = TaskRenderer(
+                self.task, mode="rgb_array", fps=self.metadata["render_fps"]
+            )
+        return [self._renderer.render(i) for i in range(self.num_envs)]
 
     def _indices(self, indices: VecEnvIndices) -> Iterable[int]:
         if indices is None:

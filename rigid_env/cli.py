@@ -37,10 +37,10 @@ from numpy.typing import NDArray
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError, simulate
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import SceneError, load_scene
 
 PROG = "rigid-env"
-SCENE_DIR = Path(__file__).resolve().parents[1] / "configs" / "scenes"
 BENCHMARKS = {
     "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
     "speed": "throughput: body-steps per second against batch size, peers in the same run",
@@ -561,7 +561,7 @@ def _cmd_integrators(args: argparse.Namespace, extra: list[str]) -> int:
 
 def _cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
     # agents sits above rigid_env (DESIGN.md): imported only when the command runs.
-    from agents import demo
+    from rigid_env.agents import demo
 
     return demo.run(args.task, args.episodes, args.out, args.force)
 

@@ -5,8 +5,10 @@ as seen by a fixed perspective camera that follows the body's centre of mass (th
 never turns, so the body's rotation is what moves on screen):
 
 * the body as a box with flat Lambert shading, faces sorted back to front (painter's
-  algorithm). A ``box`` shape is drawn at its size; any other shape as the solid box with the
-  same principal moments, ``a^2 = 6 (I_y + I_z - I_x) / m`` (and cyclic);
+  algorithm). A ``box`` shape is drawn at its size; any other shape, and a body given by its
+  mass and inertia alone (no ``shape``), as its *equivalent box*: the solid box with the same
+  mass and principal moments, ``a^2 = 6 (I_y + I_z - I_x) / m`` (and cyclic; MuJoCo draws
+  inertia boxes the same way);
 * the world axes x, y, z (red, green, blue) from the centre of mass;
 * each actuator component as a marker at its body point with a flame along ``-direction``
   whose length is proportional to ``|u|`` (a negative command fires the other way);
@@ -131,12 +133,13 @@ def _import_pygame(mode: str) -> Any:
 def body_box_size(task: TaskBatch) -> FloatArray:
     """(3,) full side lengths [m] of the box drawn for the task's body, body x, y, z.
 
-    The scene's ``box`` if it is one; otherwise the solid box with the scene's principal moments:
+    The scene's ``box`` if it is one; otherwise (another shape, or none: a body given by its
+    mass and inertia) the solid box with the scene's mass and principal moments:
     ``I_x = m (b^2 + c^2) / 12`` and cyclic give ``a^2 = 6 (I_y + I_z - I_x) / m``. A flat
     side (a plate on the triangle equality) is kept at a tenth of the longest.
     """
     shape = task.scene.body.shape
-    if shape.kind == "box":
+    if shape is not None and shape.kind == "box":
         return np.asarray(shape.size, dtype=np.float64)
     moments = np.asarray(task.scene.inertia, dtype=np.float64)
     sq = 6.0 * (moments.sum() - 2.0 * moments) / task.scene.body.mass

@@ -26,7 +26,9 @@ the inertia is the diagonal ``inertia`` (DESIGN.md, "Physics conventions").
   with ``v = velocity + w_world x (R_file c)``.
 
 ``inertia: [I1, I2, I3]`` overrides the shape's principal moments: the moments about body x,
-y, z (for a ``points`` shape: about the principal axes ordered as above).
+y, z (for a ``points`` shape: about the principal axes ordered as above). Without a ``shape``,
+``mass`` and ``inertia`` alone define the body (as MuJoCo's ``inertial`` without a geometry): its
+centre of mass is the shape frame's origin and its principal axes are the frame's axes.
 
 Action layout: every thruster is one component, in file order, then ``point_forces`` adds three
 components ``(fx, fy, fz)`` per point, along the shape frame's axes.
@@ -85,6 +87,12 @@ TRIANGLE_RTOL = 1.0e-9
 DEGENERATE_MOMENT_RTOL = 1.0e-12
 # body.mass of a `points` shape must equal the sum of the point masses to this relative error.
 POINT_MASS_RTOL = 1.0e-9
+# Magnitudes a non-zero scene number may have. The simulator multiplies up to three of them in
+# one term (an energy 1/2 I w^2, a torque r x F, a squared norm d.d), and products of three
+# numbers in [1e-100, 1e100] stay finite and normal in float64 (1e300 < 1.8e308, 1e-300 >
+# 2.2e-308); beyond, a normalised direction or an energy comes out 0, inf or NaN.
+MAX_MAGNITUDE = 1.0e100
+MIN_MAGNITUDE = 1.0e-100
 
 SHAPE_KINDS = ("box", "sphere", "cylinder", "ellipsoid", "capsule", "points")
 _SHAPE_FORMS = (
@@ -159,15 +167,27 @@ class ShapeSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """Mass properties of the body."""
+    """Mass properties of the body: a shape, or ``mass`` and ``inertia`` alone (as MuJoCo's
+    ``inertial`` without a geometry)."""
 
     mass: float
     """Mass [kg], > 0 (for ``points``: the sum of the point masses)."""
-    shape: ShapeSpec
-    """Shape in the shape frame; fixes the centre of mass, principal axes and moments."""
+    shape: ShapeSpec | None = None
+    """Shape in the shape frame; fixes the centre of mass, principal axes and moments. None: a
+    body given by its mass properties, centre of mass at the shape frame's origin and principal
+    axes along its axes (``inertia`` required; the renderer draws the box with that mass and
+    those moments)."""
     inertia: Vec3 | None = None
     """Principal moments [kg m^2] about body x, y, z overriding the shape's; None = the
     shape's own."""
+
+    def mass_properties(self) -> MassProperties:
+        """Mass properties in the shape frame: the shape's, or ``diag(inertia)`` at the origin
+        for a body without a shape."""
+        if self.shape is None:
+            assert self.inertia is not None  # the reader requires it
+            return MassProperties(self.mass, np.zeros(3), np.diag(self.inertia))
+        return self.shape.mass_properties(self.mass)
 
 
 @dataclass(frozen=True)
@@ -310,8 +330,8 @@ class Scene:
     """(3, 3) body axes as columns in shape coordinates, det +1 (derived)."""
 
     def __post_init__(self) -> None:
-        mp = self.body.shape.mass_properties(self.body.mass)
-        if self.body.shape.kind == "points":
+        mp = self.body.mass_properties()
+        if self.body.shape is not None and self.body.shape.kind == "points":
             moments, axes = _aligned_principal_frame(mp.principal_moments, mp.principal_axes)
         else:
             moments, axes = np.diag(mp.inertia_ref).copy(), np.eye(3)
@@ -495,7 +515,9 @@ class Scene:
     def summary(self) -> str:
         """One line: shape, mass, stepping, effects and actuators."""
         s = self.body.shape
-        if s.kind == "points":
+        if s is None:
+            shape = f"no shape, inertia {', '.join(f'{x:g}' for x in self.inertia)} kg m^2"
+        elif s.kind == "points":
             shape = f"{len(s.points)} point masses"
         else:
             shape = f"{s.kind} {' x '.join(f'{x:g}' for x in s.size)} m"
@@ -793,6 +815,19 @@ class _Reader:
         x = float(node)
         if not math.isfinite(x):
             self.fail(path, f"must be finite, got {x}", f"give a finite number{unit_s}")
+        if abs(x) > MAX_MAGNITUDE or 0.0 < abs(x) < MIN_MAGNITUDE:
+            size = "large" if abs(x) > MAX_MAGNITUDE else "small"
+            self.fail(
+                path,
+                f"{x!r} is too {size} to compute with (non-zero magnitudes must lie in "
+                f"[{MIN_MAGNITUDE:g}, {MAX_MAGNITUDE:g}] so that products stay finite)",
+                (
+                    "rescale the scene's units (e.g. g and mm instead of kg and m)"
+                    if unit
+                    else "scale it to moderate entries (a direction is normalised)"
+                )
+                + (", or write 0.0 for a negligible value" if size == "small" else ""),
+            )
         if low is not None and (x <= low if low_open else x < low):
             op = ">" if low_open else ">="
             self.fail(path, f"must be {op} {low:g}, got {x!r}", fix or f"give a number{unit_s}")
@@ -960,11 +995,17 @@ def _parse_body(r: _Reader, node: Any) -> BodySpec:
         node,
         "body",
         ("mass", "shape", "inertia"),
-        required=("shape",),
         example="{mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}}",
     )
-    shape = _parse_shape(r, m["shape"])
-    if shape.kind == "points":
+    if "shape" not in m and "inertia" not in m:
+        r.fail(
+            "body.shape",
+            "missing required key",
+            "add a shape such as {box: [0.3, 0.2, 0.1]}, or give the mass properties alone: "
+            "body.mass and body.inertia",
+        )
+    shape = _parse_shape(r, m["shape"]) if "shape" in m else None
+    if shape is not None and shape.kind == "points":
         total = math.fsum(p[3] for p in shape.points)
         mass = total
         if "mass" in m:
@@ -990,7 +1031,7 @@ def _parse_body(r: _Reader, node: Any) -> BodySpec:
             fix="give the three principal moments in kg m^2, each > 0",
         )
         _check_triangle(r, "body.inertia", inertia)
-    elif shape.kind == "points":
+    elif shape is not None and shape.kind == "points":
         moments = shape.mass_properties(mass).principal_moments
         if moments[0] <= DEGENERATE_MOMENT_RTOL * moments[2]:
             r.fail(

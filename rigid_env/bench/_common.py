@@ -11,8 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
-"""The example and benchmark scenes of a source checkout."""
+from rigid_env.resources import SCENE_DIR  # noqa: F401  (the benchmarks' scenes)
 
 
 def cpu_model() -> str:

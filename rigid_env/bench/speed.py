@@ -942,7 +942,7 @@ def bench_ppo(cfg: Config, res: Results) -> None:
     from stable_baselines3 import PPO
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from agents.vec_adapter import RigidBodySB3VecEnv
+    from rigid_env.agents.vec_adapter import RigidBodySB3VecEnv
 
     threads = torch.get_num_threads()
     # One thread: the policy is a [64, 64] MLP; on a small machine more threads only contend

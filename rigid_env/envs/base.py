@@ -33,19 +33,15 @@ from rigid_env.core import world as core_world
 from rigid_env.core.effects import LinearActuator
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as T
+from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
-SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
 
 
 def default_scene_path(name: str) -> Path:
-    """Path of a scene shipped in ``configs/scenes`` (also found when installed as a package)."""
-    for base in (SCENE_DIR, Path(__file__).resolve().parent / "scenes"):
-        p = base / f"{name}.yaml"
-        if p.exists():
-            return p
-    raise FileNotFoundError(f"scene: {name}.yaml not found in {SCENE_DIR}")
+    """Path of a scene shipped in ``configs/scenes`` (in the checkout or the installed wheel)."""
+    return scene_path(name)
 
 
 @dataclass(frozen=True)
@@ -475,6 +471,13 @@ class TaskBatch:
 _NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
 
 
+def _masked(value: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[Any]:
+    """(N, ...) ``value`` with the rows outside ``mask`` set to 0 (False for bools)."""
+    out = np.zeros_like(value)
+    out[mask] = value[mask]
+    return out
+
+
 class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     """Base of the single environments: a :class:`TaskBatch` of one body.
 
@@ -570,6 +573,11 @@ class RigidBodyVectorEnv(VectorEnv):
         render_mode: str | None = None,
         **kwargs: Any,
     ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} "
+                "(a vector env renders sub-environment 0 as an RGB array)"
+            )
         self.task = self.task_cls(num_envs, **kwargs)
         self.num_envs = self.task.n
         self.max_episode_steps = max_episode_steps
@@ -586,7 +594,15 @@ class RigidBodyVectorEnv(VectorEnv):
     def reset(
         self, *, seed: int | list[int | None] | None = None, options: dict[str, Any] | None = None
     ):
-        """Reset every sub-environment; an int ``seed`` seeds sub-env ``i`` with ``seed + i``."""
+        """Reset every sub-environment, or only those of ``options["reset_mask"]``.
+
+        An int ``seed`` seeds sub-env ``i`` with ``seed + i``, a list with ``seed[i]``; None
+        continues each env's generator. With a ``reset_mask`` ((N,) bool array, at least one
+        True; Gymnasium's ``SyncVectorEnv`` semantics) only the masked envs are reset (and
+        seeded); the others keep their state, generator and pending autoreset, their rows of
+        the observation are those last returned, and the infos hold the masked envs only
+        (``info["_key"]`` is the mask, the other entries 0).
+        """
         super().reset(seed=seed if isinstance(seed, int) else None)
         if seed is None:
             seeds: list[int | None] = [None] * self.num_envs
@@ -596,11 +612,43 @@ class RigidBodyVectorEnv(VectorEnv):
             if len(seed) != self.num_envs:
                 raise ValueError(f"seed: expected {self.num_envs} seeds, got {len(seed)}")
             seeds = list(seed)
+        mask = self._reset_mask(options)
+        if mask is not None:
+            return self._reset_masked(mask, seeds)
         if not self._rngs or seed is not None:
             self._rngs = [seeding.np_random(s)[0] for s in seeds]
         self.task.reset_envs(np.arange(self.num_envs), self._rngs)
         self._autoreset[:] = False
         return self.task.observe(), self._vector_info(self.task.infos())
+
+    def _reset_mask(self, options: dict[str, Any] | None) -> NDArray[np.bool_] | None:
+        """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it (same errors)."""
+        if options is None or "reset_mask" not in options:
+            return None
+        mask = options["reset_mask"]
+        key = "options['reset_mask']"
+        if not isinstance(mask, np.ndarray):
+            raise TypeError(f"{key}: must be a numpy array, got {type(mask).__name__}")
+        if mask.shape != (self.num_envs,):
+            raise ValueError(f"{key}: must have shape ({self.num_envs},), got {mask.shape}")
+        if mask.dtype != np.bool_:
+            raise TypeError(f"{key}: must have dtype bool, got {mask.dtype}")
+        if not mask.any():
+            raise ValueError(f"{key}: must have at least one True entry (the envs to reset)")
+        if not self._rngs:
+            raise ValueError(f"{key}: reset every sub-environment first (reset without a mask)")
+        return mask
+
+    def _reset_masked(self, mask: NDArray[np.bool_], seeds: list[int | None]):
+        """:meth:`reset` of the envs in ``mask`` only (the other rows of the observation are
+        the ones last returned: the task's observation buffer keeps them)."""
+        idx = np.flatnonzero(mask)
+        for i in idx:
+            if seeds[i] is not None:
+                self._rngs[i] = seeding.np_random(seeds[i])[0]
+        self.task.reset_envs(idx, [self._rngs[i] for i in idx])
+        self._autoreset[idx] = False
+        return self.task.observe(), self._vector_info(self.task.infos(), mask)
 
     def step(self, actions: ArrayLike):
         """Step all sub-environments; see the class docstring for autoreset."""
@@ -623,9 +671,16 @@ class RigidBodyVectorEnv(VectorEnv):
         obs = self.task.observe()
         return obs, reward, terminated, truncated, self._vector_info(self.task.infos())
 
-    def _vector_info(self, info: dict[str, NDArray[Any]]) -> dict[str, Any]:
+    def _vector_info(
+        self, info: dict[str, NDArray[Any]], mask: NDArray[np.bool_] | None = None
+    ) -> dict[str, Any]:
+        """Gymnasium's vector infos: each key with its ``_key`` mask (all envs, or ``mask``
+        with the other entries set to 0, as ``SyncVectorEnv`` leaves them)."""
         out: dict[str, Any] = {}
-        mask = np.ones(self.num_envs, dtype=bool)
+        if mask is None:
+            mask = np.ones(self.num_envs, dtype=bool)
+        else:
+            info = {k: _masked(v, mask) for k, v in info.items()}
         for k, v in info.items():
             out[k] = v
             out[f"_{k}"] = mask

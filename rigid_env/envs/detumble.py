@@ -122,12 +122,16 @@ class DetumbleEnv(RigidBodyEnv):
     ``gym.make("RigidEnv/Detumble-v0", max_initial_spin=3.0, success_threshold=0.05,
     fuel_weight=0.1, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
     rotation_repr="quaternion", randomization=None, render_mode=None)``; ``randomization`` takes
-    ``{"mass": a, "inertia": a, "thrust": a, "sensor_noise": sigma}``.
+    ``{"mass": a, "inertia": a, "thrust": a, "sensor_noise": sigma}``. ``"mass"`` changes nothing
+    here: the thrusters are pure couples (no net force), so the mass enters only the translation,
+    which nothing observes or rewards; the moments are drawn on their own by ``"inertia"`` (not
+    scaled with the mass). It matters only where forces move the centre of mass (TumblingFall).
 
     ## Info
 
     ``angular_speed`` [rad/s], ``energy`` [J], ``fuel`` (impulse spent) [N s], ``success``,
-    ``numerical_error``, ``angular_velocity_world``.
+    ``numerical_error``, ``angular_velocity_world``. These are always finite: where a diverging
+    body's value overflows (``|w|^2`` beyond 1.8e308), it repeats its last finite value.
 
     ## Version History
 

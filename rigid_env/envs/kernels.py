@@ -16,7 +16,7 @@ import math
 
 from numba import njit
 
-from rigid_env.core.kernels import kernel, kinetic_energy, rotate
+from rigid_env.core.kernels import kernel, kinetic_energy, model_row, rotate
 
 # ---- task parameters: the common header ------------------------------------------------------
 DT = 0  # control step [s]
@@ -123,12 +123,16 @@ def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, 
         r[REWARD] = reward
         r[TERMINATED] = 1.0 if done else 0.0
         r[SUCCESS] = 1.0 if ok else 0.0
+        # Info numbers: a body on its way to a numerical failure may have a finite state whose
+        # energy or world w overflows; its record then keeps the last finite values.
         w = (s[10], s[11], s[12])
         r[SPEED] = safe_norm(w)
-        r[ENERGY] = kinetic_energy(
-            (s[3], s[4], s[5]), w, model[0] if model.shape[0] == 1 else model[i]
-        )
-        r[W_WORLD], r[W_WORLD + 1], r[W_WORLD + 2] = rotate((s[6], s[7], s[8], s[9]), w)
+        energy = kinetic_energy((s[3], s[4], s[5]), w, model_row(model, i))
+        if math.isfinite(energy):
+            r[ENERGY] = energy
+        ww = rotate((s[6], s[7], s[8], s[9]), w)
+        if math.isfinite(ww[0] + ww[1] + ww[2]):
+            r[W_WORLD], r[W_WORLD + 1], r[W_WORLD + 2] = ww
 
 
 @kernel

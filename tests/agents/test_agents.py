@@ -91,6 +91,54 @@ def test_adapter_matches_dummy_vec_env_transitions():
     assert seen_done >= n  # the time limit made every env reset at least once
 
 
+def test_adapter_refuses_actions_it_would_reshape_or_cast():
+    """4 envs of 6 thrusters take (4, 6) real commands; a (6, 4) array (the same 24 numbers)
+    or complex commands are refused in one line, not reshaped or cast."""
+    env = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=4)
+    env.reset()
+    for bad, words in [
+        (np.zeros((6, 4), np.float32), ["shape (4, 6)", "(6, 4)"]),
+        (np.zeros(24, np.float32), ["shape (4, 6)", "(24,)"]),
+        (np.zeros((4, 6), np.complex128) + 0.5j, ["complex"]),
+    ]:
+        with pytest.raises(ValueError) as exc:
+            env.step(bad)
+        assert all(w in str(exc.value) for w in words) and "\n" not in str(exc.value)
+    obs, *_ = env.step(np.zeros((4, 6), np.float64))
+    assert obs.shape == (4, 10)
+
+
+def test_adapter_render_mode_is_checked_at_construction():
+    for bad in ("human", "rgb", "rgb_arrays"):
+        with pytest.raises(ValueError, match="render_mode") as exc:
+            RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=2, render_mode=bad)
+        assert "\n" not in str(exc.value)
+
+
+def test_vec_video_recorder_over_the_adapter_writes_a_video(tmp_path):
+    """SB3's VecVideoRecorder takes the adapter's tiled rgb_array frames and writes an mp4."""
+    pytest.importorskip("pygame", reason="rendering needs pygame: pip install -e '.[render]'")
+    pytest.importorskip("moviepy", reason="VecVideoRecorder needs moviepy")
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    env = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=2, render_mode="rgb_array")
+    frames = env.get_images()
+    assert len(frames) == 2 and all(
+        f.shape == (480, 480, 3) and f.dtype == np.uint8 for f in frames
+    )
+    length = 5
+    rec = VecVideoRecorder(
+        env, str(tmp_path), record_video_trigger=lambda step: step == 0, video_length=length
+    )
+    assert rec.frames_per_sec == round(1.0 / env.task.dt)
+    rec.reset()
+    for _ in range(length + 1):  # the recorder saves once it holds video_length + 1 frames
+        rec.step(np.zeros((2, 6), np.float32))
+    rec.close()
+    (video,) = tmp_path.glob("*.mp4")
+    assert video.stat().st_size > 1000
+
+
 def test_config_validation_errors(tmp_path):
     good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
     cases = {

@@ -26,10 +26,13 @@ FloatArray = NDArray[np.float64]
 G = np.array([0.0, 0.0, -9.81])  # [m/s^2]
 
 EXACT_RTOL = 1.0e-12
-"""Relative error allowed where the integrator is exact in exact arithmetic: a few hundred
-steps of round-off (each step rounds |x| by ~eps)."""
+"""Relative error allowed where the integrator is exact in exact arithmetic: at most 200 steps,
+each rounding the state ~20 times (rk4's four stages; U = 1.1e-16 each, elementwise, so in the
+same order on every machine): 200 * 20 U = 4.4e-13."""
 ONE_EVAL_TOL = 1.0e-14
-"""Absolute error of one effect evaluation against the hand computation (unit-size inputs)."""
+"""Absolute error of one effect evaluation against the hand computation, per unit of the result
+(tests scale it by the force or energy): both sides are ~40 roundings of unit-size factors
+(a rotation, a cross product, |v| v), 2 * 40 U = 8.9e-15."""
 DRAG_TANH_RTOL = 2.0e-8
 """Relative error (to v_t) of rk4 at dt = 0.01 against v_t tanh(g t / v_t) over 6 s; the step
 is h g / v_t = 0.025 of the time constant, measured 6e-9."""
@@ -131,6 +134,8 @@ def test_quadratic_drag_terminal_speed_and_tanh_fall() -> None:
     rho, cd, area, m, g = 1.225, 1.05, 1.0, 1.0, 9.81
     drag = QuadraticDrag(rho=rho, cd=cd, area=area)
     v_t = np.sqrt(2.0 * m * g / (rho * cd * area))
+    # sqrt(m g / k), k = rho cd A / 2 (6 roundings, halved by the sqrt, plus its own: 4 U)
+    # against this side's sqrt(2 m g / (rho cd A)) (3.5 U): 7.5 U = 8.3e-16.
     assert drag.terminal_speed(m, g) == pytest.approx(v_t, rel=1e-15)
     world = World(BodyModel.single(m, [1.0, 1.0, 1.0]), (Gravity(G), drag), "rk4", 0.01)
     err = 0.0

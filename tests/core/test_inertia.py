@@ -13,11 +13,30 @@ from numpy.typing import NDArray
 from rigid_env.core import inertia
 from rigid_env.core.inertia import MassProperties
 
+from roundoff import EIG_P3, U, gamma
+
 FloatArray = NDArray[np.float64]
 
-# Exact computations (closed forms, polyhedra, hand-computable point sets) agree to rounding:
-# a few hundred ulps relative.
+# Exact computations (closed forms, polyhedra of <= 12 faces, hand-computable point sets) agree
+# to rounding: at most ~50 roundings on terms of one sign, in any order (any BLAS), so a
+# relative error <= gamma(50) = 5.6e-15, times the cancellation of coordinates about a mesh's
+# mean vertex (|shift| / smallest half-size <= 60 below): 3.4e-13 < 1e-12.
 EXACT_RTOL = 1.0e-12
+
+
+def point_moments_atol(n_points: int, moments: FloatArray) -> float:
+    """Bound on the error of every principal moment that ``from_points`` computes for
+    ``n_points`` points of a body with principal moments ``moments``.
+
+    The second moments ``S_kk = sum m_i d_ik^2`` are sums of ``n_points`` products of one sign,
+    each term 3 roundings off (``d = r - c``, two products): ``gamma(n + 2) S_kk`` in any order
+    (BLAS gemm). Off-diagonal entries (0 for these symmetric bodies) come out at most
+    ``gamma(n + 2) sqrt(S_jj S_kk)``; ``I_kk = tr S - S_kk`` adds 3 roundings. Every entry of
+    the tensor is then off by at most ``2 gamma(n + 5) tr S`` (``tr S = sum(moments) / 2``), its
+    2-norm by 3 times that, and ``eigh`` adds its backward error ``EIG_P3 U ||I||_2``.
+    """
+    trace_s = 0.5 * float(np.sum(moments))
+    return 6.0 * gamma(n_points + 5) * trace_s + EIG_P3 * U * float(np.max(moments))
 
 
 def _rotation(rng: np.random.Generator) -> FloatArray:
@@ -101,14 +120,33 @@ def test_box_point_grid_converges_like_inverse_n_squared() -> None:
         props = inertia.from_points(pts)
         rel = (exact.principal_moments - props.principal_moments) / exact.principal_moments
         # Midpoint rule: a cell of width h centred at x_i holds integral x^2 = h x_i^2 + h^3/12,
-        # so the point sum falls short by exactly the factor (1 - 1/n^2) on every axis.
-        np.testing.assert_allclose(rel * n**2, 1.0, rtol=1.0e-10)
+        # so the point sum falls short by exactly the factor (1 - 1/n^2) on every axis. In
+        # floating point rel is off by the moments' rounding (point_moments_atol of n^3 points,
+        # relative to each moment) plus ~6 roundings of its own (the closed form, the
+        # difference, the quotient), all times n^2: 6e-8 at n = 32 (it was held to 1e-10, which
+        # one machine's BLAS summation order met and another's did not).
+        n_points = len(pts)
+        bound = (
+            n**2
+            * (
+                point_moments_atol(n_points, exact.principal_moments)
+                + 6 * U * exact.principal_moments
+            )
+            / exact.principal_moments
+        )
+        assert np.all(np.abs(rel * n**2 - 1.0) <= bound), (n, rel * n**2 - 1.0, bound)
         errors.append(float(np.max(np.abs(rel))))
     assert all(b < a for a, b in itertools.pairwise(errors))
     # 32 cells per side: 1/32^2 ~ 1e-3 relative.
     assert errors[-1] < 1.0e-3
-    assert props.mass == pytest.approx(mass, rel=EXACT_RTOL)
-    np.testing.assert_allclose(props.center_of_mass, 0.0, atol=1.0e-15)
+    # The mass: a sum of n^3 positive terms, rescaled once, summed again: gamma(2 n^3 + 2).
+    assert props.mass == pytest.approx(mass, rel=gamma(2 * n_points + 2))
+    # The centre of mass, 0 exactly: the grid is symmetric to a rounding of each coordinate
+    # (U |x|), and sum m_i r_i / M, in any order, is off by gamma(n^3 + 1) max |r| at most.
+    half_max = 0.5 * float(size.max())
+    np.testing.assert_allclose(
+        props.center_of_mass, 0.0, atol=(gamma(n_points + 1) + 2 * U) * half_max
+    )
 
 
 def test_box_mesh_is_exact() -> None:

@@ -14,16 +14,26 @@ from scipy.spatial.transform import Rotation
 
 from rigid_env.core import rotation as rot
 
+from roundoff import FUNC_RTOL, U, gamma
+
 FloatArray = NDArray[np.float64]
 
-# Tolerances. eps = 2.2e-16 is the spacing of doubles at 1.
+# Tolerances. eps = 2.2e-16 is the spacing of doubles at 1, U = eps / 2 the unit roundoff.
 ROUNDOFF = 1.0e-14
-"""A few dozen ulps of a unit-size quantity: what one formula of ~20 flops may lose."""
-ANGLE_ROUNDOFF = 1.0e-14
-"""[rad] Two computations of the same rotation: 1e-14 rad = 5.7e-13 degrees."""
-TINY_ANGLE_ABS = 1.0e-15
-"""[rad] Absolute error allowed on a 1e-9 rad angle, i.e. 1e-6 relative; acos of a dot product
-would return 0 or ~2e-8 rad there (it sees only 1 - 5e-19, below eps)."""
+"""What two computations of a unit-size quantity may differ by: each side is a formula of at
+most ~40 roundings (U each) and 6 transcendental calls (FUNC_RTOL = 8 U each, NumPy's AVX-512
+functions included) on unit quaternions, orthonormal matrices or angles, whose errors add up
+unamplified: 40 U + 6 FUNC_RTOL = 88 U = 9.8e-15. Vectors compare relative to their length."""
+assert 40 * U + 6 * FUNC_RTOL <= ROUNDOFF
+ANGLE_ROUNDOFF = ROUNDOFF
+"""[rad] Two computations of the same rotation (the angle between unit quaternions is
+conditioned 2 in their components, which the budget above covers): 1e-14 rad."""
+TINY_ANGLE_ABS = 12.0 * gamma(4)
+"""[rad] Absolute error allowed on a 1e-9 rad angle (5e-15, i.e. 5e-6 relative; acos of a dot
+product would return 0 or ~2e-8 rad there, as it sees only 1 - 5e-19, below eps): the two
+quaternion products that form p^-1 (p r) each leave gamma(4) per component (4 products of unit
+numbers), so the vector part of the relative rotation is off by <= 3 gamma(4) sqrt(3) and its
+angle, twice the vector part's length, by < 12 gamma(4)."""
 
 rng = np.random.default_rng(20240531)
 
@@ -40,6 +50,7 @@ def random_vectors(n: int) -> FloatArray:
 
 Q = random_quats(200)
 V = random_vectors(200)
+V_SCALE = float(np.linalg.norm(V, axis=1).max())  # ROUNDOFF is relative to the vectors' length
 
 
 def elementary(axis: int, angle: float) -> FloatArray:
@@ -86,8 +97,10 @@ def test_rotation_keeps_length() -> None:
 
 def test_quat_rotate_agrees_with_matrix() -> None:
     m = rot.quat_to_matrix(Q)
-    assert np.abs(rot.quat_rotate(Q, V) - np.einsum("nij,nj->ni", m, V)).max() < ROUNDOFF
-    assert np.abs(rot.quat_rotate_inv(Q, V) - np.einsum("nji,nj->ni", m, V)).max() < ROUNDOFF
+    diff = rot.quat_rotate(Q, V) - np.einsum("nij,nj->ni", m, V)
+    assert np.abs(diff).max() < ROUNDOFF * V_SCALE
+    diff = rot.quat_rotate_inv(Q, V) - np.einsum("nji,nj->ni", m, V)
+    assert np.abs(diff).max() < ROUNDOFF * V_SCALE
     # The matrix is orthonormal with det +1.
     assert np.abs(m @ np.swapaxes(m, -1, -2) - np.eye(3)).max() < ROUNDOFF
     assert np.abs(np.linalg.det(m) - 1.0).max() < ROUNDOFF
@@ -98,7 +111,7 @@ def test_composition_order() -> None:
     p = random_quats(200)
     lhs = rot.quat_rotate(rot.quat_mul(p, Q), V)
     rhs = rot.quat_rotate(p, rot.quat_rotate(Q, V))
-    assert np.abs(lhs - rhs).max() < ROUNDOFF
+    assert np.abs(lhs - rhs).max() < ROUNDOFF * V_SCALE
 
 
 def test_matches_scipy_quaternion() -> None:
@@ -189,7 +202,7 @@ def test_angle_between_tiny_angle() -> None:
     # And the exact value from identity: no rounding in the construction.
     assert rot.quat_angle_between(
         rot.identity_quat(), rot.quat_from_rotvec([1e-9, 0, 0])
-    ) == pytest.approx(1e-9, rel=1e-15)
+    ) == pytest.approx(1e-9, rel=8 * U + 2 * FUNC_RTOL)  # sin, atan2 and ~8 roundings
 
 
 def test_angle_between_large_angles() -> None:
@@ -274,7 +287,8 @@ def test_euler_roundtrip_random() -> None:
     q = rot.euler_to_quat(EULER)
     angles = rot.quat_to_euler(q)
     # Away from the lock the angles themselves come back (x in [-pi/2, pi/2]).
-    assert np.abs(angles - EULER).max() < 1e-12  # 1e-12 rad: eps / cos(x) for cos(x) > 1e-3
+    # y and z are conditioned 1 / cos(x) near the lock: ROUNDOFF / cos(x) rad (<= 6.7e-13 here).
+    assert np.all(np.abs(angles - EULER).max(axis=1) < ROUNDOFF / np.cos(EULER[:, 0]))
     assert rot.quat_angle_between(rot.euler_to_quat(angles), q).max() < ANGLE_ROUNDOFF
     # quaternion -> Euler -> quaternion for arbitrary rotations (any sign).
     back = rot.euler_to_quat(rot.quat_to_euler(Q))
@@ -345,7 +359,8 @@ def test_slerp_near_identical_inputs() -> None:
     for t in (0.0, 0.3, 1.0):
         mid = rot.slerp(p, q, np.full(20, t))
         assert np.all(np.isfinite(mid))
-        assert rot.quat_angle_between(p, mid).max() < t * 1e-12 + 1e-15  # 1e-15 rad absolute
+        # The slerp's products and the angle's each leave a TINY_ANGLE_ABS (absolute).
+        assert rot.quat_angle_between(p, mid).max() < t * 1e-12 + 2 * TINY_ANGLE_ABS
     same = rot.slerp(p, p, np.full(20, 0.5))
     assert rot.quat_angle_between(same, p).max() < ANGLE_ROUNDOFF
     # Shorter arc: -q gives the same path.
@@ -366,7 +381,8 @@ def test_quat_integrate_exp_composes_exactly() -> None:
     for _ in range(k):
         q = rot.quat_integrate_exp(q, w, h)
     one = rot.quat_integrate_exp(q0, w, k * h)
-    # 100 steps, each a product and a renormalisation: ~100 x eps.
+    # 100 steps, each an exp map, a product and a renormalisation (a ROUNDOFF budget each, the
+    # errors of unit quaternions adding up unamplified): 100 ANGLE_ROUNDOFF.
     assert rot.quat_angle_between(q, one).max() < 100 * ANGLE_ROUNDOFF
     # And one step is R(q) -> R(q) Rodrigues(h w) (body-frame increment on the right).
     m = rot.quat_to_matrix(rot.quat_integrate_exp(q0, w, h))

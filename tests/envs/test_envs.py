@@ -178,6 +178,53 @@ def test_diverging_body_ends_only_its_own_episode():
     assert np.array_equal(obs[[0, 1, 3]], r_obs[[0, 1, 3]])
 
 
+FLOAT_INFO = ("angular_speed", "energy", "angular_velocity_world")
+
+
+def test_infos_stay_finite_while_a_body_diverges():
+    """A diverging body's |w|^2 and energy overflow (its state, ~1e228, is still finite) a step
+    before the world freezes it: its info then repeats its last finite values, never inf, in
+    the vector env, the single env and the SB3 adapter; the other bodies report their own."""
+    from agents.vec_adapter import RigidBodySB3VecEnv
+
+    kwargs = dict(integrator="explicit_euler", dt=0.5)
+    venv = gym.make_vec(
+        "RigidEnv/Detumble-v0", num_envs=4, vectorization_mode="vector_entry_point", **kwargs
+    )
+    single = gym.make("RigidEnv/Detumble-v0", **kwargs)
+    sb3 = RigidBodySB3VecEnv("RigidEnv/Detumble-v0", num_envs=4, **kwargs)
+    _, last = venv.reset(seed=0)
+    single.reset(seed=3)  # replays sub-env 3 (seed + 3), the one that diverges
+    sb3.seed(0)
+    sb3.reset()
+    for env in (venv.unwrapped.task, single.unwrapped.task, sb3.task):
+        env.world.state.w[-1 if env.n > 1 else 0] = [300.0, 300.0, 300.0]  # rad/s: diverges
+    overflowed = 0
+    for _ in range(60):
+        w = venv.unwrapped.task.world.state.w.copy()
+        _, _, _, trunc, info = venv.step(np.zeros((4, 6), np.float32))
+        with np.errstate(over="ignore"):
+            raw = np.sqrt(np.sum(venv.unwrapped.task.world.state.w**2, axis=1))
+        for key in FLOAT_INFO:
+            assert np.isfinite(info[key]).all(), key
+        if not np.isfinite(raw[3]):  # |w|^2, hence the energy, overflowed
+            overflowed += 1
+            for key in ("angular_speed", "energy"):
+                assert info[key][3] == last[key][3], key
+        assert np.array_equal(info["angular_speed"][:3], raw[:3])
+        assert np.all(np.abs(w[:3]) < 10.0)  # the others stay tame
+        _, _, _, s_trunc, s_info = single.step(np.zeros(6, np.float32))
+        _, _, _, sb3_infos = sb3.step(np.zeros((4, 6), np.float32))
+        for key in FLOAT_INFO:
+            assert np.isfinite(s_info[key]).all() and np.isfinite(sb3_infos[3][key]).all(), key
+            assert np.array_equal(s_info[key], info[key][3]), key
+            assert np.array_equal(sb3_infos[3][key], info[key][3]), key
+        last = info
+        if trunc[3]:
+            break
+    assert trunc[3] and s_trunc and info["numerical_error"][3] and overflowed >= 1
+
+
 def test_single_env_reports_numerical_error_as_truncation():
     env = gym.make("RigidEnv/Detumble-v0", integrator="explicit_euler", dt=0.5)
     env.reset(seed=0)
@@ -275,6 +322,26 @@ def test_domain_randomization_draws_from_env_generator_only():
         gym.make("RigidEnv/Detumble-v0", randomization={"mass": 1.5})
 
 
+@pytest.mark.parametrize(
+    ("env_id", "matters"),
+    [
+        ("RigidEnv/Detumble-v0", False),
+        ("RigidEnv/SpinStabilize-v0", False),
+        ("RigidEnv/Reorient-v0", False),
+        ("RigidEnv/TumblingFall-v0", True),
+    ],
+)
+def test_mass_randomization_matters_only_where_forces_move_the_centre_of_mass(env_id, matters):
+    """Pure couples and no gravity: the mass enters only the translation, which nothing
+    observes or rewards, so a first episode with ``randomization={"mass": 0.5}`` equals one
+    without (its draw comes after the initial state's). Drag under gravity does feel it."""
+    actions = np.random.default_rng(4).uniform(-1, 1, size=(40, 6)).astype(np.float32)
+    plain = rollout_single(env_id, 9, actions)
+    heavy = rollout_single(env_id, 9, actions, randomization={"mass": 0.5})
+    same = np.array_equal(plain[0], heavy[0]) and np.array_equal(plain[1], heavy[1])
+    assert same != matters
+
+
 def test_thruster_torque_reaches_body_as_r_cross_f():
     """Command the +z couple only: w_z grows at 2 r F / I_z per second, nothing else moves
     (a check of the action -> force-at-point -> torque chain, at zero initial spin)."""
@@ -335,3 +402,82 @@ def test_vector_env_split_over_threads_equals_one_thread(monkeypatch):
     monkeypatch.setattr(world_module, "THREAD_MIN_BODIES", 10**9)
     one = run()
     assert all(np.array_equal(a, b) for a, b in zip(split, one, strict=True))
+
+
+def _assert_same_reset(ours: tuple, ref: tuple) -> None:
+    """Observations and vector infos (every key and its ``_key`` mask) bit for bit."""
+    (obs, info), (ref_obs, ref_info) = ours, ref
+    assert np.array_equal(obs, ref_obs)
+    assert set(info) == set(ref_info)
+    for key, value in ref_info.items():
+        assert info[key].dtype == value.dtype and np.array_equal(info[key], value), key
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_reset_mask_equals_sync_vector_env(env_id):
+    """``reset(options={"reset_mask": m})`` resets only the masked sub-envs, as Gymnasium's
+    SyncVectorEnv over single envs does: the same observations (the masked rows new, the others
+    as last returned) and infos (the masked envs only); the others keep their state, generator
+    (sensor noise draws from it every step) and pending autoreset, so every later step agrees
+    too. Seeds: an int gives masked env i ``seed + i``, a list its entries, None continues the
+    envs' own generators."""
+    n, limit = 5, 5
+    kwargs = {"max_episode_steps": limit, "randomization": {"sensor_noise": 0.01, "mass": 0.1}}
+    ours = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    ref = gym.vector.SyncVectorEnv([lambda: gym.make(env_id, **kwargs) for _ in range(n)])
+    _assert_same_reset(ours.reset(seed=10), ref.reset(seed=10))
+    rng = np.random.default_rng(2)
+    # (steps before the masked reset, mask, seed): the second reset comes right after the
+    # time limit ended envs 1, 3 and 4 (env 1 is reset by the mask, 3 and 4 by autoreset).
+    rounds = [
+        (3, [True, False, True, False, False], None),
+        (2, [False, True, True, False, False], 100),
+        (4, [True, True, False, False, True], [7, None, 8, 9, None]),
+        (3, [False, False, False, True, False], None),
+    ]
+    pending_seen = [False, False]  # a masked env / an unmasked env awaited its autoreset
+    for steps, mask, seed in rounds:
+        for _ in range(steps):
+            a = rng.uniform(-1.0, 1.0, size=(n, 6)).astype(np.float32)
+            got, want = ours.step(a), ref.step(a)
+            for x, y in zip(got[:4], want[:4], strict=True):
+                assert np.array_equal(x, y)
+            pending = got[2] | got[3]
+        mask = np.array(mask)
+        pending_seen = [
+            pending_seen[0] or pending[mask].any(),
+            pending_seen[1] or pending[~mask].any(),
+        ]
+        _assert_same_reset(
+            ours.reset(seed=seed, options={"reset_mask": mask.copy()}),
+            ref.reset(seed=seed, options={"reset_mask": mask.copy()}),
+        )
+    assert pending_seen == [True, True]
+    for _ in range(2 * limit):  # afterwards: the same steps, autoresets and noise
+        a = rng.uniform(-1.0, 1.0, size=(n, 6)).astype(np.float32)
+        got, want = ours.step(a), ref.step(a)
+        for x, y in zip(got[:4], want[:4], strict=True):
+            assert np.array_equal(x, y)
+
+
+@pytest.mark.parametrize(
+    ("mask", "error"),
+    [
+        ([True, False, True], TypeError),  # a list, not an array
+        (np.ones(2, dtype=bool), ValueError),  # wrong shape
+        (np.ones(3, dtype=int), TypeError),  # wrong dtype
+        (np.zeros(3, dtype=bool), ValueError),  # nothing to reset
+    ],
+)
+def test_bad_reset_mask_is_refused_like_sync_vector_env(mask, error):
+    venv = gym.make_vec("RigidEnv/Detumble-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    with pytest.raises(ValueError, match="reset every sub-environment first"):
+        venv.reset(options={"reset_mask": np.ones(3, dtype=bool)})  # before any reset
+    venv.reset(seed=0)
+    with pytest.raises(error, match="reset_mask") as exc:
+        venv.reset(options={"reset_mask": mask})
+    assert "\n" not in str(exc.value)
+    ref = gym.vector.SyncVectorEnv([lambda: gym.make("RigidEnv/Detumble-v0")] * 3)
+    ref.reset(seed=0)
+    with pytest.raises(error):
+        ref.reset(options={"reset_mask": mask})

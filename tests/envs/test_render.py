@@ -129,6 +129,27 @@ def test_vector_env_renders_sub_env_0():
     assert frame.shape == (H, W, 3) and frame.dtype == np.uint8
 
 
+@pytest.mark.parametrize("bad", ["human", "rgb", "RGB_ARRAY"])
+def test_vector_env_refuses_render_modes_it_does_not_have(bad):
+    """Only ``metadata["render_modes"]`` (``rgb_array``), at construction, in one line."""
+    with pytest.raises(ValueError, match="render_mode") as exc:
+        gym.make_vec(
+            "RigidEnv/Detumble-v0",
+            num_envs=2,
+            vectorization_mode="vector_entry_point",
+            render_mode=bad,
+        )
+    assert "\n" not in str(exc.value) and "rgb_array" in str(exc.value)
+
+
+@pytest.mark.filterwarnings("ignore:.*render_mode")  # gym.make warns before we refuse
+@pytest.mark.parametrize("bad", ["rgb", "ansi"])
+def test_single_env_refuses_render_modes_it_does_not_have(bad):
+    with pytest.raises(ValueError, match="render_mode") as exc:
+        gym.make("RigidEnv/Detumble-v0", render_mode=bad)
+    assert "\n" not in str(exc.value)
+
+
 def test_renderer_size_and_bad_arguments():
     task = DetumbleTask(2)
     frame = TaskRenderer(task, "rgb_array", fps=20, width=321, height=200).render(1)
@@ -154,6 +175,28 @@ def test_box_of_a_non_box_shape_has_its_moments():
     np.testing.assert_allclose(dirs, np.eye(3))
     frame = TaskRenderer(task, "rgb_array", fps=20).render(0)
     assert frame.shape == (H, W, 3)
+
+
+def test_body_without_shape_is_drawn_as_its_equivalent_box():
+    """A body given by its mass and inertia alone is drawn as the solid box with that mass and
+    those moments: the box's closed-form moments give the scene's back (to a few roundings)."""
+    from rigid_env.core.inertia import box
+
+    mass, inertia = 2.0, [0.02, 0.03, 0.04]
+    scene = {
+        "dt": 0.05,
+        "body": {"mass": mass, "inertia": inertia},
+        "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": 0.1}},
+    }
+    task = DetumbleTask(1, scene=scene)
+    size = body_box_size(task)
+    # a^2 = 6 (I_y + I_z - I_x) / m, a = sqrt(a^2), then I_x = m (b^2 + c^2) / 12: each squared
+    # side carries <= 6 roundings (u = 2^-53 each) of the size of the moments' sum S, and a
+    # moment adds two sides, so |error| <= 15 u S: relative 15 u S / I_min = 7.5e-15 here.
+    rtol = 15 * 2.0**-53 * sum(inertia) / min(inertia)
+    np.testing.assert_allclose(box(mass, size).principal_moments, inertia, rtol=rtol)
+    frame = TaskRenderer(task, "rgb_array", fps=20).render(0)
+    assert frame.shape == (H, W, 3) and len(np.unique(frame.reshape(-1, 3), axis=0)) > 100
 
 
 def test_box_shape_keeps_its_size():

@@ -22,7 +22,11 @@ BAD_KWARGS = [
     ("RigidEnv/Detumble-v0", {"randomization": [1, 2]}, "randomization"),
     ("RigidEnv/Detumble-v0", {"randomization": {"masss": 0.1}}, "randomization.masss"),
     ("RigidEnv/Detumble-v0", {"randomization": {"mass": 1.5}}, "randomization.mass"),
-    ("RigidEnv/Detumble-v0", {"randomization": {"sensor_noise": "x"}}, "randomization.sensor_noise"),
+    (
+        "RigidEnv/Detumble-v0",
+        {"randomization": {"sensor_noise": "x"}},
+        "randomization.sensor_noise",
+    ),
     ("RigidEnv/Detumble-v0", {"max_initial_spin": True}, "max_initial_spin"),
     ("RigidEnv/SpinStabilize-v0", {"max_initial_tilt": float("nan")}, "max_initial_tilt"),
     ("RigidEnv/SpinStabilize-v0", {"hold_time": -5.0}, "hold_time"),

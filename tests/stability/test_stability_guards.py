@@ -165,7 +165,8 @@ def test_step_reports_the_failed_mask_and_reset_clears_it():
 # max_angular_speed: PhysX's clamp, off by default
 # --------------------------------------------------------------------------------------------
 
-# |w| after the clamp may exceed the limit by rounding of the scale factor: 4 ulps relative.
+# |w| after the clamp may exceed the limit by rounding: the clamp's |w| (2.5 U), the factor
+# limit / |w| and the scaling (2 U), the test's own |w| (2.5 U): 7 U, so 8 U = 4 ulps of 1.
 CLAMP_RTOL = 4.0 * np.finfo(float).eps
 
 
@@ -184,6 +185,7 @@ def test_clamp_scales_w_down_to_the_limit_keeping_its_direction():
     world.step()
     w = world.state.w[0]
     assert np.linalg.norm(w) == pytest.approx(10.0, rel=CLAMP_RTOL)
+    # Both directions are a normalisation (3.5 U each) of w0 and w0 * s (one more rounding).
     np.testing.assert_allclose(w / np.linalg.norm(w), w0 / np.linalg.norm(w0), rtol=0, atol=1e-15)
     turned = 2.0 * np.arctan2(np.linalg.norm(world.state.q[0, 1:]), world.state.q[0, 0])
     assert turned == pytest.approx(0.1, rel=1e-12)
