@@ -182,7 +182,6 @@ class TaskBatch:
     task_obs_dim: ClassVar[int] = 0
     task_obs_bound: ClassVar[float] = 1.0
     target_dim: ClassVar[int] = 0
-    memory_dim: ClassVar[int] = 0
     task_pass: ClassVar[Callable[..., None]]
 
     def __init__(
@@ -238,16 +237,17 @@ class TaskBatch:
         """Task parameters of the compiled pass (:mod:`rigid_env.envs.kernels`)."""
         n, a = self.n, self.action_dim
         self.steps = np.zeros(n, dtype=np.int64)
-        self.target = np.zeros((n, self.target_dim))
+        self.target = np.zeros((n, T.TARGET_WIDTH))
+        """(N, 4) each env's target (its first ``target_dim`` numbers used)."""
         self.thrust_scale = np.ones((1, a))
         """(1 | N, A) strength of each actuator relative to the scene's (thrust randomisation)."""
         self.last_action = np.zeros((n, a))
         """(N, A) the last command each env was sent, clipped (before thrust randomisation)."""
         self.command = np.zeros((n, a))
         """(N, A) the last command the bodies got (thrust randomisation included)."""
-        self.record = np.zeros((n, T.RECORD + self.memory_dim))
-        """(N, RECORD + M) each env's reward, flags, info numbers, fuel and task memory
-        (columns named in :mod:`rigid_env.envs.kernels`), written by the compiled pass."""
+        self.record = np.zeros((n, T.RECORD))
+        """(N, RECORD) each env's reward, flags, info numbers, fuel and task memory (columns
+        named in :mod:`rigid_env.envs.kernels`), written by the compiled pass."""
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         """(N, obs_dim) the latest observations (overwritten by every step and reset)."""
         self._no_noise = np.zeros((1, 3))
@@ -323,12 +323,14 @@ class TaskBatch:
         return self.last_action
 
     def step(
-        self, rngs: Sequence[np.random.Generator]
+        self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
     ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
         """Advance every body by ``dt`` with the command of the last :meth:`check_action`.
 
         Args:
             rngs: one generator per env (drawn from only for sensor noise).
+            restarting: (N,) envs about to be reset (autoreset): no noise is drawn for them
+                here, so each env's generator sees what a single env's would.
 
         Returns:
             reward (N,), terminated (N,), failed (N,) (the state turned non-finite this step;
@@ -341,7 +343,7 @@ class TaskBatch:
             self.world.rows,
             self.command,
             self.target,
-            self._noise(rngs),
+            self._noise(rngs, restarting),
             True,
             self.record,
             self.obs,
@@ -371,11 +373,22 @@ class TaskBatch:
             ),
         )
 
-    def _noise(self, rngs: Sequence[np.random.Generator]) -> FloatArray:
+    def _noise(
+        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
+    ) -> FloatArray:
+        """(K, 3) sensor noise on the observed ``w`` [rad/s], one row per generator (zeros,
+        nothing drawn, where ``skip``); one shared zero row when there is no noise."""
         sigma = self.randomization.sensor_noise
         if sigma <= 0.0:
             return self._no_noise
-        return np.stack([rng.normal(0.0, sigma, 3) for rng in rngs])
+        if skip is None or not skip.any():
+            return np.stack([rng.normal(0.0, sigma, 3) for rng in rngs])
+        return np.stack(
+            [
+                np.zeros(3) if s else rng.normal(0.0, sigma, 3)
+                for rng, s in zip(rngs, skip.tolist(), strict=True)
+            ]
+        )
 
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
@@ -392,7 +405,7 @@ class TaskBatch:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
             if self.target_dim:
-                self.target[idx] = target
+                self.target[idx, : self.target_dim] = target
         self.steps[idx] = 0
         self.record[idx] = 0.0
         self.last_action[idx] = 0.0
@@ -655,7 +668,7 @@ class RigidBodyVectorEnv(VectorEnv):
         if not self._rngs:
             raise RuntimeError("Call reset before using step method.")
         self.task.check_action(actions)
-        reward, terminated, failed = self.task.step(self._rngs)
+        reward, terminated, failed = self.task.step(self._rngs, self._autoreset)
         reward = reward.copy()
         truncated = failed.copy()
         if self.max_episode_steps is not None:

@@ -22,14 +22,14 @@ MAX_SPIN, THRESHOLD, BONUS = T.TASK, T.TASK + 1, T.TASK + 2
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped, extra):
+def evaluate(s, effort, target, memory, tp, stepped):
     """Detumble's reward, termination and success of one env (see :class:`DetumbleEnv`)."""
     speed = T.safe_norm((s[10], s[11], s[12]))
     success = speed < tp[THRESHOLD]
     # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
     spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
     reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
-    return reward, success, success
+    return reward, success, success, memory, (0.0, 0.0, 0.0, 0.0)
 
 
 @kernel

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from rigid_env.core.kernels import kernel, kinetic_energy, model_row, rotate
@@ -30,8 +31,12 @@ FMAX = 16  # then one force [N] per command component
 
 @kernel
 def safe_norm(w):
-    """``|w|`` without overflow for a huge finite ``w`` (a frozen, diverged body): the largest
-    component factored out first, so the result is finite wherever ``w`` is."""
+    """``|w| = sqrt((w0^2 + w1^2) + w2^2)``, without overflow for a huge finite ``w`` (a frozen,
+    diverged body): where the squares overflow (or underflow) the largest component is factored
+    out first, so the result is finite wherever ``w`` is."""
+    s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+    if 1.0e-290 < s2 < math.inf:
+        return math.sqrt(s2)
     top = max(abs(w[0]), abs(w[1]), abs(w[2]))
     if top == 0.0 or not math.isfinite(top):
         return top
@@ -55,84 +60,101 @@ def _clip(x, bound):
 
 
 @kernel
-def observe_body(tp, s, noise, out):
-    """Write the common observation of state row ``s`` into ``out`` and return where the
-    task's extra observations begin: the orientation (canonical quaternion, or the first two
-    columns of ``R(q)``), the body ``w`` (plus sensor ``noise``) over :data:`W_SCALE` clipped
-    to +-5, and ``tanh(w / 0.1 rad/s)`` for fine resolution near rest."""
+def observe_body(tp, s, noise, obs, i):
+    """Write the common observation of the state ``s`` (13-tuple) into row ``i`` of ``obs``
+    and return where the task's extra observations begin: the orientation (canonical
+    quaternion, or the first two columns of ``R(q)``), the body ``w`` (plus sensor ``noise``)
+    over :data:`W_SCALE` clipped to +-5, and ``tanh(w / 0.1 rad/s)`` for fine resolution near
+    rest."""
     q = (s[6], s[7], s[8], s[9])
     if tp[SIXD] != 0.0:
         c0 = rotate(q, (1.0, 0.0, 0.0))
         c1 = rotate(q, (0.0, 1.0, 0.0))
         for k in range(3):
-            out[k] = _clip(c0[k], 1.0)
-            out[3 + k] = _clip(c1[k], 1.0)
+            obs[i, k] = _clip(c0[k], 1.0)
+            obs[i, 3 + k] = _clip(c1[k], 1.0)
         r = 6
     else:
         qc = canonical(q)
         for k in range(4):
-            out[k] = qc[k]
+            obs[i, k] = qc[k]
         r = 4
     scale = tp[W_SCALE]
     for k in range(3):
         wk = s[10 + k] + noise[k]
-        out[r + k] = _clip(wk / scale, 5.0)
-        out[r + 3 + k] = math.tanh(wk / 0.1)
+        obs[i, r + k] = _clip(wk / scale, 5.0)
+        obs[i, r + 3 + k] = math.tanh(np.float32(wk / 0.1))  # in float32, the obs' precision
     return r + 6
 
 
-# ---- columns of an env's record (N, RECORD + memory) --------------------------------------------
+# ---- columns of an env's record (N, RECORD + 1) -----------------------------------------------
 REWARD, TERMINATED, SUCCESS, SPEED, ENERGY, W_WORLD, FUEL = 0, 1, 2, 3, 4, 5, 8
-RECORD = 9  # the task's memory (e.g. a success streak) follows
+MEMORY = 9  # one number of task memory (e.g. a success streak)
+RECORD = 10
+TARGET_WIDTH = 4  # a per-env target (a quaternion, or unused zeros)
+
+
+@kernel
+def _row13(a, i):
+    return (
+        a[i, 0], a[i, 1], a[i, 2], a[i, 3], a[i, 4], a[i, 5], a[i, 6],
+        a[i, 7], a[i, 8], a[i, 9], a[i, 10], a[i, 11], a[i, 12],
+    )  # fmt: skip
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs):
     """Fuel, task and observation of every env after a step (``stepped``), or the observation
-    and info alone after a reset (``stepped`` false: no fuel, and ``evaluate`` keeps its
-    memory).
+    and info alone after a reset (``stepped`` false: no fuel, and the memory is kept).
 
     Args:
-        evaluate: the task's per-env function ``(s, effort, target, memory, tp, stepped,
-            extra) -> (reward, terminated, success)``, writing its extra observations into
-            ``extra`` and its memory into ``memory``.
+        evaluate: the task's per-env function ``(s, effort, target, memory, tp, stepped) ->
+            (reward, terminated, success, memory, extra)`` on the state ``s`` (13-tuple), the
+            effort (mean ``|u|``), the target (4-tuple) and the memory (a number), returning
+            the new memory (kept after a step) and the extra observations (a 4-tuple, the
+            first ``task_obs_dim`` used, clipped into +-``EXTRA_BOUND``).
         tp: task parameters. state: (N, 13) rows. model: (N | 1, 9) model rows.
-        command: (N, A) the commands the bodies got. target: (N, T) per-env targets.
+        command: (N, A) the commands the bodies got. target: (N, TARGET_WIDTH) targets.
         noise: (N | 1, 3) sensor noise on the observed ``w`` [rad/s].
-        rec: (N, RECORD + M) each env's record: reward, terminated, success, ``|w|``, kinetic
-            energy, world ``w`` (written), fuel spent [N s] (increased) and the task's memory.
+        rec: (N, RECORD) each env's record: reward, terminated, success, ``|w|``, kinetic
+            energy, world ``w`` (written), fuel spent [N s] (increased) and the task memory.
         obs: (N, D) float32 observations (written).
     """
     actions = command.shape[1]
+    extras = obs.shape[1]
+    bound = tp[EXTRA_BOUND]
     for i in range(state.shape[0]):
-        s = state[i]
-        r = rec[i]
+        s = _row13(state, i)
         effort = 0.0
         if stepped:
-            u = command[i]
             magnitude = thrust = 0.0
             for k in range(actions):
-                a = abs(u[k])
+                a = abs(command[i, k])
                 magnitude += a
                 thrust += a * tp[FMAX + k]
             effort = magnitude / actions
-            r[FUEL] += thrust * tp[DT]
-        row = obs[i]
-        start = observe_body(tp, s, noise[0] if noise.shape[0] == 1 else noise[i], row)
-        reward, done, ok = evaluate(s, effort, target[i], r[RECORD:], tp, stepped, row[start:])
-        r[REWARD] = reward
-        r[TERMINATED] = 1.0 if done else 0.0
-        r[SUCCESS] = 1.0 if ok else 0.0
+            rec[i, FUEL] += thrust * tp[DT]
+        j = 0 if noise.shape[0] == 1 else i
+        start = observe_body(tp, s, (noise[j, 0], noise[j, 1], noise[j, 2]), obs, i)
+        goal = (target[i, 0], target[i, 1], target[i, 2], target[i, 3])
+        reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[i, MEMORY], tp, stepped)
+        if stepped:
+            rec[i, MEMORY] = memory
+        for k in range(extras - start):
+            obs[i, start + k] = min(bound, max(-bound, extra[k]))
+        rec[i, REWARD] = reward
+        rec[i, TERMINATED] = 1.0 if done else 0.0
+        rec[i, SUCCESS] = 1.0 if ok else 0.0
         # Info numbers: a body on its way to a numerical failure may have a finite state whose
         # energy or world w overflows; its record then keeps the last finite values.
         w = (s[10], s[11], s[12])
-        r[SPEED] = safe_norm(w)
+        rec[i, SPEED] = safe_norm(w)
         energy = kinetic_energy((s[3], s[4], s[5]), w, model_row(model, i))
         if math.isfinite(energy):
-            r[ENERGY] = energy
+            rec[i, ENERGY] = energy
         ww = rotate((s[6], s[7], s[8], s[9]), w)
         if math.isfinite(ww[0] + ww[1] + ww[2]):
-            r[W_WORLD], r[W_WORLD + 1], r[W_WORLD + 2] = ww
+            rec[i, W_WORLD], rec[i, W_WORLD + 1], rec[i, W_WORLD + 2] = ww
 
 
 @kernel

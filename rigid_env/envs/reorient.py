@@ -26,12 +26,10 @@ MAX_SPIN, SUCCESS_ANGLE, SUCCESS_SPIN = T.TASK, T.TASK + 1, T.TASK + 2
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped, extra):
+def evaluate(s, effort, target, memory, tp, stepped):
     """Reorient's reward and success of one env (see :class:`ReorientEnv`); its extra
     observation is the error quaternion ``canonical(conj(q) (x) target)``."""
-    err = T.canonical(
-        quat_mul((s[6], -s[7], -s[8], -s[9]), (target[0], target[1], target[2], target[3]))
-    )
+    err = T.canonical(quat_mul((s[6], -s[7], -s[8], -s[9]), target))
     angle = 2.0 * math.atan2(
         math.sqrt(err[1] * err[1] + err[2] * err[2] + err[3] * err[3]), abs(err[0])
     )
@@ -40,9 +38,7 @@ def evaluate(s, effort, target, memory, tp, stepped, extra):
     r_angle = tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], math.pi, LINEAR, 0.0)
     r_spin = tolerance_one(speed, 0.0, tp[SUCCESS_SPIN], tp[MAX_SPIN], LINEAR, 0.0)
     reward = r_angle * (0.5 + 0.5 * r_spin) - tp[T.FUEL_WEIGHT] * effort
-    for k in range(4):
-        extra[k] = err[k]
-    return reward, False, success
+    return reward, False, success, memory, err
 
 
 @kernel

@@ -31,25 +31,24 @@ def axis_error(w):
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped, extra):
+def evaluate(s, effort, target, memory, tp, stepped):
     """SpinStabilize's reward and success of one env (see :class:`SpinStabilizeEnv`); its
     memory is the number of consecutive steps with the spin axis within the success angle."""
     w = (s[10], s[11], s[12])
     angle = axis_error(w)
     speed = T.safe_norm(w)
     spin = tp[TARGET_SPIN]
-    if stepped:
-        memory[0] = memory[0] + 1.0 if angle < tp[SUCCESS_ANGLE] else 0.0
-    success = memory[0] >= tp[HOLD_STEPS]
+    streak = memory
+    if stepped:  # a reset's observation keeps the streak
+        streak = memory + 1.0 if angle < tp[SUCCESS_ANGLE] else 0.0
+    success = streak >= tp[HOLD_STEPS]
     rate_error = abs(speed - spin)
     reward = (
         tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], MARGIN_45_DEG, GAUSSIAN, 0.1)
         * tolerance_one(rate_error, 0.0, 0.1 * spin, spin, GAUSSIAN, 0.1)
         - tp[T.FUEL_WEIGHT] * effort
     )
-    bound = tp[T.EXTRA_BOUND]
-    extra[0] = min(bound, max(-bound, (speed - spin) / spin))
-    return reward, False, success
+    return reward, False, success, streak, ((speed - spin) / spin, 0.0, 0.0, 0.0)
 
 
 @kernel
@@ -70,7 +69,6 @@ class SpinStabilizeTask(TaskBatch):
 
     scene_name = "spin_stabilize"
     task_obs_dim = 1
-    memory_dim = 1
     task_pass = staticmethod(spin_stabilize_pass)
 
     def __init__(
@@ -114,7 +112,7 @@ class SpinStabilizeTask(TaskBatch):
     @property
     def streak(self) -> np.ndarray:
         """(N,) consecutive steps with the spin axis within ``success_angle`` of +y."""
-        return self.record[:, T.RECORD].astype(np.int64)
+        return self.record[:, T.MEMORY].astype(np.int64)
 
     def axis_error(self) -> np.ndarray:
         """(N,) angle [rad] between w and body +y (pi when spinning backwards)."""

@@ -23,7 +23,7 @@ FALL_SPEED_SCALE = 20.0  # [m/s], the observed vertical speed's unit
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped, extra):
+def evaluate(s, effort, target, memory, tp, stepped):
     """TumblingFall's reward, termination (touchdown) and success of one env (see
     :class:`TumblingFallEnv`)."""
     speed = T.safe_norm((s[10], s[11], s[12]))
@@ -31,10 +31,8 @@ def evaluate(s, effort, target, memory, tp, stepped, extra):
     success = landed and speed < tp[THRESHOLD]
     spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
     reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
-    bound = tp[T.EXTRA_BOUND]
-    extra[0] = min(bound, max(-bound, s[2] / tp[TOP]))
-    extra[1] = min(bound, max(-bound, s[5] / FALL_SPEED_SCALE))
-    return reward, landed, success
+    extra = (s[2] / tp[TOP], s[5] / FALL_SPEED_SCALE, 0.0, 0.0)  # height, vertical speed
+    return reward, landed, success, memory, extra
 
 
 @kernel
