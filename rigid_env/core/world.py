@@ -188,6 +188,12 @@ class World:
         return self._rows
 
     @property
+    def no_failures(self) -> BoolArray:
+        """The read-only all-False mask :meth:`step` returns when no body failed (compare with
+        ``is`` to skip looking at it)."""
+        return self._none_failed
+
+    @property
     def failed(self) -> BoolArray:
         """(N,) bodies frozen by a failure (``on_error="freeze"``); writable, to clear them."""
         return self._status.view(np.bool_)

@@ -251,6 +251,7 @@ class TaskBatch:
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
         """(N, obs_dim) the latest observations (overwritten by every step and reset)."""
         self._no_noise = np.zeros((1, 3))
+        self._sigma = self.randomization.sensor_noise
 
     # ---- task interface ------------------------------------------------------------------
     def angular_velocity_scale(self) -> float:
@@ -339,17 +340,30 @@ class TaskBatch:
         """
         failed = self.world.advance(self.command)
         self.steps += 1
-        self._pass(
-            self.world.rows,
-            self.command,
-            self.target,
-            self._noise(rngs, restarting),
-            True,
-            self.record,
-            self.obs,
-        )
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
+        world = self.world
+        if self.n < core_world.THREAD_MIN_BODIES:  # the common case, without the indirection
+            self.task_pass(
+                self.tp, world.rows, world.model_rows, self.command, self.target, noise, True,
+                self.record, self.obs,
+            )  # fmt: skip
+        else:
+            self._pass(world.rows, self.command, self.target, noise, True, self.record, self.obs)
         r = self.record
         return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
+
+    def step_one(self, rng: np.random.Generator) -> tuple[list[float], bool]:
+        """:meth:`step` of a task of one env: its record (:data:`rigid_env.envs.kernels`
+        columns) as floats, and whether its body failed."""
+        failed = self.world.advance(self.command)
+        self.steps[0] += 1
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
+        world = self.world
+        self.task_pass(
+            self.tp, world.rows, world.model_rows, self.command, self.target, noise, True,
+            self.record, self.obs,
+        )  # fmt: skip
+        return self.record[0].tolist(), failed is not world.no_failures
 
     def _pass(self, rows, command, target, noise, stepped, record, obs) -> None:
         """The task's compiled pass over the envs of ``rows`` (split over the cores when many;
@@ -466,9 +480,10 @@ class TaskBatch:
             "angular_velocity_world": r[:, T.W_WORLD : T.W_WORLD + 3].copy(),
         }
 
-    def info_one(self) -> dict[str, Any]:
-        """:meth:`infos` of env 0 as Python scalars (what a single env returns)."""
-        r = self.record[0].tolist()
+    def info_one(self, r: list[float] | None = None) -> dict[str, Any]:
+        """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
+        record as floats (read here if not given)."""
+        r = self.record[0].tolist() if r is None else r
         success = r[T.SUCCESS] != 0.0
         return {
             "angular_speed": r[T.SPEED],
@@ -530,11 +545,11 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             raise RuntimeError("Call reset before using step method.")
         task = self.task
         task.check_action(action)
-        reward, terminated, failed = task.step(self._rngs)
-        info = task.info_one()
+        r, failed = task.step_one(self._rngs[0])
+        info = task.info_one(r)
         if self.render_mode == "human":
             self.render()
-        return task.obs[0].copy(), float(reward[0]), bool(terminated[0]), bool(failed[0]), info
+        return task.obs[0].copy(), r[T.REWARD], r[T.TERMINATED] != 0.0, failed, info
 
     def render(self):
         """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""
