@@ -536,6 +536,11 @@ def _yoshida4(p, m, s, u, f): return advance(yoshida4, p, m, s, u, f)
 # Registry
 # --------------------------------------------------------------------------------------------
 
+EXACT_PHASE_LIMIT = 1.0e9
+"""``h |w|`` [rad] beyond which ``exact_free`` loses its exactness: the elliptic phase
+``omega h`` carries a rounding of ``|omega h| eps`` (eps = 2.2e-16), 2e-7 rad per step here;
+beyond it the phase, hence the state, is noise (the energy drifts by tens of percent at
+``dt = 1e16`` s)."""
 SPLITTING_STABLE = 1.95
 """``h |w|`` [rad] up to which ``splitting`` stays stable about the major axis (measured in
 ``tests/stability``); ``yoshida4``'s longest substep is ``|c0| h``, so its bound is this over
@@ -585,7 +590,7 @@ _REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
      yoshida4, _yoshida4, SPLITTING_STABLE / abs(YOSHIDA_C0)),
     ("exact_free", 2,
      "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
-     None, None, None),
+     None, None, EXACT_PHASE_LIMIT),
 )  # fmt: skip
 INTEGRATORS: dict[str, IntegratorInfo] = {r[0]: IntegratorInfo(*r) for r in _REGISTRY}
 

@@ -339,7 +339,9 @@ class World:
         bad = ~np.isfinite(rows).all(axis=1) & ~frozen
         rows[bad] = before[bad]
         self._status[bad] = 2
-        return 2 * int(bad.sum())
+        with np.errstate(over="ignore", invalid="ignore"):
+            over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
+        return 2 * int(bad.sum()) + over
 
     def _clamp(self) -> None:
         if self.max_angular_speed is not None:

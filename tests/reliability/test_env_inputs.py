@@ -88,6 +88,11 @@ def test_integrator_beyond_its_stable_step_warns_once() -> None:
         for _ in range(5):
             slow.step()
     assert INTEGRATORS["yoshida4"].stability == pytest.approx(SPLITTING_STABLE / 1.7024, rel=1e-4)
+    # exact_free at dt = 1e16 s: its elliptic phase is rounding noise (energy +44 % in 3 steps).
+    wild = World(model, (), "exact_free", 1.0e16)
+    wild.state.w[0] = [1.0, 0.5, 0.2]
+    with pytest.warns(RuntimeWarning, match="'exact_free'.*stable range"):
+        wild.step()
 
 
 def test_extreme_mass_properties_name_the_input_not_dt() -> None:
