@@ -167,9 +167,11 @@ def vec(res: Results) -> tuple[Section, Panel]:
     curves = _curves(rows, [n for n in names if n not in styles], {})
     curves += _curves(rows, list(styles), styles)
     extra = [r for r in rows if r.note]
-    if extra:
+    measured = [r for r in rows if r.case == SYNC_CASE and not r.note]
+    if extra and measured:  # dotted on from the last measured point
         label = f"{SYNC_CASE} (extrapolated)"
-        xs, ys = [r.n for r in extra], [r.value for r in extra]
+        xs = [measured[-1].n] + [r.n for r in extra]
+        ys = [measured[-1].value] + [r.value for r in extra]
         curves.append(Series(label, xs, ys, style="o:", color="0.5", hollow=True))
     panel = Panel(
         "lines",
