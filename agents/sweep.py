@@ -24,6 +24,11 @@ training config of the best setting, ready for ``python -m agents.train``). Ray 
 state is in ``<storage>/<name>/tune/``; ``--resume`` continues an interrupted sweep from it
 without re-running finished trials (an unfinished trial continues from its newest checkpoint).
 
+What is ours and what is Tune's. Ours: the sweep file (:mod:`agents.sweep_config`, a pydantic
+model that builds every trial's training config before anything runs), the run folders, and
+the summary (:mod:`agents.sweep_report`). Tune's: the trials' state, scheduling and
+``--resume`` (``Tuner.restore``), and the results each trial reported.
+
 Sweep file (unknown keys are errors; relative ``base`` is relative to the sweep file,
 ``storage`` to the working directory)::
 
@@ -47,11 +52,6 @@ Sweep file (unknown keys are errors; relative ``base`` is relative to the sweep 
 from __future__ import annotations
 
 import argparse
-import copy
-import csv
-import dataclasses
-import io
-import itertools
 import json
 import logging
 import math
@@ -63,7 +63,6 @@ import socket
 import sys
 import warnings
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -71,387 +70,33 @@ import numpy as np
 import yaml
 
 from .config import ConfigError, TrainConfig, load_config
+from .sweep_config import (
+    METRICS,
+    SweepConfig,
+    base_data,
+    grid_points,
+    load_sweep,
+    setting_folder,
+    setting_label,
+    trial_data,
+)
+from .sweep_report import TrialRow, write_summary
 
-#: Metrics a sweep can optimise, with their direction.
-METRICS: dict[str, str] = {
-    "success_rate": "max",
-    "mean_return": "max",
-    "mean_final_angular_speed": "min",
-    "mean_fuel": "min",
-}
-
-#: Grid axes: exact names, and prefixes of keys inside a training-config mapping.
-AXES = ("seed", "env_id")
-AXIS_PREFIXES = ("hyperparams.", "env_kwargs.", "policy_kwargs.")
-
-#: Training-config keys whose values are mappings: overrides merge into them.
-_MAPPING_KEYS = ("env_kwargs", "policy_kwargs", "hyperparams", "normalize", "eval")
+__all__ = [
+    "SweepError",
+    "grid_points",
+    "load_sweep",
+    "main",
+    "run_sweep",
+    "run_trial",
+    "setting_label",
+]
 
 _TUNE_DIR = "tune"
 
 
 class SweepError(RuntimeError):
     """The sweep cannot run (no cluster at the address, nothing to resume); one line."""
-
-
-@dataclass(frozen=True)
-class SweepEvalConfig:
-    """The episodes every report evaluates the policy on (``agents.evaluate.rollout``)."""
-
-    episodes: int = 100
-    """Episodes, run at once; episode ``k`` resets with seed ``seed + k``, the same for every
-    trial and every report."""
-    seed: int = 12345
-    """First episode seed."""
-
-
-@dataclass(frozen=True)
-class SweepConfig:
-    """A grid of training runs and how to schedule them."""
-
-    name: str
-    """Sweep name: the folder under ``storage`` (letters, digits, ``_ . -``)."""
-    base: Path
-    """Training config (YAML) every trial starts from; absolute once loaded."""
-    grid: dict[str, list[Any]]
-    """Axis -> values: ``seed``, ``env_id``, ``hyperparams.<name>``, ``env_kwargs.<name>``,
-    ``policy_kwargs.<name>``. Trials are the cartesian product."""
-    total_timesteps: int | None = None
-    """Override of the base config's ``total_timesteps``."""
-    overrides: dict[str, Any] = field(default_factory=dict)
-    """Top-level training-config keys; mappings (``eval``, ``hyperparams``, ...) merge."""
-    cpus_per_trial: int = 1
-    """CPUs Ray reserves for a trial; also its torch thread count."""
-    max_concurrent: int = 0
-    """Trials running at once; 0 leaves it to the free CPUs."""
-    metric: str = "success_rate"
-    """Metric (of the final evaluation, mean over seeds) that picks the best setting."""
-    evaluation: SweepEvalConfig = field(default_factory=SweepEvalConfig)
-    """Episodes of the evaluations reported to Tune (during training and at the end)."""
-    storage: Path = Path("runs/sweeps")
-    """Parent folder of the sweep's folder."""
-    source: str = "<sweep>"
-    """Where the sweep was read from (for messages); not a file key."""
-
-    @property
-    def mode(self) -> str:
-        """``max`` or ``min``: the direction of :attr:`metric`."""
-        return METRICS[self.metric]
-
-    @property
-    def directory(self) -> Path:
-        """``<storage>/<name>``."""
-        return self.storage / self.name
-
-    @property
-    def varying(self) -> list[str]:
-        """Axes other than ``seed`` with more than one value: they tell settings apart."""
-        return [k for k, v in self.grid.items() if k != "seed" and len(v) > 1]
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict (YAML-ready), ``base`` and ``storage`` as strings."""
-        d = dataclasses.asdict(self)
-        d.pop("source")
-        d["base"], d["storage"] = str(self.base), str(self.storage)
-        return d
-
-
-# --------------------------------------------------------------------------- sweep file
-
-
-def _err(source: str, where: str, problem: str) -> ConfigError:
-    return ConfigError(f"{source}: {where}: {problem}")
-
-
-def _check_type(
-    source: str, where: str, value: Any, kind: type | tuple[type, ...], name: str
-) -> None:
-    if not isinstance(value, kind) or (kind is int and isinstance(value, bool)):
-        hint = (
-            " (write floats as 1.0e-4: YAML reads 1e-4 as a string)"
-            if isinstance(value, str)
-            else ""
-        )
-        raise _err(source, where, f"expected {name}, got {value!r}{hint}")
-
-
-def load_sweep(path: str | os.PathLike[str], storage: Path | None = None) -> SweepConfig:
-    """Read and validate a sweep file, down to every trial's training config.
-
-    Raises:
-        ConfigError: one line naming the file, the key and the fix.
-    """
-    source = str(path)
-    p = Path(path)
-    if not p.is_file():
-        raise ConfigError(
-            f"{source}: file not found; give the path of a sweep YAML (configs/sweeps/*.yaml)"
-        )
-    try:
-        data = yaml.safe_load(p.read_text())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise ConfigError(f"{source}: YAML syntax error{where}; fix the file") from None
-    if not isinstance(data, dict):
-        raise _err(source, "(top level)", f"expected a mapping, got {type(data).__name__}")
-    allowed = [f.name for f in dataclasses.fields(SweepConfig) if f.name != "source"]
-    unknown = sorted(set(data) - set(allowed))
-    if unknown:
-        raise _err(source, unknown[0], f"unknown key; allowed keys: {', '.join(allowed)}")
-    for key in ("name", "base", "grid"):
-        if key not in data:
-            raise _err(source, key, "required key is missing")
-    kw: dict[str, Any] = {"source": source}
-
-    _check_type(source, "name", data["name"], str, "str")
-    if not re.fullmatch(r"[A-Za-z0-9_.-]+", data["name"]) or data["name"] in (".", ".."):
-        raise _err(
-            source, "name", f"{data['name']!r} is not a folder name; use letters, digits, _ . -"
-        )
-    kw["name"] = data["name"]
-
-    _check_type(source, "base", data["base"], str, "str (path of a training config)")
-    base = Path(data["base"])
-    kw["base"] = (base if base.is_absolute() else p.resolve().parent / base).resolve()
-    if not kw["base"].is_file():
-        raise _err(
-            source,
-            "base",
-            f"{kw['base']} not found; the path is relative to the "
-            "sweep file, e.g. ../agents/ppo_detumble.yaml",
-        )
-
-    for key in ("total_timesteps", "cpus_per_trial", "max_concurrent"):
-        if data.get(key) is not None:
-            _check_type(source, key, data[key], int, "int")
-            low = 0 if key == "max_concurrent" else 1
-            if data[key] < low:
-                raise _err(source, key, f"must be >= {low}, got {data[key]}")
-            kw[key] = data[key]
-
-    if "metric" in data:
-        if data["metric"] not in METRICS:
-            raise _err(
-                source, "metric", f"unknown {data['metric']!r}; choose one of {', '.join(METRICS)}"
-            )
-        kw["metric"] = data["metric"]
-
-    if "evaluation" in data:
-        ev = data["evaluation"]
-        _check_type(source, "evaluation", ev, dict, "a mapping")
-        names = [f.name for f in dataclasses.fields(SweepEvalConfig)]
-        for k, v in ev.items():
-            if k not in names:
-                raise _err(
-                    source, f"evaluation.{k}", f"unknown key; allowed keys: {', '.join(names)}"
-                )
-            _check_type(source, f"evaluation.{k}", v, int, "int")
-        if ev.get("episodes", 1) < 1:
-            raise _err(source, "evaluation.episodes", "must be >= 1")
-        kw["evaluation"] = SweepEvalConfig(**ev)
-
-    if "overrides" in data:
-        _check_type(source, "overrides", data["overrides"], dict, "a mapping")
-        for k in ("seed", "env_id", "total_timesteps"):
-            if k in data["overrides"]:
-                raise _err(
-                    source,
-                    f"overrides.{k}",
-                    "set it with "
-                    + (
-                        "the top-level total_timesteps key"
-                        if k == "total_timesteps"
-                        else f"grid.{k}"
-                    ),
-                )
-        kw["overrides"] = data["overrides"]
-
-    if "storage" in data:
-        _check_type(source, "storage", data["storage"], str, "str (a folder)")
-        kw["storage"] = Path(data["storage"])
-    if storage is not None:
-        kw["storage"] = storage
-
-    grid = data["grid"]
-    _check_type(source, "grid", grid, dict, "a mapping of axis -> list of values")
-    if not grid:
-        raise _err(source, "grid", "empty; give at least one axis, e.g. seed: [0, 1, 2]")
-    kw["grid"] = {}
-    for axis, values in grid.items():
-        where = f"grid.{axis}"
-        if axis not in AXES and not (
-            isinstance(axis, str)
-            and axis.startswith(AXIS_PREFIXES)
-            and axis.count(".") == 1
-            and not axis.endswith(".")
-        ):
-            raise _err(
-                source,
-                where,
-                "unknown axis; use seed, env_id, hyperparams.<name>, "
-                "env_kwargs.<name> or policy_kwargs.<name>",
-            )
-        if not isinstance(values, list) or not values:
-            raise _err(source, where, f"expected a non-empty list of values, got {values!r}")
-        if axis == "seed":
-            for v in values:
-                _check_type(source, where, v, int, "a list of int seeds")
-        if axis == "env_id":
-            for v in values:
-                _check_type(source, where, v, str, "a list of environment ids")
-        reprs = [json.dumps(v, sort_keys=True, default=str) for v in values]
-        if len(set(reprs)) != len(reprs):
-            dup = next(v for v, r in zip(values, reprs, strict=True) if reprs.count(r) > 1)
-            raise _err(source, where, f"value {dup!r} appears twice")
-        kw["grid"][axis] = values
-
-    sweep = SweepConfig(**kw)
-    _validate_trials(sweep)
-    return sweep
-
-
-def _merge(data: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
-    """``data`` with ``overrides`` applied; mapping-valued training keys merge one level."""
-    out = copy.deepcopy(data)
-    for k, v in overrides.items():
-        if k in _MAPPING_KEYS and isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = {**out[k], **copy.deepcopy(v)}
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
-
-
-def base_data(sweep: SweepConfig) -> dict[str, Any]:
-    """The base training config with the sweep's overrides and budget, as a plain dict."""
-    data = load_config(sweep.base).to_dict()
-    data = _merge(data, sweep.overrides)
-    if sweep.total_timesteps is not None:
-        data["total_timesteps"] = sweep.total_timesteps
-    return data
-
-
-def trial_data(base: dict[str, Any], point: dict[str, Any]) -> dict[str, Any]:
-    """Training-config dict of one grid point (``{axis: value}``)."""
-    nested: dict[str, Any] = {}
-    for axis, value in point.items():
-        if "." in axis:
-            group, key = axis.split(".", 1)
-            nested.setdefault(group, {})[key] = value
-        else:
-            nested[axis] = value
-    return _merge(base, nested)
-
-
-def grid_points(sweep: SweepConfig) -> list[dict[str, Any]]:
-    """Every trial's ``{axis: value}``, settings in file order and seeds innermost."""
-    axes = [a for a in sweep.grid if a != "seed"] + (["seed"] if "seed" in sweep.grid else [])
-    return [
-        dict(zip(axes, combo, strict=True))
-        for combo in itertools.product(*(sweep.grid[a] for a in axes))
-    ]
-
-
-def _validate_trials(sweep: SweepConfig) -> None:
-    import gymnasium as gym
-
-    import rigid_env  # noqa: F401
-
-    try:
-        base = base_data(sweep)
-    except ConfigError as exc:
-        msg = str(exc).replace("<config>: ", "")
-        raise ConfigError(f"{sweep.source}: overrides: {msg}") from None
-    made: set[str] = set()
-    settings: dict[str, str] = {}
-    for point in grid_points(sweep):
-        label = setting_label(sweep.varying, point)
-        key = json.dumps(
-            {a: v for a, v in point.items() if a != "seed"}, sort_keys=True, default=str
-        )
-        if settings.setdefault(setting_folder(label), key) != key:
-            raise ConfigError(
-                f"{sweep.source}: grid: two settings share the folder name "
-                f"{setting_folder(label)!r}; make their values differ more"
-            )
-        try:
-            cfg = load_config(trial_data(base, point))
-        except ConfigError as exc:
-            where = ", ".join(f"grid.{a}={v!r}" for a, v in point.items() if a != "seed")
-            msg = str(exc).replace("<config>: ", "")
-            raise ConfigError(f"{sweep.source}: {where or 'base'}: {msg}") from None
-        key = json.dumps([cfg.env_id, cfg.env_kwargs], sort_keys=True, default=str)
-        if key in made:
-            continue
-        made.add(key)
-        try:  # bad env_kwargs (an unknown integrator, a typo) fail here, not in a trial
-            gym.make(cfg.env_id, **cfg.env_kwargs).close()
-        except Exception as exc:
-            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise ConfigError(
-                f"{sweep.source}: grid: {cfg.env_id} with env_kwargs {cfg.env_kwargs}: {first}"
-            ) from None
-
-
-# --------------------------------------------------------------------------- settings
-
-
-def _fmt(value: Any) -> str:
-    if isinstance(value, float):
-        return f"{value:g}"
-    if isinstance(value, (list, dict)):
-        return json.dumps(value, separators=(",", ":"))
-    return str(value)
-
-
-def _short_names(axes: Sequence[str]) -> dict[str, str]:
-    short = {a: a.split(".")[-1] for a in axes}
-    if len(set(short.values())) < len(short):
-        return {a: a for a in axes}
-    return short
-
-
-def setting_label(varying: Sequence[str], point: dict[str, Any]) -> str:
-    """Human label of a setting, e.g. ``learning_rate=0.0003, integrator=rk4`` (``base``
-    when only the seed varies)."""
-    short = _short_names(varying)
-    parts = []
-    for a in varying:
-        v = point[a]
-        if a == "env_id":
-            v = str(v).split("/")[-1]
-        parts.append(f"{short[a]}={_fmt(v)}")
-    return ", ".join(parts) or "base"
-
-
-def setting_folder(label: str) -> str:
-    """A folder name for a setting label."""
-    return re.sub(r"[^A-Za-z0-9_.=+-]+", "_", label.replace(", ", ",")).strip("_") or "base"
-
-
-def _flatten_point(params: dict[str, Any], axes: Sequence[str]) -> dict[str, Any]:
-    """Tune's nested trial config back to ``{axis: value}``."""
-    out = {}
-    for a in axes:
-        if "." in a:
-            group, key = a.split(".", 1)
-            out[a] = params[group][key]
-        else:
-            out[a] = params[a]
-    return out
-
-
-def _param_space(sweep: SweepConfig) -> dict[str, Any]:
-    from ray import tune
-
-    space: dict[str, Any] = {}
-    for axis, values in sweep.grid.items():
-        if "." in axis:
-            group, key = axis.split(".", 1)
-            space.setdefault(group, {})[key] = tune.grid_search(values)
-        else:
-            space[axis] = tune.grid_search(values)
-    return space
 
 
 # --------------------------------------------------------------------------- trials
@@ -655,28 +300,39 @@ def connect(
 # --------------------------------------------------------------------------- sweep
 
 
-@dataclass
-class TrialRow:
-    """One finished trial's final evaluation."""
-
-    setting: str
-    seed: int
-    metrics: dict[str, Any]
-    run_dir: str
-    curve: list[tuple[int, float, float]]
-    """``(timesteps, success_rate, mean_return)`` of every report, final included."""
-
-
 def _spec(sweep: SweepConfig, sweep_dir: Path) -> dict[str, Any]:
-    axes = list(sweep.grid)
+    """What every trial needs besides its grid point (passed to Tune once)."""
     return {
         "base": base_data(sweep),
-        "axes": axes,
+        "axes": list(sweep.grid),
         "varying": sweep.varying,
         "sweep_dir": str(sweep_dir),
-        "evaluation": dataclasses.asdict(sweep.evaluation),
+        "evaluation": sweep.evaluation.model_dump(),
         "threads": sweep.cpus_per_trial,
     }
+
+
+def _param_space(sweep: SweepConfig) -> dict[str, Any]:
+    """The grid as Tune's ``grid_search`` axes, nested like a training config."""
+    from ray import tune
+
+    space: dict[str, Any] = {}
+    for axis, values in sweep.grid.items():
+        group, dot, key = axis.partition(".")
+        if dot:
+            space.setdefault(group, {})[key] = tune.grid_search(values)
+        else:
+            space[axis] = tune.grid_search(values)
+    return space
+
+
+def _flatten_point(params: dict[str, Any], axes: Sequence[str]) -> dict[str, Any]:
+    """Tune's nested trial config back to ``{axis: value}``."""
+    out = {}
+    for a in axes:
+        group, dot, key = a.partition(".")
+        out[a] = params[group][key] if dot else params[a]
+    return out
 
 
 def run_sweep(
@@ -698,42 +354,39 @@ def run_sweep(
     Raises:
         SweepError: no cluster at ``address``; nothing to resume; a sweep already there.
     """
-    sweep_dir = sweep.directory.resolve()
-    exp_dir = sweep_dir / _TUNE_DIR
-    saved = sweep_dir / "sweep.yaml"
-    resolved = yaml.safe_dump(sweep.to_dict(), sort_keys=False)
-    if resume:
-        if not (exp_dir / "tuner.pkl").exists():
-            raise SweepError(f"{sweep_dir}: no sweep to resume; start it without --resume")
-        if saved.exists() and saved.read_text() != resolved:
-            raise SweepError(
-                f"{sweep.source}: changed since the sweep in {sweep_dir} started; "
-                f"resume with the same file (a copy is in {saved}) or use a new name"
-            )
-    elif exp_dir.exists():
-        raise SweepError(
-            f"{sweep_dir}: a sweep already exists; pass --resume to continue it, "
-            "or choose another name or --storage"
-        )
-    if address is None and os.environ.get("RAY_ADDRESS"):
-        address = os.environ["RAY_ADDRESS"]
-    local_cpus = num_cpus or os.cpu_count() or 1
-    if address in (None, "", "local") and sweep.cpus_per_trial > local_cpus:
-        raise ConfigError(
-            f"{sweep.source}: cpus_per_trial: {sweep.cpus_per_trial} is more than "
-            f"the {local_cpus} CPUs here; lower it or use --address"
-        )
-
     if not verbose:  # Tune's legacy reporter at verbose=0 prints nothing
         os.environ.setdefault("RAY_AIR_NEW_OUTPUT", "0")
     import ray
     from ray import tune
 
+    sweep_dir = sweep.directory.resolve()
+    exp_dir = sweep_dir / _TUNE_DIR
+    saved = sweep_dir / "sweep.yaml"
+    resolved = yaml.safe_dump(sweep.to_dict(), sort_keys=False)
+    if resume and not tune.Tuner.can_restore(str(exp_dir)):
+        raise SweepError(f"{sweep_dir}: no sweep to resume; start it without --resume")
+    if resume and saved.exists() and saved.read_text() != resolved:
+        raise SweepError(
+            f"{sweep.source}: changed since the sweep in {sweep_dir} started; "
+            f"resume with the same file (a copy is in {saved}) or use a new name"
+        )
+    if not resume and exp_dir.exists():
+        raise SweepError(
+            f"{sweep_dir}: a sweep already exists; pass --resume to continue it, "
+            "or choose another name or --storage"
+        )
+    address = address or os.environ.get("RAY_ADDRESS") or None
+    local_cpus = num_cpus or os.cpu_count() or 1
+    if address in (None, "local") and sweep.cpus_per_trial > local_cpus:
+        raise ConfigError(
+            f"{sweep.source}: cpus_per_trial: {sweep.cpus_per_trial} is more than "
+            f"the {local_cpus} CPUs here; lower it or use --address"
+        )
+
     where, owned = connect(address, num_cpus, verbose, connect_timeout)
-    n_trials = len(grid_points(sweep))
     log(
-        f"{'resuming' if resume else 'running'} sweep {sweep.name}: {n_trials} trials on "
-        f"{where}, {sweep.cpus_per_trial} CPU(s) each"
+        f"{'resuming' if resume else 'running'} sweep {sweep.name}: {len(grid_points(sweep))} "
+        f"trials on {where}, {sweep.cpus_per_trial} CPU(s) each"
         + (f", at most {sweep.max_concurrent} at once" if sweep.max_concurrent else "")
     )
     try:
@@ -766,6 +419,16 @@ def run_sweep(
     finally:
         if owned:
             ray.shutdown()
+    return _finished(sweep, results, log)
+
+
+def _trial_dirname(trial: Any) -> str:
+    return f"trial_{trial.trial_id}"
+
+
+def _finished(sweep: SweepConfig, results: Any, log: Callable[[str], None]) -> list[TrialRow]:
+    """The trials of Tune's results that reported their final evaluation, in grid order
+    (failed ones are logged with the folder of their error)."""
     rows = []
     for r in results:
         m = r.metrics or {}
@@ -778,241 +441,28 @@ def run_sweep(
             )
         if r.error is not None or not m.get("final"):
             continue
+        keys = (*METRICS, "episodes", "mean_time_to_success", "numerical_errors", "timesteps")
+        df = r.metrics_dataframe
+        curve = []
+        if df is not None and "timesteps" in df:
+            curve = [
+                (int(t), float(s), float(ret))
+                for t, s, ret in zip(
+                    df["timesteps"], df["success_rate"], df["mean_return"], strict=True
+                )
+            ]
         rows.append(
             TrialRow(
                 setting=m["setting"],
                 seed=int(m["seed"]),
                 run_dir=m["run_dir"],
-                metrics={
-                    k: m.get(k)
-                    for k in (
-                        *METRICS,
-                        "episodes",
-                        "mean_time_to_success",
-                        "numerical_errors",
-                        "timesteps",
-                    )
-                },
-                curve=_curve(r),
+                metrics={k: m.get(k) for k in keys},
+                curve=curve,
             )
         )
     order = {setting_label(sweep.varying, p): i for i, p in enumerate(grid_points(sweep))}
     rows.sort(key=lambda r: (order.get(r.setting, len(order)), r.seed))
     return rows
-
-
-def _trial_dirname(trial: Any) -> str:
-    return f"trial_{trial.trial_id}"
-
-
-def _curve(result: Any) -> list[tuple[int, float, float]]:
-    df = result.metrics_dataframe
-    if df is None or "timesteps" not in df:
-        return []
-    return [
-        (int(t), float(s), float(r))
-        for t, s, r in zip(df["timesteps"], df["success_rate"], df["mean_return"], strict=True)
-    ]
-
-
-# --------------------------------------------------------------------------- summary
-
-
-@dataclass
-class SettingSummary:
-    """Final metrics of one setting over its seeds."""
-
-    setting: str
-    seeds: list[int]
-    values: dict[str, list[float]]
-
-    def mean(self, metric: str) -> float:
-        """Mean over seeds."""
-        return float(np.mean(self.values[metric]))
-
-    def std(self, metric: str) -> float:
-        """Sample standard deviation over seeds (0 for one seed)."""
-        v = self.values[metric]
-        return float(np.std(v, ddof=1)) if len(v) > 1 else 0.0
-
-
-def summarise(rows: Sequence[TrialRow]) -> list[SettingSummary]:
-    """Group finished trials by setting, in the order they come."""
-    groups: dict[str, SettingSummary] = {}
-    for r in rows:
-        s = groups.setdefault(r.setting, SettingSummary(r.setting, [], {m: [] for m in METRICS}))
-        s.seeds.append(r.seed)
-        for m in METRICS:
-            s.values[m].append(float(r.metrics[m]))
-    return list(groups.values())
-
-
-def best_setting(summary: Sequence[SettingSummary], metric: str) -> SettingSummary:
-    """The setting with the best mean ``metric`` (ties: the first)."""
-    sign = 1.0 if METRICS[metric] == "max" else -1.0
-    return max(summary, key=lambda s: sign * s.mean(metric))
-
-
-def markdown_summary(sweep: SweepConfig, rows: Sequence[TrialRow]) -> str:
-    """Per-setting table (mean +- sample std and min..max over seeds), best setting, and
-    per-trial table."""
-    summary = summarise(rows)
-    ev = sweep.evaluation
-    lines = [
-        f"Sweep `{sweep.name}`: final models on {ev.episodes} fixed episodes (seeds "
-        f"{ev.seed}..{ev.seed + ev.episodes - 1}); mean ± std (min..max) over training "
-        "seeds.",
-        "",
-        "| setting | seeds | success rate | return | final \\|w\\| [rad/s] | fuel [N s] |",
-        "|---|---|---|---|---|---|",
-    ]
-    for s in summary:
-
-        def cell(m: str, f: str, s: SettingSummary = s) -> str:
-            v = s.values[m]
-            return f"{s.mean(m):{f}} ± {s.std(m):{f}} ({min(v):{f}}..{max(v):{f}})"
-
-        lines.append(
-            f"| {s.setting} | {len(s.seeds)} | {cell('success_rate', '.2f')} | "
-            f"{cell('mean_return', '.1f')} | "
-            f"{s.mean('mean_final_angular_speed'):.3f} | {s.mean('mean_fuel'):.2f} |"
-        )
-    if summary:
-        b = best_setting(summary, sweep.metric)
-        lines += [
-            "",
-            f"Best setting by mean {sweep.metric} ({sweep.mode}): **{b.setting}** "
-            f"({b.mean(sweep.metric):.3f} ± {b.std(sweep.metric):.3f} over "
-            f"{len(b.seeds)} seeds).",
-        ]
-    lines += [
-        "",
-        "| setting | seed | timesteps | success rate | return | final \\|w\\| | fuel |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        m = r.metrics
-        lines.append(
-            f"| {r.setting} | {r.seed} | {m['timesteps']} | {m['success_rate']:.2f} | "
-            f"{m['mean_return']:.1f} | {m['mean_final_angular_speed']:.3f} | "
-            f"{m['mean_fuel']:.2f} |"
-        )
-    return "\n".join(lines) + "\n"
-
-
-def csv_rows(rows: Sequence[TrialRow]) -> str:
-    """One CSV line per finished trial."""
-    buf = io.StringIO()
-    keys = ["setting", "seed", "timesteps", *METRICS, "mean_time_to_success", "run_dir"]
-    w = csv.writer(buf)
-    w.writerow(keys)
-    for r in rows:
-        w.writerow([r.setting, r.seed, *(r.metrics.get(k) for k in keys[2:-1]), r.run_dir])
-    return buf.getvalue()
-
-
-def plot_summary(sweep: SweepConfig, rows: Sequence[TrialRow], path: Path) -> bool:
-    """Figure: final success rate and return per setting (seeds as dots, mean +- std), and
-    the success rate during training (mean and min..max over seeds). False without
-    matplotlib."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        return False
-    summary = summarise(rows)
-    fig, axes = plt.subplots(1, 3, figsize=(14, 4.2), constrained_layout=True)
-    x = np.arange(len(summary))
-    for ax, metric, title in (
-        (axes[0], "success_rate", "final success rate"),
-        (axes[1], "mean_return", "final mean return"),
-    ):
-        for i, s in enumerate(summary):
-            v = s.values[metric]
-            jitter = np.linspace(-0.12, 0.12, len(v)) if len(v) > 1 else np.zeros(1)
-            ax.scatter(i + jitter, v, s=18, color="tab:blue", alpha=0.6, zorder=3)
-            ax.errorbar(
-                i + 0.25,
-                s.mean(metric),
-                yerr=s.std(metric),
-                fmt="o",
-                color="black",
-                capsize=4,
-                zorder=4,
-            )
-        ax.set_xticks(
-            x,
-            [s.setting for s in summary],
-            rotation=20 if len(summary) > 3 else 0,
-            ha="right" if len(summary) > 3 else "center",
-        )
-        ax.set_xlim(-0.6, len(summary) - 0.4)
-        ax.set_title(f"{title}\n(dots: seeds; black: mean ± std)", fontsize=10)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylim(-0.05, 1.05)
-    ax = axes[2]
-    for k, s in enumerate(summary):
-        curves = [r.curve for r in rows if r.setting == s.setting and r.curve]
-        steps = sorted({t for c in curves for t, _, _ in c})
-        if not steps:
-            continue
-        table = np.full((len(curves), len(steps)), np.nan)
-        for i, c in enumerate(curves):
-            for t, succ, _ in c:
-                table[i, steps.index(t)] = succ
-        color = f"C{k % 10}"
-        for row in table:
-            ax.plot(steps, row, color=color, alpha=0.25, linewidth=0.8)
-        ax.plot(
-            steps, np.nanmean(table, axis=0), color=color, label=s.setting, marker=".", linewidth=2
-        )
-    ax.set_xlabel("environment steps")
-    ax.set_ylabel("success rate")
-    ax.set_ylim(-0.05, 1.05)
-    ax.set_title("success rate during training\n(thin: seeds; thick: mean)", fontsize=10)
-    ax.grid(alpha=0.3)
-    if len(summary) > 1:
-        ax.legend(fontsize=8)
-    ev = sweep.evaluation
-    fig.suptitle(
-        f"sweep {sweep.name}: {len(rows)} trials of "
-        f"{rows[0].metrics['timesteps'] if rows else 0} steps; each point evaluates "
-        f"the policy on {ev.episodes} fixed episodes",
-        fontsize=11,
-    )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return True
-
-
-def write_summary(sweep: SweepConfig, rows: Sequence[TrialRow]) -> dict[str, Path]:
-    """``summary.md``, ``summary.csv``, ``summary.png`` and ``best_config.yaml`` in the
-    sweep's folder; returns their paths."""
-    out = sweep.directory
-    out.mkdir(parents=True, exist_ok=True)
-    paths = {"table": out / "summary.md", "csv": out / "summary.csv"}
-    paths["table"].write_text(markdown_summary(sweep, rows))
-    paths["csv"].write_text(csv_rows(rows))
-    if plot_summary(sweep, rows, out / "summary.png"):
-        paths["figure"] = out / "summary.png"
-    summary = summarise(rows)
-    if summary:
-        best = best_setting(summary, sweep.metric)
-        point = next(
-            p for p in grid_points(sweep) if setting_label(sweep.varying, p) == best.setting
-        )
-        point.pop("seed", None)
-        cfg = load_config(trial_data(base_data(sweep), point))
-        paths["best"] = out / "best_config.yaml"
-        paths["best"].write_text(
-            f"# Best setting of sweep {sweep.name} ({best.setting}) by mean {sweep.metric} "
-            f"over seeds {best.seeds}.\n# Train it: python -m agents.train {paths['best']}\n"
-            + yaml.safe_dump(cfg.to_dict(), sort_keys=False)
-        )
-    return paths
 
 
 # --------------------------------------------------------------------------- CLI

@@ -178,9 +178,9 @@ class RigidBodySB3VecEnv(VecEnv):
             from rigid_env.render import TaskRenderer
 
             self._renderer = TaskRenderer(
-                self.task, mode="rgb_array", fps=self.metadata["render_fps"]
+                self.task.view(), mode="rgb_array", fps=self.metadata["render_fps"]
             )
-        return [self._renderer.render(i) for i in range(self.num_envs)]
+        return [self._renderer.render(self.task.frame(i)) for i in range(self.num_envs)]
 
     def _indices(self, indices: VecEnvIndices) -> Iterable[int]:
         if indices is None:

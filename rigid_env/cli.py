@@ -4,6 +4,7 @@
                        [--action A1,A2,...] --out FILE.npz [--force]
     rigid-env bench accuracy [...]      work-precision benchmark (rigid_env.bench.accuracy)
     rigid-env bench speed [...]         throughput benchmark (rigid_env.bench.speed)
+    rigid-env bench stability [...]     hard cases against their bounds (rigid_env.bench.stability)
     rigid-env scenes [--dir DIR]        the example scenes with a one-line summary each
     rigid-env integrators               the integrator registry
     rigid-env demo [--task T] [--episodes K] [--out DIR] [--force]

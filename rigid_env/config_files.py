@@ -6,14 +6,20 @@ Reading is PyYAML's safe loader with two changes, so that a file means what its 
 a key given twice is an error (PyYAML silently keeps the last one), and ``1e-4``, ``1e5`` and
 ``1.0e5`` are floats (YAML 1.1 reads a number without a dot or an exponent sign as a string;
 YAML 1.2 and JSON read it as a number). Validation is pydantic v2's; the first problem becomes
-one line, ``file: field.path: problem; fix``. Validators name a field below the one they check,
-and the fix, by raising :class:`FieldError`; a plain ``ValueError("problem; fix")`` works too.
+one line, ``file: field.path: problem; fix``, the fix taken from the field's docstring unless
+a validator gives one. Validators name a field below the one they check, and the fix, by
+raising :class:`FieldError`; a plain ``ValueError("problem; fix")`` works too.
+
+The training config (:mod:`agents.config`), the scene file (:mod:`rigid_env.scene`) and the
+sweep file (:mod:`agents.sweep`) are read this way.
 """
 
 from __future__ import annotations
 
+import math
 import os
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar, get_args, get_origin
 
@@ -23,17 +29,79 @@ from pydantic import BaseModel, BeforeValidator, Field, ValidationError
 Model = TypeVar("Model", bound=BaseModel)
 
 
-def _number(value: Any) -> Any:
-    """Refuse text and booleans where a number belongs (pydantic's lax mode would take
-    ``"1e6"`` and ``true``); an integral float such as ``1e5`` still counts as an integer."""
-    if isinstance(value, str | bool):
+def describe(value: Any) -> str:
+    """How a value read from a file reads in a message (``the string '1e5'``, ``a list of
+    2``, ``nothing (null)``)."""
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list | tuple):
+        return f"a list of {len(value)}"
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def yaml_float(x: float) -> str:
+    """``x`` written so that any YAML reader takes a float: a dot in the mantissa and a signed
+    exponent (``1.0e+5``, ``2.5e-3``)."""
+    mantissa, exponent = f"{x:e}".split("e")
+    mantissa = mantissa.rstrip("0")
+    if mantissa.endswith("."):
+        mantissa += "0"
+    return f"{mantissa}e{int(exponent):+d}"
+
+
+def number(unit: str = "") -> BeforeValidator:
+    """A validator that lets only an int or a float through, so that pydantic's lax mode never
+    takes ``"1e6"``, ``"0.02"`` or ``true`` for a number; the message names ``unit``. (An
+    integral float such as ``1e5`` still counts as an integer.)"""
+    unit_s = f" [{unit}]" if unit else ""
+
+    def check(value: Any) -> Any:
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            return value
+        got = f"expected a number{unit_s}, got {describe(value)}"
+        if not isinstance(value, str):
+            raise ValueError(f"{got}; write a number{unit_s}")
+        try:
+            parsed = float(value.replace("_", ""))
+        except ValueError:
+            raise ValueError(f"{got}; write a number{unit_s} without quotes") from None
+        if not math.isfinite(parsed):
+            raise ValueError(f"must be finite, got {describe(value)}; give a finite number{unit_s}")
+        if "e" in value.lower():  # what PyYAML (YAML 1.1) made of an unquoted 1e5
+            raise ValueError(
+                f"{got}; YAML 1.1 reads exponent notation without a dot and a signed exponent "
+                f"as a string: write {yaml_float(parsed)}"
+            )
+        raise ValueError(f"{got}; write the number without quotes: {parsed!r}")
+
+    return BeforeValidator(check)
+
+
+def vector(n: int, unit: str = "", example: str = "") -> BeforeValidator:
+    """A validator that lets only a list (or tuple) of ``n`` items through, with a message that
+    says how many numbers belong there (pydantic would report the first missing index)."""
+    unit_s = f" [{unit}]" if unit else ""
+    example = example or f"[{', '.join(['0.0'] * n)}]"
+
+    def check(value: Any) -> Any:
+        if isinstance(value, list | tuple) and len(value) == n:
+            return value
         raise ValueError(
-            f"expected a number, got {value!r}; write a number without quotes, e.g. 1.0e-4"
+            f"expected a list of {n} numbers{unit_s}, got {describe(value)}; "
+            f"write {n} numbers like {example}"
         )
-    return value
+
+    return BeforeValidator(check)
 
 
-Number = BeforeValidator(_number)
+Number = number()
 Finite = Annotated[float, Number, Field(allow_inf_nan=False)]
 """A finite float (no ``.nan``, ``.inf``)."""
 PositiveFloat = Annotated[float, Number, Field(gt=0, allow_inf_nan=False)]
@@ -102,27 +170,35 @@ _Loader.add_implicit_resolver(
 )
 
 
-def read_yaml(path: str | os.PathLike[str]) -> Any:
-    """The data in a YAML file (``None`` for an empty one).
+def read_yaml(path: str | os.PathLike[str], name: str | None = None) -> Any:
+    """The data in a YAML file (``None`` for an empty one); errors call it ``name`` (default:
+    the path).
 
     Raises:
         ConfigFileError: the file is missing, unreadable, not YAML or has a duplicate key.
     """
-    name = str(path)
+    name = str(path) if name is None else name
     try:
         text = Path(path).read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigFileError(name, "", "file not found", "check the path") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigFileError(name, "", f"cannot read it ({exc})", "check the file") from None
+    except IsADirectoryError:
+        raise ConfigFileError(name, "", "is a directory", "give the path of a YAML file") from None
+    except UnicodeDecodeError:
+        raise ConfigFileError(name, "", "is not UTF-8 text", "give a YAML file") from None
+    except OSError as exc:
+        raise ConfigFileError(
+            name, "", f"cannot be read ({exc.strerror})", "check the path and its permissions"
+        ) from None
     try:
         return yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else ""
-        problem = getattr(exc, "problem", None) or "YAML syntax error"
-        fix = "keep one" if "given twice" in problem else "fix the YAML syntax"
-        raise ConfigFileError(name, where, problem, fix) from None
+        column = f" (column {mark.column + 1})" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or "invalid YAML"
+        fix = "keep one" if "given twice" in problem else "fix the YAML syntax at that line"
+        raise ConfigFileError(name, where, f"YAML error: {problem}{column}", fix) from None
 
 
 def validate(model: type[Model], data: Any, source: str) -> Model:
@@ -130,7 +206,10 @@ def validate(model: type[Model], data: Any, source: str) -> Model:
     if not isinstance(data, dict):
         kind = "nothing" if data is None else f"a {type(data).__name__}"
         raise ConfigFileError(
-            source, "", f"holds {kind}, not a mapping of keys", "write one `key: value` per line"
+            source,
+            "top level",
+            f"expected a mapping of keys, but the file holds {kind}",
+            "write one `key: value` per line",
         )
     try:
         return model.model_validate(data)
@@ -142,17 +221,46 @@ def load_model(
     model: type[Model],
     source: str | os.PathLike[str] | dict[str, Any],
     overrides: dict[str, Any] | None = None,
-    name: str = "<config>",
+    name: str | None = None,
 ) -> Model:
-    """Read a YAML file (or take a dict, called ``name`` in errors), apply top-level
-    ``overrides`` and validate it into ``model``."""
+    """Read a YAML file (or take a dict), apply top-level ``overrides`` and validate it into
+    ``model``; errors call the source ``name`` (default: the path, or ``<config>``)."""
     if isinstance(source, dict):
-        data: Any = dict(source)
+        name, data = name or "<config>", dict(source)
     else:
-        name, data = str(source), read_yaml(source)
+        name = name or str(source)
+        data = read_yaml(source, name)
     if overrides and isinstance(data, dict | type(None)):
         data = {**(data or {}), **overrides}
     return validate(model, data, name)
+
+
+# --------------------------------------------------------------------------------------------
+# pydantic's errors as one line
+# --------------------------------------------------------------------------------------------
+
+_PROBLEMS: dict[str, Callable[[dict[str, Any]], str]] = {
+    "greater_than": lambda c: f"must be greater than {c['gt']:g}",
+    "greater_than_equal": lambda c: f"must be greater than or equal to {c['ge']:g}",
+    "less_than": lambda c: f"must be less than {c['lt']:g}",
+    "less_than_equal": lambda c: f"must be less than or equal to {c['le']:g}",
+    "finite_number": lambda c: "must be finite",
+    "int_from_float": lambda c: "must be an integer",
+    "int_type": lambda c: "expected an integer",
+    "int_parsing": lambda c: "expected an integer",
+    "float_type": lambda c: "expected a number",
+    "string_type": lambda c: "expected a string",
+    "bool_type": lambda c: "expected true or false",
+    "model_type": lambda c: "expected a mapping",
+    "dict_type": lambda c: "expected a mapping",
+    "model_attributes_type": lambda c: "expected a mapping",
+    "list_type": lambda c: "expected a list",
+    "tuple_type": lambda c: "expected a list",
+    "too_short": lambda c: f"expected at least {c['min_length']} item(s)",
+    "too_long": lambda c: f"expected at most {c['max_length']} item(s)",
+    "string_too_short": lambda c: f"expected at least {c['min_length']} character(s)",
+}
+"""Problem texts for pydantic's error types (the rest keep pydantic's own message)."""
 
 
 def error_line(exc: ValidationError, model: type[BaseModel], source: str) -> ConfigFileError:
@@ -162,24 +270,32 @@ def error_line(exc: ValidationError, model: type[BaseModel], source: str) -> Con
     loc = _field_path(err["loc"])
     others = {tuple(_field_path(e["loc"])) for e in errors} - {tuple(loc)}
     more = f" (and {len(others)} more)" if others else ""
-    cause = (err.get("ctx") or {}).get("error")
+    ctx = err.get("ctx") or {}
+    cause = ctx.get("error")
     if isinstance(cause, FieldError):
         return ConfigFileError(source, _dotted([*loc, cause.path]), cause.problem, cause.fix + more)
     kind, msg = err["type"], err["msg"]
-    got = repr(err["input"])
-    got = got if len(got) <= 60 else got[:57] + "..."
     if kind == "extra_forbidden":
         keys = ", ".join(_fields_at(model, loc[:-1])) or "see the documentation"
         return ConfigFileError(source, _dotted(loc), "unknown key", f"allowed keys: {keys}{more}")
+    meaning = _description(model, loc)
     if kind == "missing":
-        return ConfigFileError(source, _dotted(loc), "required key is missing", "add it" + more)
+        parent = _dotted(loc[:-1])
+        fix = f"add {loc[-1]}" + (f" to {parent}" if parent else " at the top level")
+        fix += f" ({meaning})" if meaning else ""
+        return ConfigFileError(source, _dotted(loc), "missing required key", fix + more)
     if msg.startswith(("Value error, ", "Assertion failed, ")):
         problem, _, fix = msg.split(", ", 1)[1].partition("; ")
         return ConfigFileError(source, _dotted(loc), problem, (fix or "fix the value") + more)
-    meaning = _description(model, loc)
-    fix = f"{loc[-1] if loc else 'it'} is: {meaning}" if meaning else "fix the value"
-    problem = f"{msg[0].lower()}{msg[1:]}, got {got}"
-    return ConfigFileError(source, _dotted(loc), problem, fix + more)
+    render = _PROBLEMS.get(kind)
+    text = render(ctx) if render is not None else f"{msg[0].lower()}{msg[1:]}"
+    name = next((part for part in reversed(loc) if not part.isdigit()), "it")
+    fix = f"{name} is: {meaning}" if meaning else "fix the value"
+    got = err["input"]
+    got_text = repr(got) if isinstance(got, int | float) and not isinstance(got, bool) else None
+    return ConfigFileError(
+        source, _dotted(loc), f"{text}, got {got_text or describe(got)}", fix + more
+    )
 
 
 def _field_path(loc: tuple[int | str, ...]) -> list[str]:
@@ -197,11 +313,23 @@ def _dotted(loc: list[str]) -> str:
     return out
 
 
+def _field(model: Any, key: str) -> Any:
+    """The field of ``model`` that the file calls ``key`` (its alias or its name)."""
+    if not _is_model(model):
+        return None
+    for name, field in model.model_fields.items():
+        if key in (field.alias, name):
+            return field
+    return None
+
+
 def _model_at(model: type[BaseModel], loc: list[str]) -> type[BaseModel] | None:
     """The model class that the field path ``loc`` leads to (``None`` if it leaves models)."""
     current: Any = model
     for part in loc:
-        field = current.model_fields.get(part) if _is_model(current) else None
+        if part.isdigit():  # an item of a list of models
+            continue
+        field = _field(current, part)
         if field is None:
             return None
         current = next((t for t in _types_in(field.annotation) if _is_model(t)), None)
@@ -220,7 +348,9 @@ def _is_model(obj: Any) -> bool:
 
 def _fields_at(model: type[BaseModel], loc: list[str]) -> list[str]:
     found = _model_at(model, loc)
-    return list(found.model_fields) if found is not None else []
+    if found is None:
+        return []
+    return [field.alias or name for name, field in found.model_fields.items()]
 
 
 def _description(model: type[BaseModel], loc: list[str]) -> str:
@@ -228,7 +358,7 @@ def _description(model: type[BaseModel], loc: list[str]) -> str:
     while loc and loc[-1].isdigit():  # an item of a list field: the list's description
         loc = loc[:-1]
     found = _model_at(model, loc[:-1]) if loc else None
-    field = found.model_fields.get(loc[-1]) if found is not None else None
+    field = _field(found, loc[-1]) if found is not None else None
     text = _one_line(field.description or "") if field is not None else ""
     text = re.split(r"\.\s+(?=[A-Z])", text.replace("``", ""))[0].rstrip(".")
     return text[:1].lower() + text[1:] if text[1:2].islower() else text

@@ -1,8 +1,11 @@
-"""Rendering of a task's bodies: ``rgb_array`` frames and a ``human`` pygame window.
+"""Rendering of a task's body: ``rgb_array`` frames and a ``human`` pygame window.
 
-:class:`TaskRenderer` draws one environment ``i`` of a :class:`~rigid_env.envs.base.TaskBatch`
-as seen by a fixed perspective camera that follows the body's centre of mass (the camera
-never turns, so the body's rotation is what moves on screen):
+A task declares what it shows once, as a :class:`TaskView` (the body's box, the thruster
+layout, what its target is, which readouts to print), and hands over the numbers of each frame
+as a :class:`Frame` (pose, spin, command, counters). :class:`TaskRenderer` draws a frame as seen
+by a fixed perspective camera that follows the body's centre of mass (the camera never turns,
+so the body's rotation is what moves on screen). This module reads core and scene objects
+only; the environments import it, never the reverse.
 
 * the body as a box with flat Lambert shading, faces sorted back to front (painter's
   algorithm). A ``box`` shape is drawn at its size; any other shape, and a body given by its
@@ -15,11 +18,12 @@ never turns, so the body's rotation is what moves on screen):
 * the world angular velocity ``R w_body`` as a magenta arrow from the centre, its length
   proportional to ``|w|`` (capped at ``ARROW_MAX`` body radii); the part inside the body is
   drawn through it, dimmed;
-* task guides, found by duck typing: a target orientation (``target_dim == 4``, Reorient) as a
-  green outline of the box; a target spin about body +y (``target_spin``, SpinStabilize) as a
-  dashed cyan axis as long as the arrow at the target rate; under gravity (TumblingFall) the
-  ground grid near touchdown and a height gauge;
-* a text overlay: task, step, ``|w|``, fuel, success (and height, orientation or axis error).
+* the task's guides, as its view declares them: a target orientation (Reorient) as a green
+  outline of the box; a target spin about body +y (SpinStabilize) as a dashed cyan axis as long
+  as the arrow at the target rate; under gravity (TumblingFall) the ground grid near touchdown
+  and a height gauge;
+* a text overlay: task, step, ``|w|``, fuel, success, and the view's readouts (height,
+  orientation or spin-axis error).
 
 Occlusion of the thin things (flames, arrow, axes, outlines) by the convex box is exact up to
 their sampling: every piece is tested with a ray-box (slab) test from the camera in the body
@@ -32,16 +36,16 @@ pygame is imported only when a renderer is made (``pip install -e ".[render]"``)
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING, Any
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import LinearActuator
-from rigid_env.core.rotation import quat_angle_between, quat_to_matrix
-
-if TYPE_CHECKING:
-    from rigid_env.envs.base import TaskBatch
+from rigid_env.core.effects import ForceEffect, LinearActuator
+from rigid_env.core.rotation import quat_to_matrix
+from rigid_env.scene import Scene
 
 FloatArray = NDArray[np.float64]
 Color = tuple[int, int, int]
@@ -60,7 +64,7 @@ LIGHT_CAMERA = np.array([-0.45, 0.65, 0.62])
 AMBIENT, DIFFUSE = 0.38, 0.62
 # Lengths in body radii (half-diagonal of the box or the farthest actuator point): half the
 # visible width (view radius); flame at |u| = 1 and its width at the nozzle; marker radius;
-# arrow at the task's angular velocity scale (``target_spin`` or ``w_scale``), longest arrow,
+# arrow at the view's angular velocity scale (``TaskView.spin_scale``), longest arrow,
 # head length and shaft width.
 VIEW_MARGIN = 2.0
 FLAME_LENGTH, FLAME_WIDTH = 0.7, 0.1
@@ -130,31 +134,122 @@ def _import_pygame(mode: str) -> Any:
     return pygame
 
 
-def body_box_size(task: TaskBatch) -> FloatArray:
-    """(3,) full side lengths [m] of the box drawn for the task's body, body x, y, z.
+READOUTS: dict[str, tuple[str, Color]] = {
+    "target_angle": ("off target {:.1f} deg", TARGET_COLOR),
+    "spin_axis_angle": ("spin axis off {:.1f} deg", SPIN_AXIS_COLOR),
+}
+"""Readouts a view may ask for: the text (formatted with the frame's number) and its colour."""
+
+
+@dataclass(frozen=True, eq=False)
+class TaskView:
+    """What a task shows, declared once by the task (see :meth:`for_scene`).
+
+    Attributes:
+        title: the task's name, drawn at the top left.
+        box_size: (3,) full side lengths of the box drawn for the body, body x, y, z [m].
+        thruster_points: (A, 3) body point of each action component [m].
+        thruster_directions: (A, 3) unit force direction of each action component, body frame.
+        spin_scale: angular speed drawn as an arrow of ``ARROW_AT_SCALE`` body radii [rad/s].
+        target_orientation: draw :attr:`Frame.target` (a quaternion) as an outline of the box.
+        target_spin: draw a dashed axis along body +y as long as the arrow at this rate
+            [rad/s]; None for none.
+        ground: draw the ground grid (z = 0) near touchdown, a height gauge and the height.
+        gauge_top: height at the top of the gauge [m].
+        readouts: text readouts after the success flag (and the height), keys of
+            :data:`READOUTS`, one number each in :attr:`Frame.readouts`.
+    """
+
+    title: str
+    box_size: FloatArray
+    thruster_points: FloatArray
+    thruster_directions: FloatArray
+    spin_scale: float = 1.0
+    target_orientation: bool = False
+    target_spin: float | None = None
+    ground: bool = False
+    gauge_top: float = 1.0
+    readouts: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = [r for r in self.readouts if r not in READOUTS]
+        if unknown:
+            raise ValueError(f"readouts: unknown {unknown}; known: {', '.join(READOUTS)}")
+
+    @classmethod
+    def for_scene(
+        cls, title: str, scene: Scene, effects: Sequence[ForceEffect], **task: Any
+    ) -> TaskView:
+        """The view of a body built from ``scene`` with the actuators among ``effects``: its
+        box, its thrusters, and (under gravity) the ground and a gauge up to the initial
+        height (at least 1 m); ``task`` sets the other attributes."""
+        points, directions = actuator_layout(effects)
+        ground = scene.effects_spec.gravity is not None
+        top = max(float(scene.initial.position[2]), 1.0)
+        return cls(
+            title,
+            body_box_size(scene),
+            points,
+            directions,
+            **{"ground": ground, "gauge_top": top, **task},
+        )
+
+
+@dataclass(frozen=True, eq=False)
+class Frame:
+    """The numbers of one frame, from the task.
+
+    Attributes:
+        q: (4,) orientation, body -> world (w, x, y, z).
+        w_body: (3,) angular velocity, body frame [rad/s].
+        height: centre-of-mass height, world z [m] (drawn when the view has a ground).
+        command: (A,) the last command, in [-1, 1].
+        step: steps into the episode.
+        angular_speed: ``|w|`` [rad/s] (finite even for a diverged body).
+        fuel: impulse spent so far [N s].
+        success: whether the task counts as solved now.
+        target: (4,) target orientation (when the view draws one), else None.
+        readouts: one number per :attr:`TaskView.readouts`.
+    """
+
+    q: FloatArray
+    w_body: FloatArray
+    height: float
+    command: FloatArray
+    step: int
+    angular_speed: float
+    fuel: float
+    success: bool
+    target: FloatArray | None = None
+    readouts: tuple[float, ...] = ()
+
+
+def body_box_size(scene: Scene) -> FloatArray:
+    """(3,) full side lengths [m] of the box drawn for a scene's body, body x, y, z.
 
     The scene's ``box`` if it is one; otherwise (another shape, or none: a body given by its
     mass and inertia) the solid box with the scene's mass and principal moments:
     ``I_x = m (b^2 + c^2) / 12`` and cyclic give ``a^2 = 6 (I_y + I_z - I_x) / m``. A flat
     side (a plate on the triangle equality) is kept at a tenth of the longest.
     """
-    shape = task.scene.body.shape
-    if shape is not None and shape.kind == "box":
-        return np.asarray(shape.size, dtype=np.float64)
-    moments = np.asarray(task.scene.inertia, dtype=np.float64)
-    sq = 6.0 * (moments.sum() - 2.0 * moments) / task.scene.body.mass
+    shape = scene.body.shape
+    if shape is not None and shape.box is not None:
+        return np.asarray(shape.box, dtype=np.float64)
+    moments = np.asarray(scene.inertia, dtype=np.float64)
+    assert scene.body.mass is not None  # filled in when the scene is loaded
+    sq = 6.0 * (moments.sum() - 2.0 * moments) / scene.body.mass
     size = np.sqrt(np.maximum(sq, 0.0))
     return np.maximum(size, 0.1 * size.max())
 
 
-def actuator_layout(task: TaskBatch) -> tuple[FloatArray, FloatArray]:
+def actuator_layout(effects: Sequence[ForceEffect]) -> tuple[FloatArray, FloatArray]:
     """Body point (A, 3) [m] and unit direction (A, 3) of each action component.
 
-    Read from the world's actuators (body frame), in action order; a ``point_forces`` point
-    gives three components, along its three force directions.
+    Read from the actuators among ``effects`` (body frame), in action order; a
+    ``point_forces`` point gives three components, along its three force directions.
     """
     points, dirs = [], []
-    for eff in task.world.force_effects:
+    for eff in effects:
         if not isinstance(eff, LinearActuator):
             continue
         fmap = np.asarray(eff.force_map, dtype=np.float64)
@@ -259,10 +354,10 @@ class _Polylines:
 
 
 class TaskRenderer:
-    """Draws environment ``i`` of a task as an RGB frame or into a pygame window.
+    """Draws a task's frames as RGB arrays or into a pygame window.
 
     Args:
-        task: the task (its ``scene``, ``world.state`` and counters are read at every frame).
+        view: what the task shows (fixed for the renderer's life).
         mode: ``"rgb_array"`` (``render`` returns (H, W, 3) uint8) or ``"human"`` (a window,
             refreshed at most ``fps`` times a second; ``render`` returns None).
         fps: frames per second of the window [1/s].
@@ -274,7 +369,7 @@ class TaskRenderer:
     """
 
     def __init__(
-        self, task: TaskBatch, mode: str, fps: int, width: int = 480, height: int = 480
+        self, view: TaskView, mode: str, fps: int, width: int = 480, height: int = 480
     ) -> None:
         if mode not in RENDER_MODES:
             raise ValueError(f"mode: must be one of {RENDER_MODES}, got {mode!r}")
@@ -282,7 +377,7 @@ class TaskRenderer:
             raise ValueError(f"width, height: must be >= 64 px, got {width} x {height}")
         self.pg = _import_pygame(mode)
         pg = self.pg
-        self.task = task
+        self.view = view
         self.mode = mode
         self.fps = int(fps)
         self.width, self.height = int(width), int(height)
@@ -299,16 +394,16 @@ class TaskRenderer:
         self._font = pg.font.Font(None, max(10, round(21 * self.ui)))
         self._font_title = pg.font.Font(None, max(12, round(27 * self.ui)))
         self._font_small = pg.font.Font(None, max(9, round(18 * self.ui)))
-        self._title = type(task).__name__.removesuffix("Task")
         self._geometry()
         self._background = self._make_background()
 
     # ---- static geometry -------------------------------------------------------------------
     def _geometry(self) -> None:
-        task = self.task
-        self.half = 0.5 * body_box_size(task)
+        view = self.view
+        self.half = 0.5 * np.asarray(view.box_size, dtype=np.float64)
         self.vertices_body = _SIGNS * self.half
-        self.thruster_points, self.thruster_dirs = actuator_layout(task)
+        self.thruster_points = np.asarray(view.thruster_points, dtype=np.float64)
+        self.thruster_dirs = np.asarray(view.thruster_directions, dtype=np.float64)
         reach = [np.linalg.norm(self.half)]
         if len(self.thruster_points):
             reach.append(np.linalg.norm(self.thruster_points, axis=1).max())
@@ -329,8 +424,7 @@ class TaskRenderer:
         self.focal = 0.5 * min(self.width, self.height) * self.distance / self.view_radius
         self.px_per_m = self.focal / self.distance  # at the centre of mass
         self.center = np.array([0.5 * self.width, VIEW_CENTER_Y * self.height])
-        scale = getattr(task, "target_spin", None) or getattr(task, "w_scale", 1.0) or 1.0
-        self.arrow_per_speed = ARROW_AT_SCALE * self.body_radius / float(scale)
+        self.arrow_per_speed = ARROW_AT_SCALE * self.body_radius / float(view.spin_scale or 1.0)
         self.axis_length = 0.75 * self.view_radius
         t = np.linspace(0.0, 1.0, AXIS_PIECES + 1)[:, None] * self.axis_length
         self.axes_world = t[None, :, :] * np.eye(3)[:, None, :]  # (3 axes, samples, xyz) [m]
@@ -338,12 +432,8 @@ class TaskRenderer:
         self.flame_t = np.linspace(0.0, 1.0, FLAME_PIECES + 1)
         mid = 0.5 * (self.flame_t[:-1] + self.flame_t[1:])
         self.flame_colors = [_mix(FLAME_NOZZLE, FLAME_TIP, s) for s in mid]
-        self.ground = task.scene.effects_spec.gravity is not None
-        top = max(float(task.scene.initial.position[2]), 1.0)
-        drop = getattr(task, "drop_height", None)
-        if drop is not None:
-            top = max(top, float(drop[1]))
-        self.gauge_top = top
+        self.ground = view.ground
+        self.gauge_top = float(view.gauge_top)
         ui = self.ui
         self.gauge_x = self.width - round(24 * ui)
         self.gauge_span = (round(0.24 * self.height), round(0.86 * self.height))
@@ -367,9 +457,9 @@ class TaskRenderer:
             ("angular velocity (world)", ARROW_COLOR),
             ("thrust (length ~ |command|)", _mix(FLAME_NOZZLE, FLAME_TIP, 0.5)),
         ]
-        if self.task.target_dim == 4:
+        if self.view.target_orientation:
             legend.append(("target orientation", TARGET_COLOR))
-        if getattr(self.task, "target_spin", None) is not None:
+        if self.view.target_spin is not None:
             legend.append(("target spin (body +y)", SPIN_AXIS_COLOR))
         x0 = self.text_origin[0]
         y = self.height - round(8 * ui)
@@ -380,7 +470,7 @@ class TaskRenderer:
             mid = y + label.get_height() // 2
             pg.draw.line(bg, color, (x0, mid), (x0 + swatch, mid), max(2, round(3 * ui)))
             bg.blit(label, (x0 + swatch + round(6 * ui), y))
-        title = self._font_title.render(self._title, True, TEXT_COLOR)
+        title = self._font_title.render(self.view.title, True, TEXT_COLOR)
         bg.blit(title, self.text_origin)
         self._title_size = title.get_size()
         if self.ground:
@@ -422,15 +512,13 @@ class TaskRenderer:
         return (t_in <= t_out) & (t_in < 1.0 - OCCLUSION_EPS) & (t_out > 0.0)
 
     # ---- drawing ---------------------------------------------------------------------------
-    def render(self, i: int = 0) -> NDArray[np.uint8] | None:
-        """Draw environment ``i``.
+    def render(self, frame: Frame) -> NDArray[np.uint8] | None:
+        """Draw ``frame``.
 
         Returns:
             (H, W, 3) uint8 RGB frame in ``"rgb_array"`` mode; None in ``"human"`` mode.
         """
-        if not 0 <= i < self.task.n:
-            raise IndexError(f"i: environment index {i} is out of range for {self.task.n} envs")
-        self._draw(i)
+        self._draw(frame)
         if self.mode == "human":
             self._show()
             return None
@@ -442,26 +530,25 @@ class TaskRenderer:
         rows = rows.reshape(self.height, -1)
         return np.array(rows[:, : 3 * self.width]).reshape(self.height, self.width, 3)
 
-    def _draw(self, i: int) -> None:
-        task = self.task
-        state = task.world.state
-        rot = quat_to_matrix(state.q[i])
+    def _draw(self, frame: Frame) -> None:
+        view = self.view
+        rot = quat_to_matrix(np.asarray(frame.q, dtype=np.float64))
         cam_body = rot.T @ self.cam_offset  # camera position in the body frame
         self._surface.blit(self._background, (0, 0))
         if self.ground:
-            self._draw_ground(float(state.x[i, 2]))
+            self._draw_ground(float(frame.height))
 
         lines = _Polylines()
         self._add_axes(rot, lines)
-        if task.target_dim == 4:
-            self._add_target(rot, task.target[i], lines)
-        if getattr(task, "target_spin", None) is not None:
+        if view.target_orientation and frame.target is not None:
+            self._add_target(rot, np.asarray(frame.target, dtype=np.float64), lines)
+        if view.target_spin is not None:
             n = ARROW_PIECES
-            length = self.arrow_per_speed * float(task.target_spin)
+            length = self.arrow_per_speed * float(view.target_spin)
             samples = np.linspace(0.0, 1.0, n + 1)[:, None] * np.array([0.0, length, 0.0])
             lines.add(samples, [SPIN_AXIS_COLOR] * n, 2.0, dashed=True, xray=True)
-        commands = self._add_flames(task.last_action[i], lines)
-        arrow = self._add_arrow(state.w[i], lines)
+        commands = self._add_flames(np.asarray(frame.command, dtype=np.float64), lines)
+        arrow = self._add_arrow(np.asarray(frame.w_body, dtype=np.float64), lines)
         behind, front = lines.split(self, rot, cam_body)
 
         self._draw_pieces(behind)
@@ -470,9 +557,9 @@ class TaskRenderer:
         self._draw_pieces(front)
         if arrow is not None:
             self._draw_arrow_head(*arrow, rot=rot, cam_body=cam_body)
-        self._draw_text(i)
+        self._draw_text(frame)
         if self.ground:
-            self._draw_gauge(float(state.x[i, 2]))
+            self._draw_gauge(float(frame.height))
 
     def _draw_pieces(self, pieces: list[Piece]) -> None:
         pg, surf = self.pg, self._surface
@@ -603,18 +690,18 @@ class TaskRenderer:
             self._surface, GAUGE_COLOR, [(x - 3, y), (x - 3 - 2 * s, y - s), (x - 3 - 2 * s, y + s)]
         )
 
-    def _draw_text(self, i: int) -> None:
-        surf, task, ui = self._surface, self.task, self.ui
-        speed = float(task.angular_speed()[i])
-        success = bool(task.success[i])
+    def _draw_text(self, frame: Frame) -> None:
+        surf, ui = self._surface, self.ui
+        speed = float(frame.angular_speed)
+        success = bool(frame.success)
         x0, y0 = self.text_origin
         tw, th = self._title_size
-        step = self._font.render(f"step {int(task.steps[i])}", True, DIM_TEXT)
+        step = self._font.render(f"step {int(frame.step)}", True, DIM_TEXT)
         surf.blit(step, (x0 + tw + round(12 * ui), y0 + th - step.get_height() - round(2 * ui)))
         rows: list[list[tuple[str, Color]]] = [
             [
                 (f"|w| {speed:.3f} rad/s", TEXT_COLOR),
-                (f"fuel {float(task.fuel[i]):.3f} N s", TEXT_COLOR),
+                (f"fuel {float(frame.fuel):.3f} N s", TEXT_COLOR),
             ],
             [
                 (
@@ -624,14 +711,10 @@ class TaskRenderer:
             ],
         ]
         if self.ground:
-            rows[1].append((f"height {float(task.world.state.x[i, 2]):.1f} m", GAUGE_COLOR))
-        if task.target_dim == 4:
-            err = float(np.rad2deg(quat_angle_between(task.world.state.q[i], task.target[i])))
-            rows[1].append((f"off target {err:.1f} deg", TARGET_COLOR))
-        axis_error = getattr(task, "axis_error", None)
-        if callable(axis_error):
-            err = float(np.rad2deg(axis_error()[i]))
-            rows[1].append((f"spin axis off {err:.1f} deg", SPIN_AXIS_COLOR))
+            rows[1].append((f"height {float(frame.height):.1f} m", GAUGE_COLOR))
+        for name, value in zip(self.view.readouts, frame.readouts, strict=True):
+            text, color = READOUTS[name]
+            rows[1].append((text.format(float(value)), color))
         y = y0 + th + round(2 * ui)
         for parts in rows:
             x, row_height = x0, 0
@@ -647,7 +730,7 @@ class TaskRenderer:
         pg = self.pg
         if self._window is None:
             pg.display.init()
-            pg.display.set_caption(f"rigid_env: {self._title}")
+            pg.display.set_caption(f"rigid_env: {self.view.title}")
             self._window = pg.display.set_mode((self.width, self.height))
             self._clock = pg.time.Clock()
         pg.event.pump()

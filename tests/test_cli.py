@@ -181,7 +181,9 @@ def test_bad_scene_exits_2_naming_file_and_field(tmp_path, capsys):
     scene.write_text("body: {mass: -1.0, shape: {sphere: 0.1}}\n")
     rc = main(["simulate", str(scene), "--steps", "3", "--out", str(tmp_path / "x.npz")])
     assert rc == 2
-    assert_one_line_error(capsys.readouterr().err, str(scene), "body.mass", "must be > 0")
+    assert_one_line_error(
+        capsys.readouterr().err, str(scene), "body.mass", "must be greater than 0"
+    )
 
 
 def test_missing_scene_file_exits_2(tmp_path, capsys):

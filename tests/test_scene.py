@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 import pytest
 import yaml
+from pydantic import ValidationError
 
 from rigid_env.core.effects import (
     AngularDamping,
@@ -140,12 +141,22 @@ BAD_SCENES = [
     ),
     ("bool-for-number", _set("dt", True), "dt", ["expected a number", "boolean"]),
     ("list-for-number", _set("body.mass", [1.0]), "body.mass", ["expected a number"]),
-    ("mass-negative", _set("body.mass", -1.0), "body.mass", ["must be > 0", "-1.0", "kg"]),
-    ("mass-zero", _set("body.mass", 0.0), "body.mass", ["must be > 0"]),
+    (
+        "mass-negative",
+        _set("body.mass", -1.0),
+        "body.mass",
+        ["must be greater than 0", "-1.0", "kg"],
+    ),
+    ("mass-zero", _set("body.mass", 0.0), "body.mass", ["must be greater than 0"]),
     ("mass-nan", _set("body.mass", float("nan")), "body.mass", ["finite"]),
     ("position-inf", _set("initial.position[1]", float("inf")), "initial.position[1]", ["finite"]),
     ("dt-inf", _set("dt", float("-inf")), "dt", ["finite"]),
-    ("box-side-zero", _set("body.shape.box[2]", 0.0), "body.shape.box[2]", ["must be > 0"]),
+    (
+        "box-side-zero",
+        _set("body.shape.box[2]", 0.0),
+        "body.shape.box[2]",
+        ["must be greater than 0"],
+    ),
     (
         "box-wrong-length",
         _set("body.shape.box", [0.3, 0.2]),
@@ -159,12 +170,17 @@ BAD_SCENES = [
         "body.shape.cube",
         ["unknown key", "box", "points"],
     ),
-    ("inertia-zero", _set("body.inertia", [1.0, 0.0, 1.0]), "body.inertia[1]", ["must be > 0"]),
+    (
+        "inertia-zero",
+        _set("body.inertia", [1.0, 0.0, 1.0]),
+        "body.inertia[1]",
+        ["must be greater than 0"],
+    ),
     (
         "inertia-negative",
         _set("body.inertia", [1.0, 2.0, -3.0]),
         "body.inertia[2]",
-        ["must be > 0"],
+        ["must be greater than 0"],
     ),
     (
         "inertia-triangle",
@@ -182,7 +198,7 @@ BAD_SCENES = [
         "thruster-negative-force",
         _set("actuators.thrusters[0].max_force", -1.0),
         "actuators.thrusters[0].max_force",
-        ["must be >= 0"],
+        ["must be greater than or equal to 0"],
     ),
     (
         "thrusters-not-list",
@@ -194,19 +210,19 @@ BAD_SCENES = [
         "linear-damping-zero",
         _set("effects.linear_damping.alpha", 0.0),
         "effects.linear_damping.alpha",
-        ["must be > 0", "(0, 1]"],
+        ["must be greater than 0", "(0, 1]"],
     ),
     (
         "angular-damping-above-one",
         _set("effects.angular_damping.alpha", 1.5),
         "effects.angular_damping.alpha",
-        ["must be <= 1", "(0, 1]"],
+        ["must be less than or equal to 1", "(0, 1]"],
     ),
     (
         "drag-area-negative",
         _set("effects.quadratic_drag.area", -0.06),
         "effects.quadratic_drag.area",
-        ["must be > 0"],
+        ["must be greater than 0"],
     ),
     (
         "gravity-null",
@@ -214,8 +230,8 @@ BAD_SCENES = [
         "effects.gravity",
         ["expected a mapping", "remove the key"],
     ),
-    ("dt-zero", _set("dt", 0.0), "dt", ["must be > 0", "seconds"]),
-    ("dt-negative", _set("dt", -0.01), "dt", ["must be > 0"]),
+    ("dt-zero", _set("dt", 0.0), "dt", ["must be greater than 0", "seconds"]),
+    ("dt-negative", _set("dt", -0.01), "dt", ["must be greater than 0"]),
     ("substeps-zero", _set("substeps", 0), "substeps", ["integer >= 1"]),
     ("substeps-fraction", _set("substeps", 1.5), "substeps", ["integer >= 1"]),
     (
@@ -309,7 +325,7 @@ BAD_SCENES = [
         "max-angular-speed-zero",
         _set("max_angular_speed", 0.0),
         "max_angular_speed",
-        ["must be > 0"],
+        ["must be greater than 0"],
     ),
     (
         "points-mass-mismatch",
@@ -333,7 +349,7 @@ BAD_SCENES = [
         "points-negative-mass",
         _set("body", {"shape": {"points": [[0, 0, 0, 1.0], [0, 1.0, 0, -1.0]]}}),
         "body.shape.points[1][3]",
-        ["must be >= 0"],
+        ["must be greater than or equal to 0"],
     ),
     ("name-not-string", _set("name", 3), "name", ["non-empty string"]),
 ]
@@ -396,19 +412,27 @@ def test_body_given_by_mass_and_inertia_alone():
 
 
 def test_bad_dict_scene_uses_name_for_errors():
-    with pytest.raises(SceneError, match=r"^my-config: body\.mass: must be > 0"):
+    with pytest.raises(SceneError, match=r"^my-config: body\.mass: must be greater than 0"):
         load_scene(mutate(_set("body.mass", -2.0)), name_for_errors="my-config")
 
 
-def test_yaml_11_exponent_string_suggests_a_float(tmp_path):
-    # YAML 1.1 (PyYAML) reads 1e5 and even 1.0e5 as strings; 1.0e+5 is a float.
+def test_exponent_floats_in_a_file_are_the_numbers_meant(tmp_path):
+    """A scene file is read as the training config is: 1e5 and 1.0e5 are floats (YAML 1.1
+    would read them as strings)."""
     text = yaml.safe_dump(base_scene(), sort_keys=False).replace("mass: 1.0", "mass: 1e5")
     path = tmp_path / "exp.yaml"
-    path.write_text(text)
+    path.write_text(text.replace("dt: 0.01", "dt: 1.0e-2"))
+    scene = load_scene(path)
+    assert scene.body.mass == 1.0e5 and scene.dt == 0.01
+
+
+def test_yaml_11_exponent_string_in_a_dict_suggests_a_float():
+    # A dict PyYAML's own safe_load made holds the string '1e5'; 1.0e+5 is a float to any YAML.
+    data = yaml.safe_load(yaml.safe_dump(base_scene()).replace("mass: 1.0", "mass: 1e5"))
     with pytest.raises(SceneError) as info:
-        load_scene(path)
+        load_scene(data, name_for_errors="exp.yaml")
     msg = str(info.value)
-    assert f"{path}: body.mass: expected a number [kg], got the string '1e5'" in msg
+    assert "exp.yaml: body.mass: expected a number [kg], got the string '1e5'" in msg
     assert "1.0e+5" in msg
     assert yaml.safe_load("x: 1.0e+5")["x"] == 1.0e5  # the suggestion is itself valid
 
@@ -451,7 +475,7 @@ def test_yaml_syntax_error_gives_line(tmp_path):
 def test_duplicate_key_is_an_error(tmp_path):
     path = tmp_path / "dup.yaml"
     path.write_text("dt: 0.01\ndt: 0.02\nbody: {mass: 1.0, shape: {sphere: 0.1}}\n")
-    with pytest.raises(SceneError, match=r"dup\.yaml: line 2: .*'dt' twice"):
+    with pytest.raises(SceneError, match=r"dup\.yaml: line 2: .*'dt' given twice"):
         load_scene(path)
 
 
@@ -594,7 +618,7 @@ def test_build_world_overrides_and_replace():
     assert world.max_angular_speed == 40.0 and world.action_dim == 1
     plain = scene.build_world()
     assert (plain.integrator.name, plain.dt, plain.substeps) == ("rk4", 0.01, 1)
-    with pytest.raises(SceneError, match=r"dt: must be > 0"):
+    with pytest.raises(SceneError, match=r"dt: must be greater than 0"):
         scene.build_world(dt=-1.0)
     with pytest.raises(SceneError, match=r"integrator: unknown integrator 'nope'"):
         scene.build_world(integrator="nope")
@@ -812,7 +836,7 @@ def test_scene_is_frozen_and_not_mutated_by_loading():
     before = copy.deepcopy(data)
     scene = load_scene(data)
     assert data == before
-    with pytest.raises(AttributeError):
+    with pytest.raises(ValidationError, match="frozen"):
         scene.dt = 0.5  # type: ignore[misc]
 
 

@@ -22,39 +22,33 @@ For each benchmark scene (``configs/scenes/bench_*.yaml``) and each integrator i
     "cheapest setting" table (the scenes are scaled so that 1 rad/s, 1 rad and 1 m are all of
     order one).
 
-* **Cost.** The same integrator and ``dt`` step a batch of :data:`N_TIMING` bodies (so NumPy,
-  not Python overhead, decides), a few steps at a time, all (integrator, dt) pairs of a scene in
-  turn, repeated; the median wall time per step divided by ``dt`` is the cost: wall time per
-  simulated second for the whole batch. The process CPU time is recorded beside it
-  (``step_cpu_s``); their ratio tells whether other processes were competing for the CPU.
+* **Cost.** The same integrator and ``dt`` step a batch of :data:`N_TIMING` bodies (so the
+  batch, not Python overhead, decides), a few steps at a time, all (integrator, dt) pairs of a
+  scene in turn, repeated (:mod:`rigid_env.bench.timing`); the median wall time per step
+  divided by ``dt`` is the cost: wall time per simulated second for the whole batch. The
+  process CPU time per step is kept beside it (``step_cpu_s``).
 
 Writes ``work_precision.png`` (log-log error against cost, one line per integrator, a point
 per ``dt``, one panel per scene), ``accuracy.csv`` (every point) and ``accuracy.md`` (the
 cheapest setting for each target error, the cost of each integrator for each target, the
-observed orders and the reference's own error).
+observed orders and the reference's own error), through :mod:`rigid_env.bench.report`.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
 import datetime
 import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.bench._common import (
-    SCENE_DIR,
-    interleaved_medians,
-    machine_description,
-    refuse_overwrite,
-)
+from rigid_env.bench import report
 from rigid_env.bench.reference import (
     REF_ATOL,
     REF_RTOL,
@@ -63,11 +57,14 @@ from rigid_env.bench.reference import (
     ivp_reference,
     reference_trajectory,
 )
+from rigid_env.bench.report import Panel, Section, Series, Table
+from rigid_env.bench.timing import Case, measure
 from rigid_env.core.effects import ForceEffect
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import quat_angle_between
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import NumericalInstabilityError, World, kinetic_energy
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
@@ -83,6 +80,7 @@ FLOOR_STALL = 1.0e-9
 round-off or the reference's own error, and smaller steps would only cost time."""
 NEW_INTEGRATORS = ("yoshida4", "exact_free")
 """Drawn with heavier lines in the figure."""
+OUTPUTS = ("work_precision.png", "accuracy.csv", "accuracy.md")
 
 
 @dataclass(frozen=True)
@@ -336,20 +334,24 @@ def run_case(
     for w in worlds:
         w.step(act_n)  # warm up (first-call allocations, imports)
 
-    def job(world: World):
-        def run() -> int:
+    def steps(world: World) -> Callable[[], None]:
+        def run() -> None:
             for _ in range(sweep.timing_steps):
                 world.step(act_n)
-            return sweep.timing_steps
 
         return run
 
+    cases = [
+        Case(f"{p.integrator} dt={p.dt:g}", steps(w), sweep.timing_steps, calls=1)
+        for p, w in zip(timed, worlds, strict=True)
+    ]
     with np.errstate(all="ignore"):
-        per_step = interleaved_medians([job(w) for w in worlds], sweep.repeats)
-    for p, (sec, cpu) in zip(timed, per_step, strict=True):
-        p.step_time_s = sec
-        p.step_cpu_s = cpu
-        p.cost_s_per_sim_s = sec / p.dt
+        timings = measure(cases, min_time=0.0, repeats=sweep.repeats, warmup=False)
+    for p, case in zip(timed, cases, strict=True):
+        t = timings[case.name]
+        p.step_time_s = t.per_unit
+        p.step_cpu_s = float(np.median(t.cpu_per_call)) / t.work
+        p.cost_s_per_sim_s = t.per_unit / p.dt
     log(f"[{name}] timed {len(timed)} settings at N = {N_TIMING}")
     return points, ref_info
 
@@ -365,138 +367,53 @@ def cheapest(points: Sequence[Point], target: float) -> Point | None:
     return min(good, key=lambda p: p.cost_s_per_sim_s) if good else None
 
 
-def write_csv(points: Sequence[Point], path: Path) -> None:
-    """One row per point, columns as :class:`Point`'s fields."""
-    names = [f.name for f in fields(Point)]
-    with open(path, "w", newline="", encoding="utf-8") as fh:
-        wr = csv.writer(fh)
-        wr.writerow(names)
-        for p in points:
-            wr.writerow(
-                [f"{v:.6g}" if isinstance(v, float) else v for v in (getattr(p, n) for n in names)]
-            )
-
-
-def _fmt_cost(c: float) -> str:
+def _cost(c: float) -> str:
     return f"{c:.3g}"
 
 
-def markdown(
+def sections(
     points: Sequence[Point],
     ref_info: dict[str, dict[str, float | str]],
     titles: dict[str, str],
-    sweep: Sweep,
-    machine: str,
-    elapsed: float,
-) -> str:
-    """The Markdown report (see the module docstring)."""
+) -> list[Section]:
+    """What ``accuracy.md`` shows: the cheapest setting for each target, the cost of each
+    integrator for each target, the observed orders and the references."""
     scenes = list(dict.fromkeys(p.scene for p in points))
     integs = list(dict.fromkeys(p.integrator for p in points))
-    out = ["# Accuracy benchmark: what accuracy costs in time", ""]
-    out += [
-        f"Generated by `rigid-env bench accuracy{' --quick' if sweep.name == 'quick' else ''}`"
-        f" ({sweep.name} sweep) on {datetime.date.today().isoformat()} in {elapsed:.0f} s.",
-        f"Machine: {machine}.",
-        "",
-        f"**Cost** = wall time per simulated second for a batch of N = {N_TIMING} bodies "
-        f"(median of {sweep.repeats} timed runs of {sweep.timing_steps} steps, all settings "
-        "of a scene timed in turn in the same run). **Error** = `err_state`, the maximum "
-        "over the run (checkpoints every "
-        f"{SAMPLE_INTERVAL:g} s) of the largest of: body angular velocity error (max abs "
-        "component, rad/s), orientation error (rotation angle, rad) and position error (max "
-        "abs component, m). Energy and angular-momentum errors are in `accuracy.csv`.",
-        "",
-    ]
-    ratios = [p.step_time_s / p.step_cpu_s for p in points if p.ok and p.step_cpu_s > 0.0]
-    if ratios:
-        load = float(np.median(ratios))
-        out += [
-            f"Load while timing: median wall / CPU time per step = {load:.2f} (1.0 on an "
-            "idle machine"
-            + (
-                "; other processes competed for the CPU, so single costs may be off by tens "
-                "of per cent"
-                if load > 1.2
-                else ""
-            )
-            + ").",
-            "",
-        ]
-    check = [
-        p
-        for p in points
-        if p.scene == "bench_torque_free"
-        and p.integrator == "rk4"
-        and p.status == "ok"
-        and math.isclose(p.dt, 0.01)
-    ]
-    if check:
-        c = check[0]
-        out += [
-            f"Check: `rk4` at dt = 0.01 s on bench_torque_free over {c.horizon_s:g} s: body "
-            f"angular velocity error {c.err_w_end:.3g} rad/s at the end, {c.err_w:.3g} "
-            "rad/s at most over the run.",
-            "",
-        ]
-    out += ["## Cheapest setting for a target error", ""]
+    targets = [f"{t:.0e}" for t in TARGETS]
+    cheapest_tables, cost_tables = [], []
     for sc in scenes:
         pts = [p for p in points if p.scene == sc]
-        out += [
-            f"**{sc}** ({titles.get(sc, '')}, {pts[0].horizon_s:g} s)",
-            "",
-            "| target | integrator | dt [s] | cost [s per simulated s] | error reached |",
-            "|---:|---|---:|---:|---:|",
-        ]
+        rows = []
         for tgt in TARGETS:
             c = cheapest(pts, tgt)
-            if c is None:
-                out.append(f"| {tgt:.0e} | not reached in the sweep | | | |")
-            else:
-                out.append(
-                    f"| {tgt:.0e} | `{c.integrator}` | {c.dt:g} | "
-                    f"{_fmt_cost(c.cost_s_per_sim_s)} | {c.err_state:.1e} |"
-                )
-        out.append("")
-    out += [
-        "## Cost of each integrator to reach each target",
-        "",
-        "Least cost [s per simulated s, N = 1024] over the swept dt; `-` where no dt "
-        "reached the target.",
-        "",
-    ]
-    for sc in scenes:
-        pts = [p for p in points if p.scene == sc]
-        out += [
-            f"**{sc}**",
-            "",
-            "| integrator (order) | " + " | ".join(f"{t:.0e}" for t in TARGETS) + " |",
-            "|---|" + "---:|" * len(TARGETS),
-        ]
+            rows.append(
+                [f"{tgt:.0e}", "not reached in the sweep", "", "", ""]
+                if c is None
+                else [f"{tgt:.0e}", f"`{c.integrator}`", f"{c.dt:g}",
+                      _cost(c.cost_s_per_sim_s), f"{c.err_state:.1e}"]
+            )  # fmt: skip
+        header = ["target", "integrator", "dt [s]", "cost [s per simulated s]", "error reached"]
+        caption = f"**{sc}** ({titles.get(sc, '')}, {pts[0].horizon_s:g} s)"
+        cheapest_tables.append(Table(header, rows, "rlrrr", caption=caption))
+        rows = []
         for ig in integs:
             mine = [p for p in pts if p.integrator == ig]
-            cells = []
-            for tgt in TARGETS:
-                c = cheapest(mine, tgt)
-                cells.append("-" if c is None else _fmt_cost(c.cost_s_per_sim_s))
-            out.append(f"| `{ig}` ({INTEGRATORS[ig].order}) | " + " | ".join(cells) + " |")
-        out.append("")
-    out += [
-        "## Observed order",
-        "",
-        "Slope of log `err_state` against log dt over the points with 1e-11 < error < "
-        "0.1 (nan: fewer than two such points, e.g. an exact method, or a method that "
-        "never gets below 0.1 on the scene).",
-        "",
-        "| integrator | documented | " + " | ".join(scenes) + " |",
-        "|---|---:|" + "---:|" * len(scenes),
-    ]
-    for i in integs:
-        cells = [
+            cells = [cheapest(mine, tgt) for tgt in TARGETS]
+            rows.append(
+                [f"`{ig}` ({INTEGRATORS[ig].order})"]
+                + ["-" if c is None else _cost(c.cost_s_per_sim_s) for c in cells]
+            )
+        cost_tables.append(Table(["integrator (order)", *targets], rows, caption=f"**{sc}**"))
+    orders = [
+        [f"`{i}`", str(INTEGRATORS[i].order)]
+        + [
             f"{observed_order([p for p in points if p.scene == sc and p.integrator == i]):.2f}"
             for sc in scenes
         ]
-        out.append(f"| `{i}` | {INTEGRATORS[i].order} | " + " | ".join(cells) + " |")
-    out += ["", "## References", ""]
+        for i in integs
+    ]
+    references = []
     for sc in scenes:
         info = ref_info[sc]
         est = info.get("error_estimate", math.nan)
@@ -505,78 +422,103 @@ def markdown(
             if isinstance(est, float) and math.isfinite(est)
             else ""
         )
-        out.append(f"- {sc}: {info['kind']}{est_s}.")
-    out += [
-        "",
-        "Diverged settings (state non-finite or error > 1e3) are left out of the "
-        "tables and the figure; `accuracy.csv` lists them with `status = diverged`.",
-        "",
+        references.append(f"- {sc}: {info['kind']}{est_s}.")
+    return [
+        Section("Cheapest setting for a target error", tables=cheapest_tables),
+        Section(
+            "Cost of each integrator to reach each target",
+            [
+                f"Least cost [s per simulated s, N = {N_TIMING}] over the swept dt; `-` where "
+                "no dt reached the target."
+            ],
+            cost_tables,
+        ),
+        Section(
+            "Observed order",
+            [
+                "Slope of log `err_state` against log dt over the points with 1e-11 < error < "
+                "0.1 (nan: fewer than two such points, e.g. an exact method, or a method that "
+                "never gets below 0.1 on the scene)."
+            ],
+            [Table(["integrator", "documented", *scenes], orders)],
+        ),
+        Section(
+            "References",
+            ["\n".join(references)],
+            after=[
+                "Diverged settings (state non-finite or error > 1e3) are left out of the "
+                "tables and the figure; `accuracy.csv` lists them with `status = diverged`."
+            ],
+        ),
     ]
-    return "\n".join(out)
 
 
-# --------------------------------------------------------------------------------------------
-# Figure
-# --------------------------------------------------------------------------------------------
+def header(points: Sequence[Point], sweep: Sweep, machine: str, elapsed: float) -> list[str]:
+    """The paragraphs above the sections: the run, the machine, the definitions, the check."""
+    out = [
+        f"Generated by `rigid-env bench accuracy{' --quick' if sweep.name == 'quick' else ''}`"
+        f" ({sweep.name} sweep) on {datetime.date.today().isoformat()} in {elapsed:.0f} s.",
+        f"Machine: {machine}.",
+        "",
+        f"**Cost** = wall time per simulated second for a batch of N = {N_TIMING} bodies "
+        f"(median of {sweep.repeats} timed runs of {sweep.timing_steps} steps, all settings "
+        "of a scene timed in turn in the same run). **Error** = `err_state`, the maximum "
+        f"over the run (checkpoints every {SAMPLE_INTERVAL:g} s) of the largest of: body "
+        "angular velocity error (max abs component, rad/s), orientation error (rotation "
+        "angle, rad) and position error (max abs component, m). Energy and angular-momentum "
+        "errors are in `accuracy.csv`.",
+    ]
+    check = [
+        p
+        for p in points
+        if (p.scene, p.integrator, p.status) == ("bench_torque_free", "rk4", "ok")
+        and math.isclose(p.dt, 0.01)
+    ]
+    if check:
+        c = check[0]
+        out += [
+            "",
+            f"Check: `rk4` at dt = 0.01 s on bench_torque_free over {c.horizon_s:g} s: body "
+            f"angular velocity error {c.err_w_end:.3g} rad/s at the end, {c.err_w:.3g} "
+            "rad/s at most over the run.",
+        ]
+    return out
 
 
-def plot(
-    points: Sequence[Point], titles: dict[str, str], path: Path, machine: str, sweep: Sweep
-) -> None:
+def panels(points: Sequence[Point], titles: dict[str, str]) -> list[Panel]:
     """Log-log error against cost, one panel per scene, one line per integrator."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    scenes = list(dict.fromkeys(p.scene for p in points))
-    integs = list(INTEGRATORS)
-    cmap = plt.get_cmap("tab10")
-    markers = "os^vD<>pXh*"
-    fig, axes = plt.subplots(
-        1, len(scenes), figsize=(6.0 * len(scenes), 5.6), sharey=True, squeeze=False
-    )
     good = [p for p in points if p.ok]
     ymin = max(min((p.err_state for p in good), default=1e-16) / 3.0, 1e-16)
-    for ax, sc in zip(axes[0], scenes, strict=True):
-        for tgt in TARGETS:
-            ax.axhline(tgt, color="0.85", lw=0.8, zorder=0)
-        for i, ig in enumerate(integs):
+    markers = "os^vD<>pXh*"
+    out = []
+    for sc in dict.fromkeys(p.scene for p in points):
+        series = []
+        for i, ig in enumerate(INTEGRATORS):
             pts = sorted(
                 (p for p in good if p.scene == sc and p.integrator == ig),
                 key=lambda p: p.cost_s_per_sim_s,
             )
-            if not pts:
-                continue
-            new = ig in NEW_INTEGRATORS
-            ax.loglog(
-                [p.cost_s_per_sim_s for p in pts],
-                [p.err_state for p in pts],
-                marker=markers[i % len(markers)],
-                color=cmap(i % 10),
-                lw=2.4 if new else 1.3,
-                ms=6 if new else 4.5,
-                label=f"{ig} (order {INTEGRATORS[ig].order})",
+            if pts:
+                new = ig in NEW_INTEGRATORS
+                series.append(
+                    Series(f"{ig} (order {INTEGRATORS[ig].order})",
+                           [p.cost_s_per_sim_s for p in pts], [p.err_state for p in pts],
+                           style=f"{markers[i % len(markers)]}-", color=f"C{i % 10}",
+                           width=2.4 if new else 1.3, size=6 if new else 4.5)
+                )  # fmt: skip
+        horizon = next(p.horizon_s for p in points if p.scene == sc)
+        out.append(
+            Panel(
+                "lines",
+                f"{sc}\n{titles.get(sc, '')}, {horizon:g} s",
+                f"wall time per simulated second, N = {N_TIMING} bodies [s]",
+                "max error over the run: |dw| [rad/s], angle [rad], |dx| [m]",
+                series,
+                guides=TARGETS,
+                ylim=(ymin, 1e1),
             )
-        pts_sc = [p for p in points if p.scene == sc]
-        ax.set_title(f"{sc}\n{titles.get(sc, '')}, {pts_sc[0].horizon_s:g} s", fontsize=10)
-        ax.set_xlabel(f"wall time per simulated second, N = {N_TIMING} bodies [s]")
-        ax.grid(True, which="major", alpha=0.3)
-        ax.set_ylim(ymin, 1e1)
-    axes[0][0].set_ylabel("max error over the run: |dw| [rad/s], angle [rad], |dx| [m]")
-    handles, labels = axes[0][0].get_legend_handles_labels()
-    fig.legend(
-        handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=9, frameon=False
-    )
-    dts = ", ".join(f"{SAMPLE_INTERVAL / k:g}" for k in sweep.steps_per_sample)
-    fig.suptitle(
-        f"Work-precision ({sweep.name} sweep): error against cost, one point per "
-        f"dt in {{{dts}}} s (smaller dt = further right)\n{machine}",
-        fontsize=10,
-    )
-    fig.tight_layout(rect=(0, 0.1, 1, 1))
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
+        )
+    return out
 
 
 # --------------------------------------------------------------------------------------------
@@ -603,20 +545,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the benchmark and write its figure and tables to ``args.out``; returns 0.
-
-    Raises:
-        OSError: if the output directory cannot be created or written.
-    """
+    """Run the benchmark and write its figure and tables to ``args.out``; returns 0."""
     sweep = QUICK if args.quick else FULL
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise OSError(f"--out: {out} is a file; give a directory")
-    refuse_overwrite(
-        [out / "work_precision.png", out / "accuracy.csv", out / "accuracy.md"], args.force
-    )
-    out.mkdir(parents=True, exist_ok=True)
-    machine = machine_description()
+    out = report.prepare_out(args.out, OUTPUTS, args.force)
+    machine = f"{report.machine()}, {report.versions()}"
     print(f"accuracy benchmark ({sweep.name} sweep) on {machine}", flush=True)
     t0 = time.perf_counter()
     points: list[Point] = []
@@ -628,10 +560,24 @@ def run(args: argparse.Namespace) -> int:
         ref_info[pts[0].scene] = info
         titles[pts[0].scene] = case.title
     elapsed = time.perf_counter() - t0
-    write_csv(points, out / "accuracy.csv")
-    report = markdown(points, ref_info, titles, sweep, machine, elapsed)
-    (out / "accuracy.md").write_text(report, encoding="utf-8")
-    plot(points, titles, out / "work_precision.png", machine, sweep)
+    report.write_csv(out / "accuracy.csv", points)
+    text = report.markdown(
+        "Accuracy benchmark: what accuracy costs in time",
+        header(points, sweep, machine, elapsed),
+        sections(points, ref_info, titles),
+    )
+    (out / "accuracy.md").write_text(text, encoding="utf-8")
+    dts = ", ".join(f"{SAMPLE_INTERVAL / k:g}" for k in sweep.steps_per_sample)
+    report.write_figure(
+        out / "work_precision.png",
+        panels(points, titles),
+        f"Work-precision ({sweep.name} sweep): error against cost, one point per dt in "
+        f"{{{dts}}} s (smaller dt = further right)\n{machine}",
+        ncols=len(CASES),
+        panel_size=(6.0, 5.6),
+        shared_legend=True,
+        dpi=130,
+    )
     print(
         f"wrote {out / 'work_precision.png'}, {out / 'accuracy.csv'}, {out / 'accuracy.md'} "
         f"({elapsed:.0f} s)"
@@ -640,17 +586,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m rigid_env.bench.accuracy``: one-line errors, no traceback."""
-    parser = argparse.ArgumentParser(
-        prog="python -m rigid_env.bench.accuracy", description=__doc__.splitlines()[0]
-    )
-    add_arguments(parser)
-    args = parser.parse_args(argv)
-    try:
-        return run(args)
-    except (OSError, ValueError) as exc:
-        print(f"{parser.prog}: error: {exc}", file=sys.stderr)
-        return 2
+    """``python -m rigid_env.bench.accuracy [flags]``: the same as ``rigid-env bench accuracy``."""
+    from rigid_env.cli import main as cli_main
+
+    return cli_main(["bench", "accuracy", *(sys.argv[1:] if argv is None else argv)])
 
 
 if __name__ == "__main__":

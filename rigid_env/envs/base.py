@@ -33,6 +33,7 @@ from rigid_env.core import world as core_world
 from rigid_env.core.effects import LinearActuator
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as T
+from rigid_env.render import Frame, TaskRenderer, TaskView
 from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
 
@@ -495,6 +496,37 @@ class TaskBatch:
             "angular_velocity_world": np.array(r[T.W_WORLD : T.W_WORLD + 3]),
         }
 
+    # ---- what a renderer shows (rigid_env.render) ----------------------------------------
+    def view(self) -> TaskView:
+        """What the task shows: its body, its thrusters and (under gravity) the ground; a task
+        adds its target and readouts."""
+        title = type(self).__name__.removesuffix("Task")
+        return TaskView.for_scene(
+            title, self.scene, self.world.force_effects, spin_scale=self.w_scale
+        )
+
+    def readouts(self, i: int) -> tuple[float, ...]:
+        """Env ``i``'s numbers for :attr:`TaskView.readouts` (none by default)."""
+        return ()
+
+    def frame(self, i: int = 0) -> Frame:
+        """The numbers of env ``i``'s current frame."""
+        if not 0 <= i < self.n:
+            raise IndexError(f"i: environment index {i} is out of range for {self.n} envs")
+        s = self.world.state
+        return Frame(
+            q=s.q[i].copy(),
+            w_body=s.w[i].copy(),
+            height=float(s.x[i, 2]),
+            command=self.last_action[i].copy(),
+            step=int(self.steps[i]),
+            angular_speed=float(self.angular_speed()[i]),
+            fuel=float(self.fuel[i]),
+            success=bool(self.success[i]),
+            target=self.target[i].copy() if self.target_dim else None,
+            readouts=self.readouts(i),
+        )
+
 
 _NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
 
@@ -558,13 +590,11 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
                 "render: no render_mode was given; pass render_mode='rgb_array' to gym.make"
             )
             return None
-        from rigid_env.render import TaskRenderer
-
         if self._renderer is None:
             self._renderer = TaskRenderer(
-                self.task, mode=self.render_mode, fps=self.metadata["render_fps"]
+                self.task.view(), mode=self.render_mode, fps=self.metadata["render_fps"]
             )
-        return self._renderer.render(0)
+        return self._renderer.render(self.task.frame(0))
 
     def close(self) -> None:
         """Close the window, if any."""
@@ -718,13 +748,11 @@ class RigidBodyVectorEnv(VectorEnv):
         """RGB frame of sub-environment 0."""
         if self.render_mode is None:
             return None
-        from rigid_env.render import TaskRenderer
-
         if self._renderer is None:
             self._renderer = TaskRenderer(
-                self.task, mode=self.render_mode, fps=self.metadata["render_fps"]
+                self.task.view(), mode=self.render_mode, fps=self.metadata["render_fps"]
             )
-        return self._renderer.render(0)
+        return self._renderer.render(self.task.frame(0))
 
     def close_extras(self, **kwargs: Any) -> None:
         """Close the renderer."""

@@ -3,12 +3,13 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from rigid_env.core.kernels import kernel, quat_mul
-from rigid_env.core.rotation import canonical, quat_conj
+from rigid_env.core.rotation import canonical, quat_angle_between, quat_conj
 from rigid_env.core.rotation import quat_mul as quat_mul_array
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
@@ -21,6 +22,7 @@ from rigid_env.envs.base import (
     random_tumble,
 )
 from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.render import TaskView
 
 MAX_SPIN, SUCCESS_ANGLE, SUCCESS_SPIN = T.TASK, T.TASK + 1, T.TASK + 2
 
@@ -92,6 +94,14 @@ class ReorientTask(TaskBatch):
 
     def task_numbers(self) -> list[float]:
         return [self.max_initial_spin, self.success_angle, self.success_spin]
+
+    def view(self) -> TaskView:
+        """The body, with the target orientation as an outline and its angle to it."""
+        return replace(super().view(), target_orientation=True, readouts=("target_angle",))
+
+    def readouts(self, i: int) -> tuple[float, ...]:
+        angle = quat_angle_between(self.world.state.q[i], self.target[i])
+        return (float(np.rad2deg(angle)),)
 
 
 class ReorientEnv(RigidBodyEnv):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -19,6 +20,7 @@ from rigid_env.envs.base import (
     random_quaternion,
 )
 from rigid_env.envs.rewards import GAUSSIAN, tolerance_one
+from rigid_env.render import TaskView
 
 TARGET_SPIN, SUCCESS_ANGLE, HOLD_STEPS = T.TASK, T.TASK + 1, T.TASK + 2
 MARGIN_45_DEG = math.pi / 4.0
@@ -118,6 +120,13 @@ class SpinStabilizeTask(TaskBatch):
         """(N,) angle [rad] between w and body +y (pi when spinning backwards)."""
         w = self.world.state.w
         return np.arctan2(np.hypot(w[:, 0], w[:, 2]), w[:, 1])
+
+    def view(self) -> TaskView:
+        """The body, with the target spin axis (body +y) and the spin's angle to it."""
+        return replace(super().view(), target_spin=self.target_spin, readouts=("spin_axis_angle",))
+
+    def readouts(self, i: int) -> tuple[float, ...]:
+        return (float(np.rad2deg(self.axis_error()[i])),)
 
 
 class SpinStabilizeEnv(RigidBodyEnv):

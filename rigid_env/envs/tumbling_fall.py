@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from rigid_env.envs.base import (
     random_tumble,
 )
 from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.render import TaskView
 
 MAX_SPIN, THRESHOLD, BONUS, TOP = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3
 FALL_SPEED_SCALE = 20.0  # [m/s], the observed vertical speed's unit
@@ -96,6 +98,11 @@ class TumblingFallTask(TaskBatch):
             self.success_bonus,
             self.drop_height[1],
         ]
+
+    def view(self) -> TaskView:
+        """The body over the ground, the height gauge reaching the highest drop."""
+        view = super().view()
+        return replace(view, gauge_top=max(view.gauge_top, self.drop_height[1]))
 
 
 class TumblingFallEnv(RigidBodyEnv):

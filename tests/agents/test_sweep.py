@@ -102,7 +102,7 @@ def test_grid_is_the_cartesian_product_with_seeds_innermost(tmp_path):
         ({"grid": {"env_id": ["RigidEnv/Nope-v0"]}}, "env_id"),
         ({"metric": "accuracy"}, "metric"),
         ({"cpus_per_trial": 0}, "cpus_per_trial"),
-        ({"total_timesteps": "1e5"}, "total_timesteps"),  # YAML 1.1 string
+        ({"total_timesteps": "many"}, "total_timesteps"),
         ({"overrides": {"eval": {"frq": 10}}}, "eval.frq"),
         ({"overrides": {"seed": 3}}, "overrides.seed"),
         ({"evaluation": {"episode": 3}}, "evaluation.episode"),
@@ -119,6 +119,13 @@ def test_bad_sweep_file_is_one_line_naming_the_key(tmp_path, capsys, change, nam
     assert main([str(p)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("agents.sweep: error: ") and err.count("\n") == 1, err
+
+
+def test_exponent_integers_are_the_numbers_meant(tmp_path):
+    """Read as the training config is: 1e5 is 100000 (YAML 1.1 would read a string)."""
+    p = _sweep_file(tmp_path)
+    p.write_text(p.read_text().replace("total_timesteps: 256", "total_timesteps: 1e5"))
+    assert load_sweep(p).total_timesteps == 100_000
 
 
 def test_missing_sweep_file(tmp_path, capsys):

@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from rigid_env.bench._common import SCENE_DIR
 from rigid_env.bench.accuracy import measure_errors
 from rigid_env.bench.reference import Trajectory, reference_trajectory
 from rigid_env.core.exact import free_rotation_exact
@@ -23,6 +22,7 @@ from rigid_env.core.rotation import (
 )
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import World
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import load_scene
 
 # |observed order - documented order| allowed, the observed order being

@@ -6,14 +6,17 @@ import os
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # before pygame is imported anywhere
 
+import ast
 import sys
 import warnings
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import rigid_env
+import rigid_env.render
 from rigid_env.core.rotation import quat_from_axis_angle
 from rigid_env.envs.detumble import DetumbleTask
 from rigid_env.render import TaskRenderer, actuator_layout, body_box_size
@@ -152,12 +155,37 @@ def test_single_env_refuses_render_modes_it_does_not_have(bad):
 
 def test_renderer_size_and_bad_arguments():
     task = DetumbleTask(2)
-    frame = TaskRenderer(task, "rgb_array", fps=20, width=321, height=200).render(1)
-    assert frame.shape == (200, 321, 3)
+    renderer = TaskRenderer(task.view(), "rgb_array", fps=20, width=321, height=200)
+    assert renderer.render(task.frame(1)).shape == (200, 321, 3)
     with pytest.raises(ValueError, match="mode"):
-        TaskRenderer(task, "ascii", fps=20)
+        TaskRenderer(task.view(), "ascii", fps=20)
     with pytest.raises(IndexError, match="out of range"):
-        TaskRenderer(task, "rgb_array", fps=20).render(2)
+        task.frame(2)
+
+
+def test_each_task_declares_what_it_shows():
+    """The renderer draws a view the task declares; it reads no task attributes."""
+    views = {env_id: gym.make(env_id).unwrapped.task.view() for env_id in ENV_IDS}
+    detumble, spin, reorient, fall = (views[e] for e in ENV_IDS)
+    assert (detumble.title, detumble.target_spin, detumble.ground) == ("Detumble", None, False)
+    assert spin.target_spin == 2.0 and spin.readouts == ("spin_axis_angle",)
+    assert reorient.target_orientation and reorient.readouts == ("target_angle",)
+    assert fall.ground and fall.gauge_top == 70.0  # the highest drop
+    assert all(v.thruster_points.shape == (6, 3) for v in views.values())
+
+
+def test_render_imports_no_environment():
+    """Arrows point one way: envs import render; render imports core and scene only."""
+    tree = ast.parse(Path(rigid_env.render.__file__).read_text(encoding="utf-8"))
+    imported = {
+        node.module if isinstance(node, ast.ImportFrom) else alias.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Import | ast.ImportFrom)
+        for alias in node.names
+    }
+    ours = {m for m in imported if m and m.startswith("rigid_env")}
+    assert ours <= {"rigid_env.core.effects", "rigid_env.core.rotation", "rigid_env.scene"}, ours
+    assert not any(m and m.startswith("gymnasium") for m in imported)
 
 
 def test_box_of_a_non_box_shape_has_its_moments():
@@ -169,11 +197,12 @@ def test_box_of_a_non_box_shape_has_its_moments():
         "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": 0.1}},
     }
     task = DetumbleTask(1, scene=scene)
-    np.testing.assert_allclose(body_box_size(task), np.full(3, np.sqrt(12.0 / 5.0) * 0.1))
-    points, dirs = actuator_layout(task)  # one point force: three components along x, y, z
+    np.testing.assert_allclose(body_box_size(task.scene), np.full(3, np.sqrt(12.0 / 5.0) * 0.1))
+    # One point force: three components along x, y, z.
+    points, dirs = actuator_layout(task.world.force_effects)
     np.testing.assert_allclose(points, np.tile([0.1, 0.0, 0.0], (3, 1)))
     np.testing.assert_allclose(dirs, np.eye(3))
-    frame = TaskRenderer(task, "rgb_array", fps=20).render(0)
+    frame = TaskRenderer(task.view(), "rgb_array", fps=20).render(task.frame(0))
     assert frame.shape == (H, W, 3)
 
 
@@ -189,19 +218,19 @@ def test_body_without_shape_is_drawn_as_its_equivalent_box():
         "actuators": {"point_forces": {"points": [[0.1, 0.0, 0.0]], "max_force": 0.1}},
     }
     task = DetumbleTask(1, scene=scene)
-    size = body_box_size(task)
+    size = body_box_size(task.scene)
     # a^2 = 6 (I_y + I_z - I_x) / m, a = sqrt(a^2), then I_x = m (b^2 + c^2) / 12: each squared
     # side carries <= 6 roundings (u = 2^-53 each) of the size of the moments' sum S, and a
     # moment adds two sides, so |error| <= 15 u S: relative 15 u S / I_min = 7.5e-15 here.
     rtol = 15 * 2.0**-53 * sum(inertia) / min(inertia)
     np.testing.assert_allclose(box(mass, size).principal_moments, inertia, rtol=rtol)
-    frame = TaskRenderer(task, "rgb_array", fps=20).render(0)
+    frame = TaskRenderer(task.view(), "rgb_array", fps=20).render(task.frame(0))
     assert frame.shape == (H, W, 3) and len(np.unique(frame.reshape(-1, 3), axis=0)) > 100
 
 
 def test_box_shape_keeps_its_size():
     task = DetumbleTask(1)
-    np.testing.assert_allclose(body_box_size(task), [0.4, 0.3, 0.2])
+    np.testing.assert_allclose(body_box_size(task.scene), [0.4, 0.3, 0.2])
 
 
 def test_record_video_writes_a_file(tmp_path):
@@ -240,4 +269,4 @@ def test_human_mode_opens_and_closes():
 def test_missing_pygame_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pygame", None)  # `import pygame` now raises ImportError
     with pytest.raises(ImportError, match=r'pip install -e "\.\[render\]"'):
-        TaskRenderer(DetumbleTask(1), "rgb_array", fps=20)
+        TaskRenderer(DetumbleTask(1).view(), "rgb_array", fps=20)

@@ -12,7 +12,7 @@ import pytest
 from reliability_helpers import ROOT, assert_one_line_error
 
 import rigid_env.cli as cli
-from rigid_env.bench._common import refuse_overwrite
+from rigid_env.bench.report import prepare_out
 from rigid_env.core.world import simulate
 from rigid_env.scene import load_scene
 
@@ -92,20 +92,15 @@ def test_a_failed_write_names_the_users_path_and_leaves_nothing(tmp_path, capsys
     [
         (["bench", "accuracy", "--quick"], "accuracy.csv"),
         (["bench", "speed", "--smoke"], "speed.md"),
-        (["bench", "stability", "--quick"], None),
+        (["bench", "stability", "--quick"], "stability.md"),
     ],
 )
 def test_bench_asks_for_force_before_overwriting(tmp_path, capsys, argv, result):
     """Item 5. Earlier results in --out stop a benchmark before it runs (the files keep their
     bytes), with a line that names them and --force."""
-    if result is None:  # bench stability's --out is the Markdown file itself
-        earlier = tmp_path / "stability.md"
-        out = earlier
-    else:
-        earlier = tmp_path / result
-        out = tmp_path
+    earlier = tmp_path / result
     earlier.write_text("earlier results")
-    assert cli.main([*argv, "--out", str(out)]) == 2
+    assert cli.main([*argv, "--out", str(tmp_path)]) == 2
     assert_one_line_error(capsys.readouterr().err, ERR, "--out", earlier.name, "--force")
     assert earlier.read_text() == "earlier results"
 
@@ -113,6 +108,6 @@ def test_bench_asks_for_force_before_overwriting(tmp_path, capsys, argv, result)
 def test_force_lets_the_benchmark_overwrite(tmp_path):
     (tmp_path / "speed.md").write_text("earlier")
     with pytest.raises(ValueError, match="--force"):
-        refuse_overwrite([tmp_path / "speed.md", tmp_path / "speed.csv"], force=False)
-    refuse_overwrite([tmp_path / "speed.md", tmp_path / "speed.csv"], force=True)
-    refuse_overwrite([tmp_path / "new.md"], force=False)  # nothing there: nothing to ask
+        prepare_out(tmp_path, ["speed.md", "speed.csv"], force=False)
+    assert prepare_out(tmp_path, ["speed.md", "speed.csv"], force=True) == tmp_path
+    prepare_out(tmp_path, ["new.md"], force=False)  # nothing there: nothing to ask

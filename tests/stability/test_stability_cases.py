@@ -1,8 +1,8 @@
 """Hard cases stay numerically stable: each case of the issue as a test with a named bound.
 
-The cases live in :mod:`rigid_env.bench.stability`, which runs them at full length
-(``python -m rigid_env.bench.stability``); here they run at :data:`CI_LENGTHS`, the same physics
-on a shorter horizon where the full one takes more than a few seconds. The bounds are imported
+The cases live in :mod:`rigid_env.bench.stability_cases`; ``rigid-env bench stability`` runs
+them at full length; here they run at :data:`CI_LENGTHS`, the same physics on a shorter horizon
+where the full one takes more than a few seconds. The bounds are imported
 from there so that test and benchmark cannot disagree; each is restated below with its meaning.
 """
 
@@ -12,13 +12,14 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from rigid_env.bench import stability as st
+from rigid_env.bench import stability_cases as st
+from rigid_env.bench.stability import CI_LENGTHS
 from rigid_env.core import INTEGRATORS, NumericalInstabilityError
 from rigid_env.core.rotation import quat_angle_between, quat_from_rotvec
 
 from roundoff import flow_growth, ivp_global_atol
 
-CI = st.CI_LENGTHS
+CI = CI_LENGTHS
 # The eight integrators of DESIGN.md's contract, whose outcomes the figures below pin down.
 # Integrators added later run through every generic test (finite or a clear error, thin bodies,
 # scale invariance) and appear in the benchmark's tables, but no outcome is pinned for them.

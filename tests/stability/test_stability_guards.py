@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigid_env.bench.stability import HARD_BODIES, torque_free_world
+from rigid_env.bench.stability_cases import HARD_BODIES, torque_free_world
 from rigid_env.core import (
     INTEGRATORS,
     BodyModel,

@@ -11,7 +11,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rigid_env.bench.stability import ENERGY_GAIN_RTOL, energy, torque_free_world
+from rigid_env.bench.stability_cases import ENERGY_GAIN_RTOL, energy, torque_free_world
 from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World
 from rigid_env.core.rotation import quat_norm, quat_normalize, quat_rotate
 

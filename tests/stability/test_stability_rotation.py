@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigid_env.bench.stability import ROTATION_EDGE_TOL
+from rigid_env.bench.stability_cases import ROTATION_EDGE_TOL
 from rigid_env.core.rotation import (
     canonical,
     euler_to_quat,

@@ -1,0 +1,393 @@
+"""The sections of a scene file (body, initial state, effects, actuators) as frozen pydantic
+models: every number carries its unit and its range on the field, every section its
+cross-field rules as a model validator. :class:`rigid_env.scene.Scene` is the whole file.
+
+A number is refused as text (``"0.02"``), as a boolean, when it is not finite, when it breaks
+its field's range, and when its non-zero magnitude leaves [:data:`MIN_MAGNITUDE`,
+:data:`MAX_MAGNITUDE`], where products of three stay finite in float64.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    GetCoreSchemaHandler,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import CoreSchema, core_schema
+
+from rigid_env.config_files import FieldError, number, vector
+from rigid_env.core import inertia as mass_props
+from rigid_env.core.inertia import MassProperties
+
+# |q| of initial.orientation may differ from 1 by this much (rounding of hand-typed decimals
+# such as 0.7071) and is then normalised; a larger difference is a typo, reported as an error.
+ORIENTATION_NORM_TOL = 1.0e-6
+# Relative tolerance of the triangle inequality I_k <= I_i + I_j on principal moments, as a
+# fraction of I_1 + I_2 + I_3: a flat plate sits exactly on the equality and must pass.
+TRIANGLE_RTOL = 1.0e-9
+# A `points` body whose smallest principal moment is below this fraction of the largest is a
+# line of masses: it has no inertia about that line and cannot be simulated.
+DEGENERATE_MOMENT_RTOL = 1.0e-12
+# body.mass of a `points` shape must equal the sum of the point masses to this relative error.
+POINT_MASS_RTOL = 1.0e-9
+# Magnitudes a non-zero scene number may have. The simulator multiplies up to three of them in
+# one term (an energy 1/2 I w^2, a torque r x F, a squared norm d.d), and products of three
+# numbers in [1e-100, 1e100] stay finite and normal in float64 (1e300 < 1.8e308, 1e-300 >
+# 2.2e-308); beyond, a normalised direction or an energy comes out 0, inf or NaN.
+MAX_MAGNITUDE = 1.0e100
+MIN_MAGNITUDE = 1.0e-100
+
+
+# --------------------------------------------------------------------------------------------
+# Numbers: a unit, a range on the field, magnitudes a float64 simulation can compute with
+# --------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """Field metadata: a number in ``unit`` (text and booleans refused, naming the unit) whose
+    non-zero magnitude lies in [:data:`MIN_MAGNITUDE`, :data:`MAX_MAGNITUDE`]. The range of a
+    field stays on the field: ``Annotated[float, Field(gt=0, ...), Quantity("kg")]``."""
+
+    unit: str
+
+    def __get_pydantic_core_schema__(
+        self, source: Any, handler: GetCoreSchemaHandler
+    ) -> CoreSchema:
+        checked = core_schema.no_info_after_validator_function(self._moderate, handler(source))
+        return core_schema.no_info_before_validator_function(number(self.unit).func, checked)
+
+    def _moderate(self, x: float) -> float:
+        if abs(x) <= MAX_MAGNITUDE and (x == 0.0 or abs(x) >= MIN_MAGNITUDE):
+            return x
+        size = "large" if abs(x) > MAX_MAGNITUDE else "small"
+        fix = (
+            "rescale the scene's units (e.g. g and mm instead of kg and m)"
+            if self.unit
+            else "scale it to moderate entries (a direction is normalised)"
+        )
+        raise ValueError(
+            f"{x!r} is too {size} to compute with (non-zero magnitudes must lie in "
+            f"[{MIN_MAGNITUDE:g}, {MAX_MAGNITUDE:g}] so that products stay finite); {fix}"
+            + (", or write 0.0 for a negligible value" if size == "small" else "")
+        )
+
+
+Meters = Annotated[float, Field(allow_inf_nan=False), Quantity("m")]
+PositiveMeters = Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("m")]
+NonNegativeMeters = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("m")]
+Kilograms = Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("kg")]
+PointMass = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("kg")]
+Moment = Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("kg m^2")]
+Speed = Annotated[float, Field(allow_inf_nan=False), Quantity("m/s")]
+Rate = Annotated[float, Field(allow_inf_nan=False), Quantity("rad/s")]
+Acceleration = Annotated[float, Field(allow_inf_nan=False), Quantity("m/s^2")]
+Newtons = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N")]
+Component = Annotated[float, Field(allow_inf_nan=False), Quantity("")]
+
+Position = Annotated[tuple[Meters, Meters, Meters], vector(3, "m")]
+Sides = Annotated[tuple[PositiveMeters, PositiveMeters, PositiveMeters], vector(3, "m")]
+Direction = Annotated[tuple[Component, Component, Component], vector(3)]
+Moments = Annotated[tuple[Moment, Moment, Moment], vector(3, "kg m^2")]
+PointRow = Annotated[
+    tuple[Meters, Meters, Meters, PointMass],
+    vector(4, "", "[x, y, z, m] (position in m, mass in kg)"),
+]
+
+
+def _present(what: str) -> BeforeValidator:
+    """Refuse an explicit ``null`` for an optional section (leaving the key out is the way)."""
+
+    def check(value: Any) -> Any:
+        if value is None:
+            raise ValueError(
+                f"expected a mapping, got nothing (null); write {what}, or remove the key to "
+                "leave it out"
+            )
+        return value
+
+    return BeforeValidator(check)
+
+
+class Spec(BaseModel):
+    """A section of a scene file: frozen, unknown keys refused, a docstring per field."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+
+# --------------------------------------------------------------------------------------------
+# The body
+# --------------------------------------------------------------------------------------------
+
+SHAPE_KINDS = ("box", "sphere", "cylinder", "ellipsoid", "capsule", "points")
+_SHAPE_FORMS = (
+    "box: [a, b, c], sphere: r, cylinder: [r, h], ellipsoid: [a, b, c], "
+    "capsule: [r, length] or points: [[x, y, z, m], ...]"
+)
+
+
+class ShapeSpec(Spec):
+    """The body's shape (exactly one kind), from which the mass properties follow (uniform
+    density). Boxes, spheres, cylinders, ellipsoids and capsules are centred on the shape
+    frame's origin with their axes along x, y, z."""
+
+    box: Sides | None = None
+    """Full side lengths along x, y, z [m], each > 0."""
+    sphere: PositiveMeters | None = None
+    """Radius [m], > 0."""
+    cylinder: Annotated[tuple[PositiveMeters, PositiveMeters], vector(2, "m")] | None = None
+    """[radius, height] [m], each > 0 (axis z)."""
+    ellipsoid: Sides | None = None
+    """Semi-axes along x, y, z [m], each > 0."""
+    capsule: Annotated[tuple[PositiveMeters, NonNegativeMeters], vector(2, "m")] | None = None
+    """[radius, length] [m]: radius > 0, length of the cylindrical part >= 0 (axis z)."""
+    points: Annotated[tuple[PointRow, ...], Field(min_length=1)] | None = None
+    """Point masses [[x, y, z, m], ...]: positions in the shape frame [m], masses [kg], each
+    >= 0 with a positive sum."""
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> ShapeSpec:
+        given = [k for k in SHAPE_KINDS if getattr(self, k) is not None]
+        if len(given) != 1:
+            found = f"gives {len(given)} kinds ({', '.join(given)})" if given else "is empty"
+            raise ValueError(f"{found}; give exactly one of {_SHAPE_FORMS}")
+        if self.points is not None and math.fsum(p[3] for p in self.points) <= 0.0:
+            raise FieldError("points", "total mass is 0", "give at least one point a mass > 0 kg")
+        return self
+
+    @property
+    def kind(self) -> str:
+        """One of :data:`SHAPE_KINDS`."""
+        return next(k for k in SHAPE_KINDS if getattr(self, k) is not None)
+
+    @property
+    def size(self) -> tuple[float, ...]:
+        """Dimensions [m] (box, ellipsoid: 3; cylinder, capsule: 2; sphere: 1; points: none)."""
+        value = getattr(self, self.kind)
+        return () if self.kind == "points" else (value,) if self.kind == "sphere" else value
+
+    def mass_properties(self, mass: float) -> MassProperties:
+        """Mass properties in the shape frame (``mass`` [kg] is ignored for ``points``)."""
+        if self.points is not None:
+            return mass_props.from_points(np.array(self.points, dtype=np.float64))
+        if self.box is not None:
+            return mass_props.box(mass, self.box)
+        if self.sphere is not None:
+            return mass_props.sphere(mass, self.sphere)
+        if self.cylinder is not None:
+            return mass_props.cylinder(mass, *self.cylinder)
+        if self.ellipsoid is not None:
+            return mass_props.ellipsoid(mass, self.ellipsoid)
+        assert self.capsule is not None  # exactly one kind is given
+        return mass_props.capsule(mass, *self.capsule)
+
+
+class BodySpec(Spec):
+    """Mass properties of the body: a shape, or ``mass`` and ``inertia`` alone (as MuJoCo's
+    ``inertial`` without a geometry)."""
+
+    mass: Kilograms | None = None
+    """Mass [kg], > 0. A points shape's is the sum of its point masses (the default)."""
+    shape: ShapeSpec | None = None
+    """Shape in the shape frame; fixes the centre of mass, principal axes and moments. Left out:
+    a body given by its mass properties, centre of mass at the shape frame's origin and
+    principal axes along its axes (``inertia`` required)."""
+    inertia: Moments | None = None
+    """Principal moments about body x, y, z [kg m^2], each > 0, overriding the shape's."""
+
+    @model_validator(mode="after")
+    def _complete_and_physical(self) -> BodySpec:
+        points = self.shape.points if self.shape is not None else None
+        if self.shape is None and self.inertia is None:
+            raise FieldError(
+                "shape",
+                "missing required key",
+                "add a shape such as {box: [0.3, 0.2, 0.1]}, or give the mass properties "
+                "alone: body.mass and body.inertia",
+            )
+        if points is None and self.mass is None:
+            raise FieldError("mass", "missing required key", "add the body's mass in kg")
+        if points is not None:
+            total = math.fsum(p[3] for p in points)
+            if self.mass is None:  # the points' sum is the mass: filled in once, here
+                object.__setattr__(self, "mass", total)
+            elif abs(self.mass - total) > POINT_MASS_RTOL * total:
+                raise FieldError(
+                    "mass",
+                    f"is {self.mass!r} but the point masses sum to {total!r}",
+                    "leave body.mass out for a points shape, or make the two agree",
+                )
+        if self.inertia is not None:
+            _check_triangle(self.inertia)
+        elif points is not None:
+            moments = mass_props.from_points(np.array(points)).principal_moments
+            if moments[0] <= DEGENERATE_MOMENT_RTOL * moments[2]:
+                raise FieldError(
+                    "shape.points",
+                    "the point masses lie on one line, so the body has no moment of inertia "
+                    "about it",
+                    "add a point off that line, or give body.inertia",
+                )
+        return self
+
+    def mass_properties(self) -> MassProperties:
+        """Mass properties in the shape frame: the shape's, or ``diag(inertia)`` at the origin
+        for a body without a shape."""
+        assert self.mass is not None  # filled in by the validator
+        if self.shape is None:
+            assert self.inertia is not None  # required without a shape
+            return MassProperties(self.mass, np.zeros(3), np.diag(self.inertia))
+        return self.shape.mass_properties(self.mass)
+
+
+def _check_triangle(moments: tuple[float, float, float]) -> None:
+    try:
+        mass_props.check_triangle_inequality(np.array(moments), rtol=TRIANGLE_RTOL)
+    except ValueError:
+        k = int(np.argmax(moments))
+        i, j = (k + 1) % 3, (k + 2) % 3
+        raise FieldError(
+            "inertia",
+            f"I{k + 1} = {moments[k]:g} > I{i + 1} + I{j + 1} = {moments[i] + moments[j]:g} "
+            "breaks the triangle inequality",
+            "no real body has one principal moment larger than the sum of the other two "
+            "(equality is a flat plate); check the values",
+        ) from None
+
+
+class InitialSpec(Spec):
+    """Initial pose and motion of the shape frame."""
+
+    position: Position = (0.0, 0.0, 0.0)
+    """Shape frame origin (the centre of mass, except for an off-centre points shape), world
+    frame [m]."""
+    velocity: Annotated[tuple[Speed, Speed, Speed], vector(3, "m/s")] = (0.0, 0.0, 0.0)
+    """Velocity of the shape frame origin, world frame [m/s]."""
+    orientation: Annotated[
+        tuple[Component, Component, Component, Component],
+        vector(4, "", "[w, x, y, z] ([1.0, 0.0, 0.0, 0.0] is no rotation)"),
+    ] = (1.0, 0.0, 0.0, 0.0)
+    """Shape frame -> world, unit quaternion [w, x, y, z]; normalised when within 1e-6 of unit
+    length, stored as written."""
+    angular_velocity: Annotated[tuple[Rate, Rate, Rate], vector(3, "rad/s")] = (0.0, 0.0, 0.0)
+    """Angular velocity [rad/s] in the frame named by ``angular_velocity_frame``."""
+    angular_velocity_frame: Literal["body", "world"] = "body"
+    """The frame angular_velocity is given in, body or world (body: the shape frame's axes)."""
+
+    @field_validator("orientation")
+    @classmethod
+    def _unit(cls, q: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+        norm = math.sqrt(math.fsum(c * c for c in q))
+        if abs(norm - 1.0) > ORIENTATION_NORM_TOL:
+            raise ValueError(
+                f"has norm {norm:.9g}, not 1; give a unit quaternion [w, x, y, z] "
+                "([1.0, 0.0, 0.0, 0.0] is no rotation)"
+            )
+        return q
+
+
+# --------------------------------------------------------------------------------------------
+# Effects and actuators
+# --------------------------------------------------------------------------------------------
+
+
+class GravitySpec(Spec):
+    """Uniform gravity at the centre of mass."""
+
+    g: Annotated[tuple[Acceleration, Acceleration, Acceleration], vector(3, "m/s^2")] = (
+        0.0,
+        0.0,
+        -9.81,
+    )
+    """Gravitational acceleration, world frame [m/s^2]."""
+
+
+class QuadraticDragSpec(Spec):
+    """Quadratic drag ``F = -1/2 rho cd A |v_p| v_p`` at the centre of pressure."""
+
+    rho: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("kg/m^3")] = 1.225
+    """Air density [kg/m^3], > 0 (sea level)."""
+    cd: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("")] = 1.05
+    """Drag coefficient [-], > 0 (a cube face on)."""
+    area: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("m^2")]
+    """Reference area [m^2], > 0."""
+    center_of_pressure: Position | None = None
+    """Point where drag acts, shape frame [m]; left out: the centre of mass (no torque)."""
+
+
+class DampingSpec(Spec):
+    """The seed's per-step damping ``u <- alpha u``."""
+
+    alpha: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False), Quantity("")]
+    """Factor applied once per step, in (0, 1] (1.0 = no damping)."""
+
+
+class EffectsSpec(Spec):
+    """The effects the scene calls for; a key left out leaves that effect out entirely."""
+
+    gravity: Annotated[
+        GravitySpec | None, _present("{g: [0.0, 0.0, -9.81]} ({} for that default)")
+    ] = None
+    """Uniform gravity."""
+    quadratic_drag: Annotated[
+        QuadraticDragSpec | None, _present("{rho: 1.225, cd: 1.05, area: 0.06}")
+    ] = None
+    """Quadratic air drag."""
+    linear_damping: Annotated[DampingSpec | None, _present("{alpha: 0.999}")] = None
+    """``v <- alpha v`` each step."""
+    angular_damping: Annotated[DampingSpec | None, _present("{alpha: 0.999}")] = None
+    """``w <- alpha w`` each step."""
+
+
+class ThrusterSpec(Spec):
+    """One thruster: one action component ``u`` in [-1, 1], force ``u max_force direction``."""
+
+    point: Position
+    """Application point, shape frame [m]."""
+    direction: Direction
+    """Thrust direction, shape frame (non-zero; normalised)."""
+    max_force: Newtons
+    """Force at ``|u| = 1`` [N], >= 0."""
+
+    @field_validator("direction")
+    @classmethod
+    def _non_zero(cls, d: tuple[float, float, float]) -> tuple[float, float, float]:
+        if not any(d):
+            raise ValueError("is zero; give a non-zero direction vector (it is normalised)")
+        return d
+
+
+class PointForcesSpec(Spec):
+    """General actuation: a free 3-D force at each point, three action components per point."""
+
+    points: Annotated[tuple[Position, ...], Field(min_length=1)]
+    """Application points [[x, y, z], ...], shape frame [m] (at least one)."""
+    max_force: Newtons
+    """Force per component at ``|u| = 1`` [N], >= 0."""
+
+
+class ActuatorsSpec(Spec):
+    """Actuators, read from the action vector: thrusters first, then point forces."""
+
+    thrusters: tuple[ThrusterSpec, ...] = ()
+    """Thrusters in action order: [{point, direction, max_force}, ...]."""
+    point_forces: Annotated[
+        PointForcesSpec | None, _present("{points: [[x, y, z], ...], max_force: F}")
+    ] = None
+    """Optional general point forces."""
+
+    @property
+    def action_dim(self) -> int:
+        """Number of action components."""
+        pf = 0 if self.point_forces is None else 3 * len(self.point_forces.points)
+        return len(self.thrusters) + pf
