@@ -348,6 +348,13 @@ class World:
             clamp_angular_speed(self._state.w, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
+        if type(action) is np.ndarray and action.dtype == np.float64 and self.action_dim:
+            # The common case: a float64 command of the right shape, used as it is.
+            shape = action.shape
+            if shape == (self.action_dim,) and action.flags.c_contiguous:
+                return action[None]
+            if len(shape) == 2 and shape[1] == self.action_dim and shape[0] in (1, self._n):
+                return np.ascontiguousarray(action)
         if action is None or self.action_dim == 0:
             if action is not None and np.size(action) != 0:
                 raise ValueError(
