@@ -212,51 +212,41 @@ def _num(x: float | None) -> str:
     return "" if x is None else f"{x:.10g}"
 
 
-def results_csv(rows: list[Row]) -> str:
+_MEASURES = ["final_angular_speed_rad_s", "fuel_N_s", "return", "time_to_success_s"]
+
+
+def _csv(header: list[str], lines: list[list[object]]) -> str:
     buf = io.StringIO()
     w = csv.writer(buf, lineterminator="\n")
-    w.writerow(
-        [
-            "task",
-            "policy",
-            "episodes",
-            "first_seed",
-            "success_rate",
-            "final_angular_speed_rad_s",
-            "fuel_N_s",
-            "return",
-            "time_to_success_s",
-        ]
-    )
-    for r in rows:
-        means = [r.success_rate, r.mean("final_angular_speed"), r.mean("fuel"), r.mean("ret")]
-        w.writerow(
-            [r.task, r.policy, len(r.episodes), r.episodes[0].seed]
-            + [_num(x) for x in [*means, r.time_to_success]]
-        )
+    w.writerow(header)
+    w.writerows(lines)
     return buf.getvalue()
+
+
+def results_csv(rows: list[Row]) -> str:
+    """One line per task and policy: means over its episodes (time to success over the
+    successful ones)."""
+    header = ["task", "policy", "episodes", "first_seed", "success_rate", *_MEASURES]
+    lines = []
+    for r in rows:
+        means = [r.mean("final_angular_speed"), r.mean("fuel"), r.mean("ret"), r.time_to_success]
+        lines.append(
+            [r.task, r.policy, len(r.episodes), r.episodes[0].seed, _num(r.success_rate)]
+            + [_num(x) for x in means]
+        )
+    return _csv(header, lines)
 
 
 def episodes_csv(rows: list[Row]) -> str:
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(
-        [
-            "task",
-            "policy",
-            "seed",
-            "success",
-            "final_angular_speed_rad_s",
-            "fuel_N_s",
-            "return",
-            "time_to_success_s",
-        ]
-    )
-    for r in rows:
-        for e in r.episodes:
-            values = [e.final_angular_speed, e.fuel, e.ret, e.time_to_success]
-            w.writerow([r.task, r.policy, e.seed, int(e.success)] + [_num(x) for x in values])
-    return buf.getvalue()
+    """One line per episode, with its seed."""
+    header = ["task", "policy", "seed", "success", *_MEASURES]
+    lines = [
+        [r.task, r.policy, e.seed, int(e.success)]
+        + [_num(x) for x in (e.final_angular_speed, e.fuel, e.ret, e.time_to_success)]
+        for r in rows
+        for e in r.episodes
+    ]
+    return _csv(header, lines)
 
 
 def _write_text(path: Path, text: str) -> None:
