@@ -191,7 +191,11 @@ def read_yaml(path: str | os.PathLike[str], name: str | None = None) -> Any:
             name, "", f"cannot be read ({exc.strerror})", "check the path and its permissions"
         ) from None
     try:
-        return yaml.load(text, Loader=_Loader)  # a SafeLoader subclass
+        loader = _Loader(text)  # a SafeLoader subclass: only plain YAML types are built
+        try:
+            return loader.get_single_data()
+        finally:
+            loader.dispose()
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else ""
