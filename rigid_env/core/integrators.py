@@ -482,6 +482,16 @@ def advance(step, p, model, state, command, status):
 
 
 @kernel
+def clamp_bodies(state, limit):
+    """:func:`_clamp` of every body's ``w`` in the state rows (N, 13), in place: the speed
+    limit of the array integrator ``exact_free``."""
+    for i in range(state.shape[0]):
+        state[i, 10], state[i, 11], state[i, 12] = _clamp(
+            (state[i, 10], state[i, 11], state[i, 12]), limit
+        )
+
+
+@kernel
 def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
     (N, 13): the force half-steps of ``exact_free``."""

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike, NDArray
 from rigid_env.core import kernels as K
 from rigid_env.core.effects import ForceEffect, StepMap, pack
 from rigid_env.core.exact import free_rotation_exact
-from rigid_env.core.integrators import derivatives, get_integrator, kicks
+from rigid_env.core.integrators import clamp_bodies, derivatives, get_integrator, kicks
 from rigid_env.core.rotation import quat_normalize, quat_rotate
 from rigid_env.core.state import BodyModel, State
 
@@ -345,7 +345,7 @@ class World:
 
     def _clamp(self) -> None:
         if self.max_angular_speed is not None:
-            clamp_angular_speed(self._state.w, self.max_angular_speed)
+            clamp_bodies(self._rows, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if type(action) is np.ndarray and action.dtype == np.float64 and self.action_dim:
@@ -427,15 +427,6 @@ class World:
     def angular_momentum_world(self) -> FloatArray:
         """(N, 3) spin angular momentum about the centre of mass, world frame [kg m^2/s]."""
         return angular_momentum_world(self.model, self.state)
-
-
-def clamp_angular_speed(w: FloatArray, max_speed: float) -> None:
-    """Scale rows of ``w`` (N, 3) in place so that ``|w| <= max_speed`` (PhysX's clamp: the
-    direction is kept). A non-finite row stays non-finite (inf becomes NaN) for the guard."""
-    speed = np.sqrt(np.sum(w * w, axis=1))
-    over = speed > max_speed
-    if over.any():
-        w[over] *= (max_speed / speed[over])[:, None]
 
 
 def check_state(state: State) -> None:

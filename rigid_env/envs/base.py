@@ -342,14 +342,7 @@ class TaskBatch:
         failed = self.world.advance(self.command)
         self.steps += 1
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
-        world = self.world
-        if self.n < core_world.THREAD_MIN_BODIES:  # the common case, without the indirection
-            self.task_pass(
-                self.tp, world.rows, world.model_rows, self.command, self.target, noise, True,
-                self.record, self.obs,
-            )  # fmt: skip
-        else:
-            self._pass(world.rows, self.command, self.target, noise, True, self.record, self.obs)
+        self._pass(self.world.rows, self.command, self.target, noise, True, self.record, self.obs)
         r = self.record
         return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
 
@@ -359,12 +352,8 @@ class TaskBatch:
         failed = self.world.advance(self.command)
         self.steps[0] += 1
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
-        world = self.world
-        self.task_pass(
-            self.tp, world.rows, world.model_rows, self.command, self.target, noise, True,
-            self.record, self.obs,
-        )  # fmt: skip
-        return self.record[0].tolist(), failed is not world.no_failures
+        self._pass(self.world.rows, self.command, self.target, noise, True, self.record, self.obs)
+        return self.record[0].tolist(), failed is not self.world.no_failures
 
     def _pass(self, rows, command, target, noise, stepped, record, obs) -> None:
         """The task's compiled pass over the envs of ``rows`` (split over the cores when many;

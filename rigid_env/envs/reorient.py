@@ -9,8 +9,7 @@ from typing import Any
 import numpy as np
 
 from rigid_env.core.kernels import kernel, quat_mul
-from rigid_env.core.rotation import canonical, quat_angle_between, quat_conj
-from rigid_env.core.rotation import quat_mul as quat_mul_array
+from rigid_env.core.rotation import canonical, quat_angle_between
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,
@@ -87,10 +86,6 @@ class ReorientTask(TaskBatch):
         q, w = random_tumble(rng, self.max_initial_spin)
         target = canonical(random_quaternion(rng))
         return np.zeros(3), np.zeros(3), q, w, target
-
-    def error_quaternion(self) -> np.ndarray:
-        """(N, 4) rotation from the current to the target orientation, body frame, w >= 0."""
-        return canonical(quat_mul_array(quat_conj(self.world.state.q), self.target))
 
     def task_numbers(self) -> list[float]:
         return [self.max_initial_spin, self.success_angle, self.success_spin]

@@ -90,10 +90,7 @@ class SpinStabilizeTask(TaskBatch):
                                      low_open=True)  # fmt: skip
         self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
         self.hold_time = bounded("hold_time", hold_time, "s")
-        self.hold_steps = 1
         super().__init__(num_envs, **kwargs)
-        self.hold_steps = max(1, round(self.hold_time / self.dt))
-        self.tp = self.task_parameters()
 
     def angular_velocity_scale(self) -> float:
         return self.target_spin
@@ -108,25 +105,20 @@ class SpinStabilizeTask(TaskBatch):
         w = rate * quat_rotate(quat_from_axis_angle(axis, tilt), np.array([0.0, 1.0, 0.0]))
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
 
+    @property
+    def hold_steps(self) -> int:
+        """Control steps the spin axis must stay within ``success_angle`` (at least one)."""
+        return max(1, round(self.hold_time / self.dt))
+
     def task_numbers(self) -> list[float]:
         return [self.target_spin, self.success_angle, float(self.hold_steps)]
-
-    @property
-    def streak(self) -> np.ndarray:
-        """(N,) consecutive steps with the spin axis within ``success_angle`` of +y."""
-        return self.record[:, T.MEMORY].astype(np.int64)
-
-    def axis_error(self) -> np.ndarray:
-        """(N,) angle [rad] between w and body +y (pi when spinning backwards)."""
-        w = self.world.state.w
-        return np.arctan2(np.hypot(w[:, 0], w[:, 2]), w[:, 1])
 
     def view(self) -> TaskView:
         """The body, with the target spin axis (body +y) and the spin's angle to it."""
         return replace(super().view(), target_spin=self.target_spin, readouts=("spin_axis_angle",))
 
     def readouts(self, i: int) -> tuple[float, ...]:
-        return (float(np.rad2deg(self.axis_error()[i])),)
+        return (math.degrees(axis_error(tuple(self.world.state.w[i].tolist()))),)
 
 
 class SpinStabilizeEnv(RigidBodyEnv):
