@@ -4,28 +4,37 @@ from __future__ import annotations
 
 from gymnasium.envs.registration import register, registry
 
-#: (task, max_episode_steps) of every registered environment.
-TASKS: dict[str, tuple[str, int]] = {
-    "Detumble": ("detumble", 400),
-    "SpinStabilize": ("spin_stabilize", 200),
-    "Reorient": ("reorient", 300),
-    "TumblingFall": ("tumbling_fall", 200),
+#: (task module, max_episode_steps, newest version) of every registered task. Every version
+#: from v0 to the newest stays registered; version k >= 1 is the same class made with
+#: ``version=k`` (see each env's Version History).
+TASKS: dict[str, tuple[str, int, int]] = {
+    "Detumble": ("detumble", 400, 0),
+    "SpinStabilize": ("spin_stabilize", 200, 0),
+    "Reorient": ("reorient", 300, 1),
+    "TumblingFall": ("tumbling_fall", 200, 1),
 }
 
-ENV_IDS = [f"RigidEnv/{name}-v0" for name in TASKS]
+#: The newest version of each task: the ids the baselines are trained and reported on.
+ENV_IDS = [f"RigidEnv/{name}-v{newest}" for name, (_, _, newest) in TASKS.items()]
+#: Every registered id, older versions included.
+ALL_ENV_IDS = [
+    f"RigidEnv/{name}-v{k}" for name, (_, _, newest) in TASKS.items() for k in range(newest + 1)
+]
 
 
 def _register_all() -> None:
-    for name, (module, steps) in TASKS.items():
-        env_id = f"RigidEnv/{name}-v0"
-        if env_id in registry:
-            continue
-        register(
-            id=env_id,
-            entry_point=f"rigid_env.envs.{module}:{name}Env",
-            vector_entry_point=f"rigid_env.envs.{module}:{name}VectorEnv",
-            max_episode_steps=steps,
-        )
+    for name, (module, steps, newest) in TASKS.items():
+        for version in range(newest + 1):
+            env_id = f"RigidEnv/{name}-v{version}"
+            if env_id in registry:
+                continue
+            register(
+                id=env_id,
+                entry_point=f"rigid_env.envs.{module}:{name}Env",
+                vector_entry_point=f"rigid_env.envs.{module}:{name}VectorEnv",
+                max_episode_steps=steps,
+                kwargs={"version": version} if version else {},
+            )
 
 
 _register_all()

@@ -154,6 +154,16 @@ def positive(name: str, value: Any, unit: str) -> float:
     return bounded(name, value, unit, 0.0, low_open=True)
 
 
+def task_version(name: str, value: Any, newest: int) -> int:
+    """``value`` as a task version in ``0..newest``, or a one-line ``ValueError``."""
+    integral = isinstance(value, int | np.integer) and not isinstance(value, bool)
+    if not integral or not 0 <= value <= newest:
+        raise ValueError(
+            f"{name}: must be an integer from 0 to {newest} (the task's versions), got {value!r}"
+        )
+    return int(value)
+
+
 def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray, FloatArray]:
     """Orientation uniform on SO(3) and body angular velocity (3,) of magnitude uniform on
     [0, ``max_spin``] about a uniform direction; drawn in that order."""
@@ -184,6 +194,8 @@ class TaskBatch:
     task_obs_bound: ClassVar[float] = 1.0
     target_dim: ClassVar[int] = 0
     task_pass: ClassVar[Callable[..., None]]
+    version: int = 0
+    """The task's version (the ``-vK`` of its id); a task with several takes ``version=``."""
 
     def __init__(
         self,

@@ -16,11 +16,12 @@ from rigid_env.envs.base import (
     bounded,
     positive,
     random_tumble,
+    task_version,
 )
 from rigid_env.envs.rewards import LINEAR, tolerance_one
 from rigid_env.render import TaskView
 
-MAX_SPIN, THRESHOLD, BONUS, TOP = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3
+MAX_SPIN, THRESHOLD, BONUS, TOP, VERSION = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3, T.TASK + 4
 FALL_SPEED_SCALE = 20.0  # [m/s], the observed vertical speed's unit
 
 
@@ -31,7 +32,9 @@ def evaluate(s, effort, target, memory, tp, stepped):
     speed = T.safe_norm((s[10], s[11], s[12]))
     landed = s[2] <= 0.0
     success = landed and speed < tp[THRESHOLD]
-    spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
+    # v1: the cost falls all the way to rest (v0: flat below the success threshold).
+    flat = tp[THRESHOLD] if tp[VERSION] < 1.0 else 0.0
+    spin_cost = 1.0 - tolerance_one(speed, 0.0, flat, tp[MAX_SPIN], LINEAR, 0.0)
     reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
     extra = (s[2] / tp[TOP], s[5] / FALL_SPEED_SCALE, 0.0, 0.0)  # height, vertical speed
     return reward, landed, success, memory, extra
@@ -51,6 +54,8 @@ class TumblingFallTask(TaskBatch):
         success_threshold: |w| at touchdown that counts as stabilised [rad/s].
         fuel_weight: weight of the fuel term.
         success_bonus: reward at a stabilised touchdown.
+        version: 0 or 1, the reward's version (see the env's Version History); ``gym.make``
+            sets it from the id.
     """
 
     scene_name = "tumbling_fall"
@@ -67,8 +72,10 @@ class TumblingFallTask(TaskBatch):
         success_threshold: float = 0.1,
         fuel_weight: float = 0.05,
         success_bonus: float = 10.0,
+        version: int = 0,
         **kwargs: Any,
     ) -> None:
+        self.version = task_version("version", version, newest=1)
         pair = drop_height if isinstance(drop_height, tuple | list) else ()
         if len(pair) != 2:
             raise ValueError(
@@ -97,6 +104,7 @@ class TumblingFallTask(TaskBatch):
             self.success_threshold,
             self.success_bonus,
             self.drop_height[1],
+            self.version,
         ]
 
     def view(self) -> TaskView:
@@ -126,8 +134,11 @@ class TumblingFallEnv(RigidBodyEnv):
 
     ## Rewards
 
-    ``-(|w| - 0.1) / max_initial_spin`` (clipped to [-1, 0]) ``- fuel_weight mean |u|``, and
-    ``+ success_bonus`` at a touchdown with |w| < ``success_threshold``.
+    v1: ``-min(1, |w| / max_initial_spin) - fuel_weight mean |u|``, and ``+ success_bonus`` at
+    a touchdown with |w| < ``success_threshold``.
+
+    v0: the spin cost was ``-(|w| - 0.1) / max_initial_spin`` clipped to [-1, 0], flat below the
+    success threshold.
 
     ## Starting State
 
@@ -147,7 +158,12 @@ class TumblingFallEnv(RigidBodyEnv):
 
     ## Version History
 
-    * v0: initial version.
+    * v1: the spin cost keeps falling below the success threshold. In v0 it was 0 for any
+      |w| < 0.1 rad/s, so PPO (1M steps) landed the body at a mean |w| of 0.095 rad/s, just
+      under the threshold, and the weathervane oscillation pushed 0.45 of the touchdowns over
+      it (the PD controller lands at 0.004 rad/s, all successes). Observations, dynamics,
+      success and episode end are unchanged.
+    * v0: initial version (``gym.make("RigidEnv/TumblingFall-v0")`` still makes it).
     """
 
     task_cls = TumblingFallTask

@@ -99,7 +99,7 @@ def test_vector_env_equals_single_envs(env_id, n):
     assert_vector_env_equals_single_envs(env_id, n)
 
 
-@pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/Reorient-v0"])
+@pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/Reorient-v1"])
 def test_vector_env_equals_single_envs_with_randomization_and_sixd(env_id):
     """Mass properties per body (a model row each), randomised thrust, sensor noise and the
     6-D rotation: still each sub-env equals its single env."""
@@ -248,7 +248,7 @@ def test_scene_without_gravity_or_drag_never_evaluates_them():
     so the compiled kernel skips both (tests/core/test_world.py traces the kernel's lines to
     show a zero flag runs none of an effect's code); the fall's scene sets both."""
     detumble = gym.make("RigidEnv/Detumble-v0").unwrapped.task.world.params
-    fall = gym.make("RigidEnv/TumblingFall-v0").unwrapped.task.world.params
+    fall = gym.make("RigidEnv/TumblingFall-v1").unwrapped.task.world.params
     assert detumble[K.GRAVITY] == detumble[K.DRAG] == 0.0
     assert fall[K.GRAVITY] == fall[K.DRAG] == fall[K.DRAG_OFFSET] == 1.0
 
@@ -333,8 +333,8 @@ def test_domain_randomization_draws_from_env_generator_only():
     [
         ("RigidEnv/Detumble-v0", False),
         ("RigidEnv/SpinStabilize-v0", False),
-        ("RigidEnv/Reorient-v0", False),
-        ("RigidEnv/TumblingFall-v0", True),
+        ("RigidEnv/Reorient-v1", False),
+        ("RigidEnv/TumblingFall-v1", True),
     ],
 )
 def test_mass_randomization_matters_only_where_forces_move_the_centre_of_mass(env_id, matters):
@@ -394,7 +394,7 @@ def test_vector_env_split_over_threads_equals_one_thread(monkeypatch):
 
     def run():
         venv = gym.make_vec(
-            "RigidEnv/Reorient-v0", num_envs=n, vectorization_mode="vector_entry_point",
+            "RigidEnv/Reorient-v1", num_envs=n, vectorization_mode="vector_entry_point",
             randomization=rand,
         )  # fmt: skip
         out = [venv.reset(seed=3)[0]]

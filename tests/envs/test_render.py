@@ -120,7 +120,7 @@ def test_huge_spin_renders_without_warnings():
 
 def test_vector_env_renders_sub_env_0():
     envs = gym.make_vec(
-        "RigidEnv/Reorient-v0",
+        "RigidEnv/Reorient-v1",
         num_envs=3,
         vectorization_mode="vector_entry_point",
         render_mode="rgb_array",

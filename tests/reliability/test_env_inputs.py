@@ -31,12 +31,12 @@ BAD_KWARGS = [
     ("RigidEnv/SpinStabilize-v0", {"max_initial_tilt": float("nan")}, "max_initial_tilt"),
     ("RigidEnv/SpinStabilize-v0", {"hold_time": -5.0}, "hold_time"),
     ("RigidEnv/SpinStabilize-v0", {"success_angle": 0.0}, "success_angle"),
-    ("RigidEnv/Reorient-v0", {"success_spin": float("nan")}, "success_spin"),
-    ("RigidEnv/Reorient-v0", {"success_angle": 4.0}, "success_angle"),
-    ("RigidEnv/TumblingFall-v0", {"drop_height": 5}, "drop_height"),
-    ("RigidEnv/TumblingFall-v0", {"drop_height": (60.0, 50.0)}, "drop_height[1]"),
-    ("RigidEnv/TumblingFall-v0", {"drop_height": (-1.0, 50.0)}, "drop_height[0]"),
-    ("RigidEnv/TumblingFall-v0", {"success_threshold": float("nan")}, "success_threshold"),
+    ("RigidEnv/Reorient-v1", {"success_spin": float("nan")}, "success_spin"),
+    ("RigidEnv/Reorient-v1", {"success_angle": 4.0}, "success_angle"),
+    ("RigidEnv/TumblingFall-v1", {"drop_height": 5}, "drop_height"),
+    ("RigidEnv/TumblingFall-v1", {"drop_height": (60.0, 50.0)}, "drop_height[1]"),
+    ("RigidEnv/TumblingFall-v1", {"drop_height": (-1.0, 50.0)}, "drop_height[0]"),
+    ("RigidEnv/TumblingFall-v1", {"success_threshold": float("nan")}, "success_threshold"),
 ]
 
 
@@ -54,7 +54,7 @@ def test_bad_env_kwarg_is_one_line_at_construction(env_id, kwargs, field) -> Non
 
 
 def test_good_kwargs_are_accepted_and_used() -> None:
-    env = gym.make("RigidEnv/TumblingFall-v0", drop_height=[10, 20], fuel_weight=0)
+    env = gym.make("RigidEnv/TumblingFall-v1", drop_height=[10, 20], fuel_weight=0)
     obs, _ = env.reset(seed=1)
     height = env.unwrapped.task.world.state.x[0, 2]
     assert 10.0 <= height <= 20.0

@@ -78,7 +78,7 @@ def test_without_statistics_it_is_an_error_or_a_warning(tmp_path, capsys):
     named = _copy_model(tmp_path / "a", "best_model.zip", None, _sidecar("best_model_stats.pkl"))
     with pytest.raises(EvaluationError, match=r"best_model_stats\.pkl: missing"):
         evaluate(named, DETUMBLE, EPISODES, SEED, only=["model"])
-    reorient = "RigidEnv/Reorient-v0"
+    reorient = "RigidEnv/Reorient-v1"
     foreign = _copy_model(tmp_path / "b", "best_model.zip", None, None, task="reorient")
     raw = evaluate(foreign, reorient, EPISODES, SEED, only=["model"])["model"]
     assert "evaluating on raw observations" in capsys.readouterr().err

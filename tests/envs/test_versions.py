@@ -1,0 +1,92 @@
+"""Task versions: every version stays registered, and v1's rewards are what its docstring says."""
+
+from __future__ import annotations
+
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import rigid_env
+from rigid_env.core.rotation import quat_from_axis_angle, quat_mul
+
+NEWEST = {"Detumble": 0, "SpinStabilize": 0, "Reorient": 1, "TumblingFall": 1}
+
+
+def make(env_id: str, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)  # "v0 is out of date"
+        return gym.make(env_id, **kwargs)
+
+
+@pytest.mark.parametrize("env_id", rigid_env.envs.ALL_ENV_IDS)
+def test_every_version_is_registered_single_and_vector(env_id):
+    version = int(env_id.rsplit("-v", 1)[1])
+    env = make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        vec = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    assert env.unwrapped.task.version == vec.unwrapped.task.version == version
+    env.close()
+    vec.close()
+
+
+def test_env_ids_are_the_newest_versions():
+    assert rigid_env.envs.ENV_IDS == [f"RigidEnv/{t}-v{v}" for t, v in NEWEST.items()]
+
+
+@pytest.mark.parametrize("bad", [2, -1, 1.5, "1", True])
+def test_bad_version_is_one_line(bad):
+    with pytest.raises(ValueError, match=r"^version: must be an integer from 0 to 1"):
+        make("RigidEnv/Reorient-v0", version=bad)
+
+
+def reorient_reward(version: int, angle: float) -> float:
+    """Reward of a Reorient step at rest, ``angle`` [rad] from the target, no thrust."""
+    env = make(f"RigidEnv/Reorient-v{version}")
+    env.reset(seed=3)
+    task = env.unwrapped.task
+    target = task.target[0]
+    q = quat_mul(target, quat_from_axis_angle(np.array([0.6, 0.0, 0.8]), angle))
+    task.world.state.q[0] = q
+    task.world.state.w[0] = 0.0
+    _, reward, _, _, _ = env.step(np.zeros(6, dtype=np.float32))
+    env.close()
+    return float(reward)
+
+
+@pytest.mark.parametrize("deg", [0.0, 3.0, 10.0, 90.0])
+def test_reorient_rewards_of_both_versions(deg):
+    """At rest with no thrust nothing moves (no gravity, no drag): the reward is the formula's
+    at that angle. v0 is flat (1) inside 5 deg and falls by 1/pi per radian beyond; v1 is
+    1 - angle/pi plus 1 on success."""
+    angle = math.radians(deg)
+    v0 = 1.0 if deg <= 5.0 else 1.0 - (angle - math.radians(5.0)) / math.pi
+    v1 = 1.0 - angle / math.pi + (1.0 if deg < 5.0 else 0.0)
+    # The angle goes through a quaternion product and atan2 (a few ulps of pi) and the step of
+    # a body at rest leaves it in place up to rounding: 1e-12 is far above that, far below
+    # the differences asserted.
+    assert reorient_reward(0, angle) == pytest.approx(v0, abs=1e-12)
+    assert reorient_reward(1, angle) == pytest.approx(v1, abs=1e-12)
+
+
+def test_tumbling_fall_v1_spin_cost_keeps_falling_below_the_threshold():
+    """Falling upright with a slow spin about the vertical (no weathervane torque: the centre of
+    pressure stays on the flow's line), |w| = 0.05 rad/s < 0.1: v0's spin cost is 0, v1's is
+    |w| / max_initial_spin."""
+    rewards = {}
+    for version in (0, 1):
+        env = make(f"RigidEnv/TumblingFall-v{version}")
+        env.reset(seed=4)
+        task = env.unwrapped.task
+        task.world.state.q[0] = [1.0, 0.0, 0.0, 0.0]
+        task.world.state.w[0] = [0.0, 0.0, 0.05]
+        _, r, _, _, info = env.step(np.zeros(6, dtype=np.float32))
+        rewards[version] = (float(r), float(info["angular_speed"]))
+        env.close()
+    assert rewards[0][0] == 0.0
+    speed = rewards[1][1]
+    assert speed == pytest.approx(0.05, rel=1e-9)  # a spin about the symmetry of the flow
+    assert rewards[1][0] == pytest.approx(-speed / 3.0, rel=1e-12)
