@@ -24,6 +24,7 @@ from rigid_env.core.rotation import (
     quat_rotate_inv,
     quat_to_rotvec,
 )
+from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE
 
 FloatArray = NDArray[np.float64]
 
@@ -140,8 +141,12 @@ class PDController:
             return np.zeros_like(w)
         d = drag[0]
         q = orientation_from_obs(obs, self.rot_dim)
-        v = np.zeros_like(w)
-        v[:, 2] = obs[:, self.rot_dim + 7] * 20.0  # vertical speed, as TumblingFallTask scales it
+        r = self.rot_dim + 7  # TumblingFall's extras: height, then the velocity (see its versions)
+        if self.task.version >= 1:
+            v = quat_rotate(q, obs[:, r : r + 3].astype(np.float64) * FALL_SPEED_SCALE)
+        else:
+            v = np.zeros_like(w)
+            v[:, 2] = obs[:, r] * FALL_SPEED_SCALE  # v0 observes the vertical speed
         v_p = v + quat_rotate(q, cross(w, d.center_of_pressure))
         f = -d.k * np.linalg.norm(v_p, axis=1, keepdims=True) * v_p
         return cross(d.center_of_pressure, quat_rotate_inv(q, f))

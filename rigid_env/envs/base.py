@@ -190,7 +190,7 @@ class TaskBatch:
     """
 
     scene_name: ClassVar[str]
-    task_obs_dim: ClassVar[int] = 0
+    task_obs_dim: int = 0  # a task may set it per instance (per version)
     task_obs_bound: ClassVar[float] = 1.0
     target_dim: ClassVar[int] = 0
     task_pass: ClassVar[Callable[..., None]]

@@ -90,3 +90,31 @@ def test_tumbling_fall_v1_spin_cost_keeps_falling_below_the_threshold():
     speed = rewards[1][1]
     assert speed == pytest.approx(0.05, rel=1e-9)  # a spin about the symmetry of the flow
     assert rewards[1][0] == pytest.approx(-speed / 3.0, rel=1e-12)
+
+
+def test_tumbling_fall_v1_observes_the_body_frame_velocity():
+    """v1's last three observations are R(q)^T v / 20 m/s (v0's last one is v_z / 20 m/s):
+    checked on a body turned 90 deg about x and falling at 10 m/s, where R^T v is
+    (0, -10, 0) m/s."""
+    from rigid_env.core.rotation import quat_rotate
+
+    obs = {}
+    for version in (0, 1):
+        env = make(f"RigidEnv/TumblingFall-v{version}")
+        env.reset(seed=5)
+        task = env.unwrapped.task
+        q = quat_from_axis_angle(np.array([1.0, 0.0, 0.0]), math.pi / 2)
+        task.world.state.q[0] = q
+        task.world.state.w[0] = 0.0
+        task.world.state.v[0] = [0.0, 0.0, -10.0]
+        obs[version], *_ = env.step(np.zeros(6, dtype=np.float32))
+        state = task.world.state
+        v_body = quat_rotate(state.q[0] * [1, -1, -1, -1], state.v[0])
+        env.close()
+        assert obs[version].shape == ((14,) if version else (12,))
+        if version:
+            # float32 observations of numbers of order 0.5: 1e-6 is a few float32 ulps.
+            np.testing.assert_allclose(obs[1][-3:], v_body / 20.0, atol=1e-6)
+            assert abs(v_body[1] + 10.0) < 1.0 and abs(v_body[0]) < 1e-6  # one step of 0.05 s
+        else:
+            assert obs[0][-1] == pytest.approx(state.v[0][2] / 20.0, abs=1e-6)
