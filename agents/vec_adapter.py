@@ -67,7 +67,9 @@ class RigidBodySB3VecEnv(VecEnv):
             raise ValueError(f"env_id: {env_id!r} is not a rigid_env environment")
         vec_cls = gym.envs.registration.load_env_creator(entry)
         self.env_id = env_id
-        self.task: TaskBatch = vec_cls.task_cls(num_envs, **kwargs)
+        # The id's registered kwargs first (a task version: RigidEnv/Reorient-v1 is version=1),
+        # the caller's over them, as gym.make merges them.
+        self.task: TaskBatch = vec_cls.task_cls(num_envs, **{**spec.kwargs, **kwargs})
         self.max_episode_steps = max_episode_steps or spec.max_episode_steps
         self.render_mode = render_mode
         self._renderer: Any = None

@@ -118,3 +118,19 @@ def test_tumbling_fall_v1_observes_the_body_frame_velocity():
             assert abs(v_body[1] + 10.0) < 1.0 and abs(v_body[0]) < 1e-6  # one step of 0.05 s
         else:
             assert obs[0][-1] == pytest.approx(state.v[0][2] / 20.0, abs=1e-6)
+
+
+@pytest.mark.parametrize("env_id", rigid_env.envs.ALL_ENV_IDS)
+def test_sb3_adapter_makes_the_ids_version(env_id):
+    """The SB3 adapter builds the task itself; it must take the id's registered kwargs (the
+    version) as gym.make does, or a -v1 id trains on v0."""
+    from agents.vec_adapter import RigidBodySB3VecEnv
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        adapter = RigidBodySB3VecEnv(env_id, num_envs=2)
+        single = make(env_id)
+    assert adapter.task.version == int(env_id.rsplit("-v", 1)[1])
+    assert adapter.observation_space.shape == single.observation_space.shape
+    adapter.close()
+    single.close()
