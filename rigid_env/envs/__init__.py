@@ -9,7 +9,7 @@ from gymnasium.envs.registration import register, registry
 #: ``version=k`` (see each env's Version History).
 TASKS: dict[str, tuple[str, int, int]] = {
     "Detumble": ("detumble", 400, 0),
-    "SpinStabilize": ("spin_stabilize", 200, 0),
+    "SpinStabilize": ("spin_stabilize", 200, 1),
     "Reorient": ("reorient", 300, 1),
     "TumblingFall": ("tumbling_fall", 200, 1),
 }

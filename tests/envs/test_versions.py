@@ -12,7 +12,7 @@ import pytest
 import rigid_env
 from rigid_env.core.rotation import quat_from_axis_angle, quat_mul
 
-NEWEST = {"Detumble": 0, "SpinStabilize": 0, "Reorient": 1, "TumblingFall": 1}
+NEWEST = {"Detumble": 0, "SpinStabilize": 1, "Reorient": 1, "TumblingFall": 1}
 
 
 def make(env_id: str, **kwargs):
@@ -134,3 +134,24 @@ def test_sb3_adapter_makes_the_ids_version(env_id):
     assert adapter.observation_space.shape == single.observation_space.shape
     adapter.close()
     single.close()
+
+
+def test_spin_stabilize_v1_axis_term_has_no_flat_top():
+    """A spin 3 deg off body +y (inside v0's flat 5 deg band), no thrust: after one step both
+    versions see the same state; v0's axis term is 1, v1's is 1 - angle / 45 deg (no success
+    bonus yet: the axis must hold for 1 s first)."""
+    out = {}
+    for version in (0, 1):
+        env = make(f"RigidEnv/SpinStabilize-v{version}")
+        env.reset(seed=6)
+        task = env.unwrapped.task
+        tilt = math.radians(3.0)
+        task.world.state.w[0] = 2.0 * np.array([math.sin(tilt), math.cos(tilt), 0.0])
+        _, reward, _, _, _ = env.step(np.zeros(6, dtype=np.float32))
+        w = task.world.state.w[0]
+        out[version] = (float(reward), math.atan2(math.hypot(w[0], w[2]), w[1]))
+        env.close()
+    angle = out[0][1]
+    assert out[1][1] == angle and 0.0 < angle < math.radians(5.0)
+    # The rate term is the same factor in both; the atan2 of a few ulps and the product: 1e-12.
+    assert out[1][0] == pytest.approx(out[0][0] * (1.0 - angle / (math.pi / 4.0)), rel=1e-12)
