@@ -415,44 +415,21 @@ def matrix_to_quat(m: ArrayLike) -> FloatArray:
     trace = m00 + m11 + m22
     cands = np.stack([trace, m00, m11, m22], axis=-1)
     k = np.argmax(cands, axis=-1)
-    # 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22, ... ; off-diagonals give the products.
-    q_w = np.stack(
-        [
-            1.0 + trace,
-            m[..., 2, 1] - m[..., 1, 2],
-            m[..., 0, 2] - m[..., 2, 0],
-            m[..., 1, 0] - m[..., 0, 1],
-        ],
-        axis=-1,
+    # Row k of the table is 4 q_k (w, x, y, z): 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22,
+    # ... on the diagonal, 4 w x = m21 - m12, 4 x y = m01 + m10, ... off it.
+    d0 = m[..., 2, 1] - m[..., 1, 2]
+    d1 = m[..., 0, 2] - m[..., 2, 0]
+    d2 = m[..., 1, 0] - m[..., 0, 1]
+    s01 = m[..., 0, 1] + m[..., 1, 0]
+    s02 = m[..., 0, 2] + m[..., 2, 0]
+    s12 = m[..., 1, 2] + m[..., 2, 1]
+    table = (
+        (1.0 + trace, d0, d1, d2),
+        (d0, 1.0 + m00 - m11 - m22, s01, s02),
+        (d1, s01, 1.0 - m00 + m11 - m22, s12),
+        (d2, s02, s12, 1.0 - m00 - m11 + m22),
     )
-    q_x = np.stack(
-        [
-            m[..., 2, 1] - m[..., 1, 2],
-            1.0 + m00 - m11 - m22,
-            m[..., 0, 1] + m[..., 1, 0],
-            m[..., 0, 2] + m[..., 2, 0],
-        ],
-        axis=-1,
-    )
-    q_y = np.stack(
-        [
-            m[..., 0, 2] - m[..., 2, 0],
-            m[..., 0, 1] + m[..., 1, 0],
-            1.0 - m00 + m11 - m22,
-            m[..., 1, 2] + m[..., 2, 1],
-        ],
-        axis=-1,
-    )
-    q_z = np.stack(
-        [
-            m[..., 1, 0] - m[..., 0, 1],
-            m[..., 0, 2] + m[..., 2, 0],
-            m[..., 1, 2] + m[..., 2, 1],
-            1.0 - m00 - m11 + m22,
-        ],
-        axis=-1,
-    )
-    all_q = np.stack([q_w, q_x, q_y, q_z], axis=-2)
+    all_q = np.stack([np.stack(row, axis=-1) for row in table], axis=-2)
     q = np.take_along_axis(all_q, k[..., None, None], axis=-2)[..., 0, :]
     return canonical(quat_normalize(q))
 
@@ -503,12 +480,8 @@ def euler_to_quat(angles: ArrayLike) -> FloatArray:
         (..., 4) unit quaternion (w, x, y, z).
     """
     angles = _as_float(angles)
-    ex = np.zeros_like(angles)
-    ex[..., 0] = angles[..., 0]
-    ey = np.zeros_like(angles)
-    ey[..., 1] = angles[..., 1]
-    ez = np.zeros_like(angles)
-    ez[..., 2] = angles[..., 2]
+    ex, ey, ez = (np.zeros_like(angles) for _ in range(3))  # the rotation vector of each angle
+    ex[..., 0], ey[..., 1], ez[..., 2] = angles[..., 0], angles[..., 1], angles[..., 2]
     return quat_mul(quat_from_rotvec(ey), quat_mul(quat_from_rotvec(ex), quat_from_rotvec(ez)))
 
 
@@ -555,8 +528,3 @@ def quat_to_euler(q: ArrayLike) -> FloatArray:
 def euler_to_matrix(angles: ArrayLike) -> FloatArray:
     """Rotation matrices (..., 3, 3) of Unity-order Euler angles ``(x, y, z)`` [rad]."""
     return quat_to_matrix(euler_to_quat(angles))
-
-
-# --------------------------------------------------------------------------------------------
-# 6-D representation (Zhou et al., "On the Continuity of Rotation Representations", CVPR 2019)
-# --------------------------------------------------------------------------------------------
