@@ -41,16 +41,11 @@ def _vec3(value: ArrayLike, name: str) -> FloatArray:
 
 
 class ForceEffect:
-    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame).
-
-    ``translational`` (adds force), ``rotational`` (adds torque), ``velocity_dependent``
-    (depends on ``v`` or ``w``: integrators that freeze velocities in a sub-step resample).
-    """
+    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame,
+    where ``rotational``)."""
 
     name: ClassVar[str]
-    translational: bool = True
     rotational: bool = True
-    velocity_dependent: bool = False
     action_dim: int = 0
 
     def write(self, p: FloatArray) -> None:
@@ -87,7 +82,6 @@ class Gravity(ForceEffect):
 
     g: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
     name: ClassVar[str] = "gravity"
-    translational: ClassVar[bool] = True
     rotational: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
@@ -124,7 +118,6 @@ class QuadraticDrag(ForceEffect):
     area: float = 0.06
     center_of_pressure: FloatArray = field(default_factory=lambda: np.zeros(3))
     name: ClassVar[str] = "quadratic_drag"
-    velocity_dependent: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         for name in ("rho", "cd", "area"):
@@ -160,48 +153,41 @@ class QuadraticDrag(ForceEffect):
         return float(np.sqrt(mass * g / self.k))
 
 
-def _check_alpha(name: str, alpha: float) -> None:
-    if not (np.isfinite(alpha) and 0.0 < alpha <= 1.0):
-        raise ValueError(f"{name}.alpha: must lie in (0, 1], got {alpha}")
-
-
 @dataclass(frozen=True)
-class LinearDamping(StepMap):
-    """The seed's ``v <- alpha v`` once per world step.
+class _Damping(StepMap):
+    """A velocity scaled by ``alpha`` once per world step.
 
     Attributes:
         alpha: factor in (0, 1] [-].
     """
 
     alpha: float = 0.999
+    slots: ClassVar[tuple[int, int]]  # its flag and factor in the world's parameters
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
+            raise ValueError(f"{self.name}.alpha: must lie in (0, 1], got {self.alpha}")
+
+    def write(self, p: FloatArray) -> None:
+        p[self.slots[0]] = 1.0
+        p[self.slots[1]] = self.alpha
+
+
+@dataclass(frozen=True)
+class LinearDamping(_Damping):
+    """The seed's ``v <- alpha v`` once per world step, ``alpha`` in (0, 1]."""
+
     name: ClassVar[str] = "linear_damping"
-
-    def __post_init__(self) -> None:
-        _check_alpha(self.name, self.alpha)
-
-    def write(self, p: FloatArray) -> None:
-        p[K.LINEAR_DAMPING] = 1.0
-        p[K.LINEAR_ALPHA] = self.alpha
+    slots: ClassVar[tuple[int, int]] = (K.LINEAR_DAMPING, K.LINEAR_ALPHA)
 
 
 @dataclass(frozen=True)
-class AngularDamping(StepMap):
-    """The seed's ``w <- alpha w`` once per world step (body frame; the same in the world
-    frame since the map is a scalar).
+class AngularDamping(_Damping):
+    """The seed's ``w <- alpha w`` once per world step, ``alpha`` in (0, 1] (body frame; the
+    same in the world frame since the map is a scalar)."""
 
-    Attributes:
-        alpha: factor in (0, 1] [-].
-    """
-
-    alpha: float = 0.999
     name: ClassVar[str] = "angular_damping"
-
-    def __post_init__(self) -> None:
-        _check_alpha(self.name, self.alpha)
-
-    def write(self, p: FloatArray) -> None:
-        p[K.ANGULAR_DAMPING] = 1.0
-        p[K.ANGULAR_ALPHA] = self.alpha
+    slots: ClassVar[tuple[int, int]] = (K.ANGULAR_DAMPING, K.ANGULAR_ALPHA)
 
 
 # --------------------------------------------------------------------------------------------
