@@ -53,29 +53,20 @@ def _scalar(func: str, name: str, value: object, *, allow_zero: bool = False) ->
     return x
 
 
-def _positive_vec3(func: str, name: str, value: ArrayLike) -> FloatArray:
-    """Three finite numbers > 0 as a (3,) float array, else ValueError naming the argument."""
+def _floats(
+    func: str, name: str, value: ArrayLike, shape: tuple[int, ...], *, positive: bool = False
+) -> FloatArray:
+    """Finite numbers (each > 0 with ``positive``) of ``shape`` as a float array, else
+    ValueError naming the argument."""
+    what = f"{int(np.prod(shape))} finite numbers{' > 0' if positive else ''} (shape {shape})"
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{func}: {name} must be 3 finite numbers > 0, got {value!r}") from None
-    if a.shape != (3,):
-        raise ValueError(f"{func}: {name} must be 3 numbers (shape (3,)), got shape {a.shape}")
-    if not (np.all(np.isfinite(a)) and np.all(a > 0.0)):
-        raise ValueError(f"{func}: {name} must be 3 finite numbers > 0, got {a.tolist()}")
-    return a
-
-
-def _finite_matrix3(func: str, name: str, value: ArrayLike) -> FloatArray:
-    """A finite (3, 3) float array, else ValueError naming the argument."""
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{func}: {name} must be a finite (3, 3) matrix, got {value!r}") from None
-    if a.shape != (3, 3):
-        raise ValueError(f"{func}: {name} must have shape (3, 3), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{func}: {name} must be finite, got {a.tolist()}")
+        raise ValueError(f"{func}: {name} must be {what}, got {value!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"{func}: {name} must be {what}, got shape {a.shape}")
+    if not (np.all(np.isfinite(a)) and (not positive or np.all(a > 0.0))):
+        raise ValueError(f"{func}: {name} must be {what}, got {a.tolist()}")
     return a
 
 
@@ -112,7 +103,7 @@ def principal_axes(inertia: ArrayLike) -> tuple[FloatArray, FloatArray]:
     Raises:
         ValueError: if ``inertia`` is not a finite (3, 3) array.
     """
-    tensor = _finite_matrix3("principal_axes", "inertia", inertia)
+    tensor = _floats("principal_axes", "inertia", inertia, (3, 3))
     moments, axes = np.linalg.eigh(0.5 * (tensor + tensor.T))
     lead = axes[np.argmax(np.abs(axes), axis=0), np.arange(3)]
     axes = axes * np.where(lead < 0.0, -1.0, 1.0)
@@ -138,12 +129,7 @@ def check_triangle_inequality(moments: ArrayLike, rtol: float = 1.0e-9) -> None:
     """
     func = "check_triangle_inequality"
     rtol = _scalar(func, "rtol", rtol, allow_zero=True)
-    try:
-        m = np.asarray(moments, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{func}: moments must be 3 finite numbers, got {moments!r}") from None
-    if m.shape != (3,) or not np.all(np.isfinite(m)):
-        raise ValueError(f"{func}: moments must be 3 finite numbers, got {m.tolist()}")
+    m = _floats(func, "moments", moments, (3,))
     tol = rtol * float(np.sum(np.abs(m)))
     for i in range(3):
         if m[i] < -tol:
@@ -195,15 +181,8 @@ class MassProperties:
     def __post_init__(self) -> None:
         func = "MassProperties"
         mass = _scalar(func, "mass", self.mass)
-        try:
-            com = np.asarray(self.center_of_mass, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{func}: center_of_mass must be 3 finite numbers [m]") from None
-        if com.shape != (3,) or not np.all(np.isfinite(com)):
-            raise ValueError(
-                f"{func}: center_of_mass must be 3 finite numbers [m], got shape {com.shape}"
-            )
-        tensor = _finite_matrix3(func, "inertia_ref", self.inertia_ref)
+        com = _floats(func, "center_of_mass", self.center_of_mass, (3,))
+        tensor = _floats(func, "inertia_ref", self.inertia_ref, (3, 3))
         scale = float(np.sum(np.abs(np.diag(tensor))))
         if np.max(np.abs(tensor - tensor.T)) > _TENSOR_RTOL * scale:
             raise ValueError(f"{func}: inertia_ref must be symmetric, got {tensor.tolist()}")
@@ -283,7 +262,7 @@ def box(mass: float, size: ArrayLike) -> MassProperties:
         size: (3,) full side lengths ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("box", "mass", mass)
-    a2, b2, c2 = _positive_vec3("box", "size", size) ** 2
+    a2, b2, c2 = _floats("box", "size", size, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
@@ -329,7 +308,7 @@ def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
         semi_axes: (3,) semi-axes ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("ellipsoid", "mass", mass)
-    a2, b2, c2 = _positive_vec3("ellipsoid", "semi_axes", semi_axes) ** 2
+    a2, b2, c2 = _floats("ellipsoid", "semi_axes", semi_axes, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 5.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
