@@ -2,13 +2,8 @@
 
 ``World.step`` reads as its stages: check the command -> the compiled world step of the
 integrator (per body: actuator wrench -> ``substeps`` integrator steps, each evaluating only
-the active effects -> per-step maps -> guard and freeze) -> counters and reports.
-
-The guard. A body whose state turns NaN or inf is never handed back silently: by default the
-step raises :class:`NumericalInstabilityError` (a ``FloatingPointError``) naming the body, the
-step, the integrator and what to do; with ``on_error="freeze"`` the failed bodies are held at
-their last finite state and flagged in :attr:`World.failed`, and every other body goes on
-exactly (bit for bit) as it would without them: the compiled step treats each body alone.
+the active effects -> per-step maps -> guard and freeze) -> counters and reports. A body whose
+state turns NaN or inf is never handed back silently (``on_error``, :class:`World`).
 """
 
 from __future__ import annotations
@@ -100,7 +95,8 @@ class World:
             safety valve against runaway spin, not physics: it removes energy and momentum.
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
             non-finite; ``"freeze"`` keeps the failed bodies at their last finite state, flags
-            them in :attr:`failed` and lets the others go on (what vector envs use).
+            them in :attr:`failed` and lets the others go on exactly, bit for bit, as without
+            them (what vector envs use).
 
     The state lives in one (N, 13) array of rows ``(x, v, q, w)``; :attr:`state` gives (N, 3)
     and (N, 4) views of it, so editing them in place edits the world.
@@ -425,8 +421,9 @@ class World:
         return e
 
     def angular_momentum_world(self) -> FloatArray:
-        """(N, 3) spin angular momentum about the centre of mass, world frame [kg m^2/s]."""
-        return angular_momentum_world(self.model, self.state)
+        """(N, 3) spin angular momentum about the centre of mass, world frame, ``R (I w)``
+        [kg m^2/s]."""
+        return quat_rotate(self.state.q, self.model.inertia * self.state.w)
 
 
 def check_state(state: State) -> None:
@@ -472,11 +469,6 @@ def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
     return 0.5 * (model.mass * trans + rot)
 
 
-def angular_momentum_world(model: BodyModel, s: State) -> FloatArray:
-    """(N, 3) ``R (I w)`` [kg m^2/s]."""
-    return quat_rotate(s.q, model.inertia * s.w)
-
-
 def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[str, FloatArray]:
     """Step ``world`` ``steps`` times with a constant command and record the trajectory.
 
@@ -498,16 +490,13 @@ def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[
         rows[k] = world.rows
         energy[k] = world.energy()
     q, w = rows[..., 6:10], rows[..., 10:13]
-    flat = (-1, 4)
-    w_world = quat_rotate(q.reshape(flat), w.reshape(-1, 3)).reshape(w.shape)
-    lw = quat_rotate(q.reshape(flat), (world.model.inertia * w).reshape(-1, 3)).reshape(w.shape)
     return {
         "t": t0 + world.dt * np.arange(int(steps) + 1),
         "position": rows[..., 0:3].copy(),
         "velocity": rows[..., 3:6].copy(),
         "orientation": q.copy(),
         "angular_velocity_body": w.copy(),
-        "angular_velocity_world": w_world,
+        "angular_velocity_world": quat_rotate(q, w),
         "energy": energy,
-        "angular_momentum_world": lw,
+        "angular_momentum_world": quat_rotate(q, world.model.inertia * w),
     }
