@@ -8,15 +8,12 @@ under the active effects::
 
 with ``(fb, tb)`` the actuators' body-frame wrench (constant over a world step), ``m`` the
 body's model row and ``p`` the world's parameters (:mod:`rigid_env.core.kernels`). A world
-step is :func:`advance`: one compiled loop over the bodies, so one body and 65,536 run the
-same code and a batch equals its bodies stepped alone, bit for bit. ``exact_free`` is the one
-NumPy array integrator (Numba has no elliptic functions; :mod:`rigid_env.core.exact`), its
-force kicks compiled like the others.
+step is :func:`advance`, one compiled loop over the bodies. ``exact_free`` is the one NumPy
+array integrator (Numba has no elliptic functions; :mod:`rigid_env.core.exact`).
 
 Orientation moves by the exponential map ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``)
 except in ``rk4``, which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is
-renormalised. Choose by name from :data:`INTEGRATORS`; :func:`get_integrator` lists the known
-names when given an unknown one.
+renormalised. Choose by name from :data:`INTEGRATORS` (:func:`get_integrator`).
 """
 
 from __future__ import annotations
@@ -567,7 +564,7 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None for an
             array integrator.
-        world_step: the compiled world step ``(p, model, state, command, status) -> failures``
+        world_step: the compiled world step ``(p, model, state, command, status) -> code``
             (:func:`advance` of ``body``); None for an array integrator.
         stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
             stable about a principal axis, or None where it has no such limit; a world warns
