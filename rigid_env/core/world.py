@@ -132,7 +132,6 @@ class World:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
-        self.step_maps = tuple(e for e in effects if isinstance(e, StepMap))
         self.integrator = get_integrator(integrator)
         self.dt = float(dt)
         self.substeps = int(substeps)
@@ -161,7 +160,6 @@ class World:
         self._no_command = np.zeros((1, self.action_dim))
         self._none_failed = np.zeros(self._n, dtype=bool)
         self._none_failed.flags.writeable = False
-        self._stable = self.integrator.stability
         self._warned = False
         self.step_count = 0
         self.set_model(model)
@@ -382,9 +380,9 @@ class World:
     def _warn_speed(self) -> None:
         self._warned = True
         warnings.warn(
-            f"integrator {self.integrator.name!r}: a body spins beyond its stable range "
-            f"(h |w| > {self._stable:g} rad per step at h = {self.h:g} s); results may drift or "
-            f"blow up: use a smaller dt or more substeps, or 'exact_free' / 'implicit_gyro'",
+            f"integrator {self.integrator.name!r}: a body spins beyond its stable range (h |w| > "
+            f"{self.integrator.stability:g} rad per step at h = {self.h:g} s); results may drift "
+            f"or blow up: use a smaller dt or more substeps, or 'exact_free' / 'implicit_gyro'",
             RuntimeWarning,
             stacklevel=3,
         )
