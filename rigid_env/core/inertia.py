@@ -216,9 +216,6 @@ def from_points(points: ArrayLike) -> MassProperties:
     Args:
         points: (M, 4) rows ``x, y, z`` [m] in the reference frame and ``m`` [kg] >= 0.
 
-    Returns:
-        Mass properties; the centre of mass is in the reference frame.
-
     Raises:
         ValueError: on a wrong shape, non-finite values, a negative mass or zero total mass.
     """
@@ -252,14 +249,11 @@ def from_points(points: ArrayLike) -> MassProperties:
 
 
 def box(mass: float, size: ArrayLike) -> MassProperties:
-    """Solid cuboid of uniform density, centred at the origin, edges along x, y, z.
+    """Solid cuboid of uniform density and ``mass`` > 0, centred at the origin, full side
+    lengths ``size = (a, b, c)`` > 0 along x, y, z.
 
     ``I = m/12 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``: integrate ``y^2`` over ``[-b/2, b/2]``,
     ``integral y^2 dm = m b^2 / 12``, and sum the two perpendicular axes.
-
-    Args:
-        mass: mass [kg], > 0.
-        size: (3,) full side lengths ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("box", "mass", mass)
     a2, b2, c2 = _floats("box", "size", size, (3,), positive=True) ** 2
@@ -267,27 +261,19 @@ def box(mass: float, size: ArrayLike) -> MassProperties:
 
 
 def sphere(mass: float, radius: float) -> MassProperties:
-    """Solid sphere of uniform density centred at the origin: ``I = 2/5 m r^2`` on each axis.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius [m], > 0.
-    """
+    """Solid sphere of uniform density, ``mass`` and ``radius`` > 0, centred at the origin:
+    ``I = 2/5 m r^2`` on each axis."""
     mass = _scalar("sphere", "mass", mass)
     radius = _scalar("sphere", "radius", radius)
     return _diagonal(mass, np.full(3, 0.4 * mass * radius**2))
 
 
 def cylinder(mass: float, radius: float, height: float) -> MassProperties:
-    """Solid circular cylinder of uniform density, centred at the origin, axis along z.
+    """Solid circular cylinder of uniform density, ``mass``, ``radius`` and ``height`` > 0,
+    centred at the origin, axis along z.
 
     ``I_zz = m r^2 / 2`` (a stack of discs); ``I_xx = I_yy = m (3 r^2 + h^2) / 12``: a disc's
     diameter moment ``m r^2 / 4`` plus the rod term ``integral z^2 dm = m h^2 / 12``.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius [m], > 0.
-        height: length along z [m], > 0.
     """
     mass = _scalar("cylinder", "mass", mass)
     radius = _scalar("cylinder", "radius", radius)
@@ -297,15 +283,12 @@ def cylinder(mass: float, radius: float, height: float) -> MassProperties:
 
 
 def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
-    """Solid ellipsoid of uniform density, centred at the origin, semi-axes along x, y, z.
+    """Solid ellipsoid of uniform density and ``mass`` > 0, centred at the origin, semi-axes
+    ``(a, b, c)`` > 0 along x, y, z.
 
     The map ``x = a u`` (etc.) takes the unit ball onto the ellipsoid with constant Jacobian,
     so ``integral x^2 dm = a^2 integral u^2 dm = m a^2 / 5`` (unit ball: ``u^2`` averages 1/5),
     hence ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
-
-    Args:
-        mass: mass [kg], > 0.
-        semi_axes: (3,) semi-axes ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("ellipsoid", "mass", mass)
     a2, b2, c2 = _floats("ellipsoid", "semi_axes", semi_axes, (3,), positive=True) ** 2
@@ -333,12 +316,8 @@ def capsule(mass: float, radius: float, length: float) -> MassProperties:
       straight by ``h/2 + 3r/8``, skipping the step to the hemisphere's own COM, which
       overstates each cap by ``m_hemi (3r/8)^2``.)
 
-    ``length = 0`` is a sphere.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius of the cylinder and caps [m], > 0.
-        length: length of the cylindrical part along z [m], >= 0.
+    ``mass`` and ``radius`` (of the cylinder and the caps) > 0; ``length`` >= 0, and 0 is a
+    sphere.
     """
     mass = _scalar("capsule", "mass", mass)
     r = _scalar("capsule", "radius", radius)
@@ -428,7 +407,7 @@ def from_mesh(vertices: ArrayLike, faces: ArrayLike, density: float = 1.0) -> Ma
         density: uniform density [kg/m^3], > 0.
 
     Returns:
-        Mass properties (mass = density * volume); the centre of mass is in the reference frame.
+        Mass properties, the mass ``density * volume``.
 
     Raises:
         ValueError: on malformed arrays, a mesh that is not closed and consistently oriented,
