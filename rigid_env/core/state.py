@@ -64,14 +64,9 @@ class BodyModel:
         """(N | 1, MODEL_WIDTH) model rows for the compiled kernels
         (:mod:`rigid_env.core.kernels`): mass, principal moments, their reciprocals and an
         isotropy flag (no gyroscopic term), one row per body or one shared."""
-        n = self.n
-        out = np.empty((n, 9))
-        out[:, 0] = np.broadcast_to(self.mass, (n,))
-        out[:, 1:4] = np.broadcast_to(self.inertia, (n, 3))
-        out[:, 4] = np.broadcast_to(1.0 / self.mass, (n,))
-        out[:, 5:8] = np.broadcast_to(1.0 / self.inertia, (n, 3))
-        out[:, 8] = np.broadcast_to(isotropic_rows(self.inertia), (n,))
-        return out
+        mass, iso = self.mass[:, None], isotropic_rows(self.inertia)[:, None]
+        cols = (mass, self.inertia, 1.0 / mass, 1.0 / self.inertia, iso.astype(np.float64))
+        return np.hstack([np.broadcast_to(c, (self.n, c.shape[1])) for c in cols])
 
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
