@@ -2,13 +2,9 @@
 
 A world composes only the effects its scene lists: each spec writes its flag and numbers into
 the world's parameters (:func:`pack`), and the compiled per-body kernels
-(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those. Two kinds:
-
-* :class:`ForceEffect` terms add to the force on the centre of mass (world frame) and the
-  torque about it (body frame) at any state an integrator asks about. Actuators are force
-  effects that also read a slice of the action vector.
-* :class:`StepMap` terms act once per world step on the state (the seed's damping
-  ``v <- alpha v``), outside the differential equation.
+(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those: :class:`ForceEffect`
+terms of the differential equation (actuators among them, reading the command) and
+:class:`StepMap` maps applied once per world step, outside it.
 
 Torque convention: a force ``f`` applied at body point ``r`` (body frame, relative to the centre
 of mass) gives the world torque ``(R r) x (R f_b) = R (r x f_b)``; we keep torques in the body
@@ -22,27 +18,19 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from rigid_env.core import kernels as K
+from rigid_env.core.inertia import checked_floats
 from rigid_env.core.rotation import cross
 from rigid_env.core.state import BodyModel
 
 FloatArray = NDArray[np.float64]
 
 
-def _vec3(value: ArrayLike, name: str) -> FloatArray:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != (3,):
-        raise ValueError(f"{name}: expected 3 numbers [x, y, z], got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: every component must be finite, got {arr.tolist()}")
-    return arr
-
-
 class ForceEffect:
     """A term that adds force (world frame, on the centre of mass) and/or torque (body frame,
-    where ``rotational``)."""
+    where ``rotational``) at any state an integrator asks about."""
 
     name: ClassVar[str]
     rotational: bool = True
@@ -58,7 +46,8 @@ class ForceEffect:
 
 
 class StepMap:
-    """A map applied to the state once per world step (after the integrator)."""
+    """A map applied to the state once per world step, after the integrator (the seed's
+    damping ``v <- alpha v``)."""
 
     name: ClassVar[str]
 
@@ -85,7 +74,7 @@ class Gravity(ForceEffect):
     rotational: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "g", _vec3(self.g, "gravity.g"))
+        object.__setattr__(self, "g", checked_floats("gravity.g", self.g, (3,)))
 
     def write(self, p: FloatArray) -> None:
         p[K.GRAVITY] = 1.0
@@ -124,7 +113,7 @@ class QuadraticDrag(ForceEffect):
             val = float(getattr(self, name))
             if not np.isfinite(val) or val < 0.0:
                 raise ValueError(f"quadratic_drag.{name}: must be finite and >= 0, got {val}")
-        cop = _vec3(self.center_of_pressure, "quadratic_drag.center_of_pressure")
+        cop = checked_floats("quadratic_drag.center_of_pressure", self.center_of_pressure, (3,))
         object.__setattr__(self, "center_of_pressure", cop)
 
     @property

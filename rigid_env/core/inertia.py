@@ -53,20 +53,23 @@ def _scalar(func: str, name: str, value: object, *, allow_zero: bool = False) ->
     return x
 
 
-def _floats(
-    func: str, name: str, value: ArrayLike, shape: tuple[int, ...], *, positive: bool = False
+def checked_floats(
+    where: str, value: ArrayLike, shape: tuple[int, ...], *, positive: bool = False
 ) -> FloatArray:
-    """Finite numbers (each > 0 with ``positive``) of ``shape`` as a float array, else
-    ValueError naming the argument."""
+    """``value`` as a float array of ``shape``, every number finite (and > 0 with ``positive``).
+
+    Raises:
+        ValueError: ``"{where} must be ..."``, ``where`` naming the argument.
+    """
     what = f"{int(np.prod(shape))} finite numbers{' > 0' if positive else ''} (shape {shape})"
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{func}: {name} must be {what}, got {value!r}") from None
+        raise ValueError(f"{where} must be {what}, got {value!r}") from None
     if a.shape != shape:
-        raise ValueError(f"{func}: {name} must be {what}, got shape {a.shape}")
+        raise ValueError(f"{where} must be {what}, got shape {a.shape}")
     if not (np.all(np.isfinite(a)) and (not positive or np.all(a > 0.0))):
-        raise ValueError(f"{func}: {name} must be {what}, got {a.tolist()}")
+        raise ValueError(f"{where} must be {what}, got {a.tolist()}")
     return a
 
 
@@ -103,7 +106,7 @@ def principal_axes(inertia: ArrayLike) -> tuple[FloatArray, FloatArray]:
     Raises:
         ValueError: if ``inertia`` is not a finite (3, 3) array.
     """
-    tensor = _floats("principal_axes", "inertia", inertia, (3, 3))
+    tensor = checked_floats("principal_axes: inertia", inertia, (3, 3))
     moments, axes = np.linalg.eigh(0.5 * (tensor + tensor.T))
     lead = axes[np.argmax(np.abs(axes), axis=0), np.arange(3)]
     axes = axes * np.where(lead < 0.0, -1.0, 1.0)
@@ -129,7 +132,7 @@ def check_triangle_inequality(moments: ArrayLike, rtol: float = 1.0e-9) -> None:
     """
     func = "check_triangle_inequality"
     rtol = _scalar(func, "rtol", rtol, allow_zero=True)
-    m = _floats(func, "moments", moments, (3,))
+    m = checked_floats(f"{func}: moments", moments, (3,))
     tol = rtol * float(np.sum(np.abs(m)))
     for i in range(3):
         if m[i] < -tol:
@@ -181,8 +184,8 @@ class MassProperties:
     def __post_init__(self) -> None:
         func = "MassProperties"
         mass = _scalar(func, "mass", self.mass)
-        com = _floats(func, "center_of_mass", self.center_of_mass, (3,))
-        tensor = _floats(func, "inertia_ref", self.inertia_ref, (3, 3))
+        com = checked_floats(f"{func}: center_of_mass", self.center_of_mass, (3,))
+        tensor = checked_floats(f"{func}: inertia_ref", self.inertia_ref, (3, 3))
         scale = float(np.sum(np.abs(np.diag(tensor))))
         if np.max(np.abs(tensor - tensor.T)) > _TENSOR_RTOL * scale:
             raise ValueError(f"{func}: inertia_ref must be symmetric, got {tensor.tolist()}")
@@ -256,7 +259,7 @@ def box(mass: float, size: ArrayLike) -> MassProperties:
     ``integral y^2 dm = m b^2 / 12``, and sum the two perpendicular axes.
     """
     mass = _scalar("box", "mass", mass)
-    a2, b2, c2 = _floats("box", "size", size, (3,), positive=True) ** 2
+    a2, b2, c2 = checked_floats("box: size", size, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
@@ -291,7 +294,7 @@ def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
     hence ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
     """
     mass = _scalar("ellipsoid", "mass", mass)
-    a2, b2, c2 = _floats("ellipsoid", "semi_axes", semi_axes, (3,), positive=True) ** 2
+    a2, b2, c2 = checked_floats("ellipsoid: semi_axes", semi_axes, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 5.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
