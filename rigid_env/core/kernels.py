@@ -2,9 +2,8 @@
 
 Every function here takes and returns plain numbers and small tuples (a 3-vector is
 ``(x, y, z)``, a quaternion ``(w, x, y, z)``), so Numba keeps them in registers; a world's
-step is one compiled loop over its ``N`` bodies calling them (see
-:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs the very same functions as
-plain Python, the debugging story.
+step is one compiled loop over its bodies (:mod:`rigid_env.core.integrators`).
+``NUMBA_DISABLE_JIT=1`` runs the same functions as plain Python.
 
 Two small float64 arrays carry everything an integrator reads besides the state:
 
