@@ -97,9 +97,6 @@ class World:
             non-finite; ``"freeze"`` keeps the failed bodies at their last finite state, flags
             them in :attr:`failed` and lets the others go on exactly, bit for bit, as without
             them (what vector envs use).
-
-    The state lives in one (N, 13) array of rows ``(x, v, q, w)``; :attr:`state` gives (N, 3)
-    and (N, 4) views of it, so editing them in place edits the world.
     """
 
     def __init__(
@@ -167,7 +164,8 @@ class World:
     # ---------------------------------------------------------------------------------------
     @property
     def state(self) -> State:
-        """The bodies' state: (N, 3) and (N, 4) views of the world's (N, 13) rows."""
+        """The bodies' state: (N, 3) and (N, 4) views of the world's (N, 13) rows (editing them
+        in place edits the world)."""
         return self._state
 
     @state.setter
@@ -318,8 +316,7 @@ class World:
                 if forces:
                     kicks(p, self._model_rows, rows, u, 0.5 * h)
                 s.x[:] += h * s.v
-                q, w = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
-                s.q[:], s.w[:] = q, w
+                s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
                 if forces:
                     kicks(p, self._model_rows, rows, u, 0.5 * h)
                 s.q[:] = quat_normalize(s.q)
@@ -328,12 +325,11 @@ class World:
                 s.v[:] *= p[K.LINEAR_ALPHA]
             if p[K.ANGULAR_DAMPING] != 0.0:
                 s.w[:] *= p[K.ANGULAR_ALPHA]
-        frozen = self._status != 0
-        rows[frozen] = before[frozen]
-        bad = ~np.isfinite(rows).all(axis=1) & ~frozen
-        rows[bad] = before[bad]
-        self._status[bad] = 2
-        with np.errstate(over="ignore", invalid="ignore"):
+            frozen = self._status != 0
+            rows[frozen] = before[frozen]
+            bad = ~np.isfinite(rows).all(axis=1) & ~frozen
+            rows[bad] = before[bad]
+            self._status[bad] = 2
             over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
         return 2 * int(bad.sum()) + over
 
@@ -456,12 +452,7 @@ def check_state(state: State) -> None:
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
     """(N,) ``1/2 m |v|^2 + 1/2 sum_k I_k w_k^2`` [J]."""
-    inertia = model.inertia
-    v, w = s.v, s.w
-    trans = v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2]
-    rot = (
-        inertia[:, 0] * w[:, 0] * w[:, 0]
-        + inertia[:, 1] * w[:, 1] * w[:, 1]
-        + inertia[:, 2] * w[:, 2] * w[:, 2]
-    )
+    vv, iww = s.v * s.v, model.inertia * s.w * s.w  # summed by columns, in a fixed order
+    trans = vv[:, 0] + vv[:, 1] + vv[:, 2]
+    rot = iww[:, 0] + iww[:, 1] + iww[:, 2]
     return 0.5 * (model.mass * trans + rot)
