@@ -486,9 +486,8 @@ def clamp_bodies(state, limit):
     """:func:`_clamp` of every body's ``w`` in the state rows (N, 13), in place: the speed
     limit of the array integrator ``exact_free``."""
     for i in range(state.shape[0]):
-        state[i, 10], state[i, 11], state[i, 12] = _clamp(
-            (state[i, 10], state[i, 11], state[i, 12]), limit
-        )
+        x, v, q, w = load(state, i)
+        store(state, i, x, v, q, _clamp(w, limit))
 
 
 @kernel
