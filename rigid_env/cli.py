@@ -37,9 +37,10 @@ from numpy.typing import NDArray
 
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
-from rigid_env.core.world import NumericalInstabilityError, simulate
+from rigid_env.core.world import NumericalInstabilityError
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import SceneError, load_scene
+from rigid_env.trajectory import simulate
 
 PROG = "rigid-env"
 BENCHMARKS = {

@@ -29,8 +29,8 @@ from rigid_env.core.rotation import (
     quat_rotate,
     quat_to_matrix,
 )
-from rigid_env.core.world import simulate
 from rigid_env.scene import Scene, SceneError, load_scene
+from rigid_env.trajectory import simulate
 
 from roundoff import U, eigenvector_atol
 

@@ -17,7 +17,7 @@ from rigid_env.core.effects import (
 )
 from rigid_env.core.integrators import INTEGRATORS, get_integrator
 from rigid_env.core.state import BodyModel, State
-from rigid_env.core.world import NumericalInstabilityError, World, simulate
+from rigid_env.core.world import NumericalInstabilityError, World
 
 __all__ = [
     "INTEGRATORS",
@@ -35,5 +35,4 @@ __all__ = [
     "Thrusters",
     "World",
     "get_integrator",
-    "simulate",
 ]

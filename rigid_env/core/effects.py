@@ -2,13 +2,9 @@
 
 A world composes only the effects its scene lists: each spec writes its flag and numbers into
 the world's parameters (:func:`pack`), and the compiled per-body kernels
-(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those. Two kinds:
-
-* :class:`ForceEffect` terms add to the force on the centre of mass (world frame) and the
-  torque about it (body frame) at any state an integrator asks about. Actuators are force
-  effects that also read a slice of the action vector.
-* :class:`StepMap` terms act once per world step on the state (the seed's damping
-  ``v <- alpha v``), outside the differential equation.
+(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those: :class:`ForceEffect`
+terms of the differential equation (actuators among them, reading the command) and
+:class:`StepMap` maps applied once per world step, outside it.
 
 Torque convention: a force ``f`` applied at body point ``r`` (body frame, relative to the centre
 of mass) gives the world torque ``(R r) x (R f_b) = R (r x f_b)``; we keep torques in the body
@@ -22,35 +18,22 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from rigid_env.core import kernels as K
+from rigid_env.core.inertia import checked_floats
 from rigid_env.core.rotation import cross
 from rigid_env.core.state import BodyModel
 
 FloatArray = NDArray[np.float64]
 
 
-def _vec3(value: ArrayLike, name: str) -> FloatArray:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.shape != (3,):
-        raise ValueError(f"{name}: expected 3 numbers [x, y, z], got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name}: every component must be finite, got {arr.tolist()}")
-    return arr
-
-
 class ForceEffect:
-    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame).
-
-    ``translational`` (adds force), ``rotational`` (adds torque), ``velocity_dependent``
-    (depends on ``v`` or ``w``: integrators that freeze velocities in a sub-step resample).
-    """
+    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame,
+    where ``rotational``) at any state an integrator asks about."""
 
     name: ClassVar[str]
-    translational: bool = True
     rotational: bool = True
-    velocity_dependent: bool = False
     action_dim: int = 0
 
     def write(self, p: FloatArray) -> None:
@@ -63,7 +46,8 @@ class ForceEffect:
 
 
 class StepMap:
-    """A map applied to the state once per world step (after the integrator)."""
+    """A map applied to the state once per world step, after the integrator (the seed's
+    damping ``v <- alpha v``)."""
 
     name: ClassVar[str]
 
@@ -87,11 +71,10 @@ class Gravity(ForceEffect):
 
     g: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
     name: ClassVar[str] = "gravity"
-    translational: ClassVar[bool] = True
     rotational: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "g", _vec3(self.g, "gravity.g"))
+        object.__setattr__(self, "g", checked_floats("gravity.g", self.g, (3,)))
 
     def write(self, p: FloatArray) -> None:
         p[K.GRAVITY] = 1.0
@@ -124,14 +107,13 @@ class QuadraticDrag(ForceEffect):
     area: float = 0.06
     center_of_pressure: FloatArray = field(default_factory=lambda: np.zeros(3))
     name: ClassVar[str] = "quadratic_drag"
-    velocity_dependent: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         for name in ("rho", "cd", "area"):
             val = float(getattr(self, name))
             if not np.isfinite(val) or val < 0.0:
                 raise ValueError(f"quadratic_drag.{name}: must be finite and >= 0, got {val}")
-        cop = _vec3(self.center_of_pressure, "quadratic_drag.center_of_pressure")
+        cop = checked_floats("quadratic_drag.center_of_pressure", self.center_of_pressure, (3,))
         object.__setattr__(self, "center_of_pressure", cop)
 
     @property
@@ -160,48 +142,41 @@ class QuadraticDrag(ForceEffect):
         return float(np.sqrt(mass * g / self.k))
 
 
-def _check_alpha(name: str, alpha: float) -> None:
-    if not (np.isfinite(alpha) and 0.0 < alpha <= 1.0):
-        raise ValueError(f"{name}.alpha: must lie in (0, 1], got {alpha}")
-
-
 @dataclass(frozen=True)
-class LinearDamping(StepMap):
-    """The seed's ``v <- alpha v`` once per world step.
+class _Damping(StepMap):
+    """A velocity scaled by ``alpha`` once per world step.
 
     Attributes:
         alpha: factor in (0, 1] [-].
     """
 
     alpha: float = 0.999
+    slots: ClassVar[tuple[int, int]]  # its flag and factor in the world's parameters
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
+            raise ValueError(f"{self.name}.alpha: must lie in (0, 1], got {self.alpha}")
+
+    def write(self, p: FloatArray) -> None:
+        p[self.slots[0]] = 1.0
+        p[self.slots[1]] = self.alpha
+
+
+@dataclass(frozen=True)
+class LinearDamping(_Damping):
+    """The seed's ``v <- alpha v`` once per world step, ``alpha`` in (0, 1]."""
+
     name: ClassVar[str] = "linear_damping"
-
-    def __post_init__(self) -> None:
-        _check_alpha(self.name, self.alpha)
-
-    def write(self, p: FloatArray) -> None:
-        p[K.LINEAR_DAMPING] = 1.0
-        p[K.LINEAR_ALPHA] = self.alpha
+    slots: ClassVar[tuple[int, int]] = (K.LINEAR_DAMPING, K.LINEAR_ALPHA)
 
 
 @dataclass(frozen=True)
-class AngularDamping(StepMap):
-    """The seed's ``w <- alpha w`` once per world step (body frame; the same in the world
-    frame since the map is a scalar).
+class AngularDamping(_Damping):
+    """The seed's ``w <- alpha w`` once per world step, ``alpha`` in (0, 1] (body frame; the
+    same in the world frame since the map is a scalar)."""
 
-    Attributes:
-        alpha: factor in (0, 1] [-].
-    """
-
-    alpha: float = 0.999
     name: ClassVar[str] = "angular_damping"
-
-    def __post_init__(self) -> None:
-        _check_alpha(self.name, self.alpha)
-
-    def write(self, p: FloatArray) -> None:
-        p[K.ANGULAR_DAMPING] = 1.0
-        p[K.ANGULAR_ALPHA] = self.alpha
+    slots: ClassVar[tuple[int, int]] = (K.ANGULAR_DAMPING, K.ANGULAR_ALPHA)
 
 
 # --------------------------------------------------------------------------------------------

@@ -22,18 +22,6 @@ from rigid_env.core.state import isotropic_rows
 FloatArray = NDArray[np.float64]
 
 
-def _isotropic_exact(
-    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float, q1: FloatArray, w1: FloatArray
-) -> tuple[FloatArray, FloatArray]:
-    """In a batch that mixes isotropic and other bodies, give the isotropic ones the exact map
-    ``q exp(h w / 2)``, constant ``w`` they take alone (so a batch equals its single bodies,
-    bit for bit); an unmixed batch is returned as it is."""
-    iso = isotropic_rows(inertia)
-    if not iso.any():
-        return q1, w1
-    return (np.where(iso[:, None], quat_integrate_exp(q, w, h), q1), np.where(iso[:, None], w, w1))
-
-
 def _safe_div(a: FloatArray, b: FloatArray) -> FloatArray:
     """``a / b`` where ``b != 0``, else 0 (degenerate bodies: no motion to describe)."""
     nz = b != 0.0
@@ -206,4 +194,9 @@ def free_rotation_exact(
     z[:, 1:] = np.sin(0.5 * d_psi)[:, None] * n_axis
     q1 = quat_mul(quat_mul(quat_mul(q, quat_conj(arc(lb0))), z), arc(lb1))
     q1 = np.where(still[:, None], q, q1)
-    return _isotropic_exact(q, w, inertia, h, q1, w1)
+    # In a batch that mixes isotropic and other bodies, the isotropic ones take the exact
+    # q exp(h w / 2) and constant w they take alone (a batch equals its single bodies, bitwise).
+    iso = isotropic_rows(inertia)[:, None]
+    if iso.any():
+        q1, w1 = np.where(iso, quat_integrate_exp(q, w, h), q1), np.where(iso, w, w1)
+    return q1, w1

@@ -53,29 +53,23 @@ def _scalar(func: str, name: str, value: object, *, allow_zero: bool = False) ->
     return x
 
 
-def _positive_vec3(func: str, name: str, value: ArrayLike) -> FloatArray:
-    """Three finite numbers > 0 as a (3,) float array, else ValueError naming the argument."""
+def checked_floats(
+    where: str, value: ArrayLike, shape: tuple[int, ...], *, positive: bool = False
+) -> FloatArray:
+    """``value`` as a float array of ``shape``, every number finite (and > 0 with ``positive``).
+
+    Raises:
+        ValueError: ``"{where} must be ..."``, ``where`` naming the argument.
+    """
+    what = f"{int(np.prod(shape))} finite numbers{' > 0' if positive else ''} (shape {shape})"
     try:
         a = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"{func}: {name} must be 3 finite numbers > 0, got {value!r}") from None
-    if a.shape != (3,):
-        raise ValueError(f"{func}: {name} must be 3 numbers (shape (3,)), got shape {a.shape}")
-    if not (np.all(np.isfinite(a)) and np.all(a > 0.0)):
-        raise ValueError(f"{func}: {name} must be 3 finite numbers > 0, got {a.tolist()}")
-    return a
-
-
-def _finite_matrix3(func: str, name: str, value: ArrayLike) -> FloatArray:
-    """A finite (3, 3) float array, else ValueError naming the argument."""
-    try:
-        a = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{func}: {name} must be a finite (3, 3) matrix, got {value!r}") from None
-    if a.shape != (3, 3):
-        raise ValueError(f"{func}: {name} must have shape (3, 3), got shape {a.shape}")
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"{func}: {name} must be finite, got {a.tolist()}")
+        raise ValueError(f"{where} must be {what}, got {value!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"{where} must be {what}, got shape {a.shape}")
+    if not (np.all(np.isfinite(a)) and (not positive or np.all(a > 0.0))):
+        raise ValueError(f"{where} must be {what}, got {a.tolist()}")
     return a
 
 
@@ -112,7 +106,7 @@ def principal_axes(inertia: ArrayLike) -> tuple[FloatArray, FloatArray]:
     Raises:
         ValueError: if ``inertia`` is not a finite (3, 3) array.
     """
-    tensor = _finite_matrix3("principal_axes", "inertia", inertia)
+    tensor = checked_floats("principal_axes: inertia", inertia, (3, 3))
     moments, axes = np.linalg.eigh(0.5 * (tensor + tensor.T))
     lead = axes[np.argmax(np.abs(axes), axis=0), np.arange(3)]
     axes = axes * np.where(lead < 0.0, -1.0, 1.0)
@@ -138,12 +132,7 @@ def check_triangle_inequality(moments: ArrayLike, rtol: float = 1.0e-9) -> None:
     """
     func = "check_triangle_inequality"
     rtol = _scalar(func, "rtol", rtol, allow_zero=True)
-    try:
-        m = np.asarray(moments, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ValueError(f"{func}: moments must be 3 finite numbers, got {moments!r}") from None
-    if m.shape != (3,) or not np.all(np.isfinite(m)):
-        raise ValueError(f"{func}: moments must be 3 finite numbers, got {m.tolist()}")
+    m = checked_floats(f"{func}: moments", moments, (3,))
     tol = rtol * float(np.sum(np.abs(m)))
     for i in range(3):
         if m[i] < -tol:
@@ -195,15 +184,8 @@ class MassProperties:
     def __post_init__(self) -> None:
         func = "MassProperties"
         mass = _scalar(func, "mass", self.mass)
-        try:
-            com = np.asarray(self.center_of_mass, dtype=np.float64)
-        except (TypeError, ValueError):
-            raise ValueError(f"{func}: center_of_mass must be 3 finite numbers [m]") from None
-        if com.shape != (3,) or not np.all(np.isfinite(com)):
-            raise ValueError(
-                f"{func}: center_of_mass must be 3 finite numbers [m], got shape {com.shape}"
-            )
-        tensor = _finite_matrix3(func, "inertia_ref", self.inertia_ref)
+        com = checked_floats(f"{func}: center_of_mass", self.center_of_mass, (3,))
+        tensor = checked_floats(f"{func}: inertia_ref", self.inertia_ref, (3, 3))
         scale = float(np.sum(np.abs(np.diag(tensor))))
         if np.max(np.abs(tensor - tensor.T)) > _TENSOR_RTOL * scale:
             raise ValueError(f"{func}: inertia_ref must be symmetric, got {tensor.tolist()}")
@@ -236,9 +218,6 @@ def from_points(points: ArrayLike) -> MassProperties:
 
     Args:
         points: (M, 4) rows ``x, y, z`` [m] in the reference frame and ``m`` [kg] >= 0.
-
-    Returns:
-        Mass properties; the centre of mass is in the reference frame.
 
     Raises:
         ValueError: on a wrong shape, non-finite values, a negative mass or zero total mass.
@@ -273,42 +252,31 @@ def from_points(points: ArrayLike) -> MassProperties:
 
 
 def box(mass: float, size: ArrayLike) -> MassProperties:
-    """Solid cuboid of uniform density, centred at the origin, edges along x, y, z.
+    """Solid cuboid of uniform density and ``mass`` > 0, centred at the origin, full side
+    lengths ``size = (a, b, c)`` > 0 along x, y, z.
 
     ``I = m/12 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``: integrate ``y^2`` over ``[-b/2, b/2]``,
     ``integral y^2 dm = m b^2 / 12``, and sum the two perpendicular axes.
-
-    Args:
-        mass: mass [kg], > 0.
-        size: (3,) full side lengths ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("box", "mass", mass)
-    a2, b2, c2 = _positive_vec3("box", "size", size) ** 2
+    a2, b2, c2 = checked_floats("box: size", size, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
 def sphere(mass: float, radius: float) -> MassProperties:
-    """Solid sphere of uniform density centred at the origin: ``I = 2/5 m r^2`` on each axis.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius [m], > 0.
-    """
+    """Solid sphere of uniform density, ``mass`` and ``radius`` > 0, centred at the origin:
+    ``I = 2/5 m r^2`` on each axis."""
     mass = _scalar("sphere", "mass", mass)
     radius = _scalar("sphere", "radius", radius)
     return _diagonal(mass, np.full(3, 0.4 * mass * radius**2))
 
 
 def cylinder(mass: float, radius: float, height: float) -> MassProperties:
-    """Solid circular cylinder of uniform density, centred at the origin, axis along z.
+    """Solid circular cylinder of uniform density, ``mass``, ``radius`` and ``height`` > 0,
+    centred at the origin, axis along z.
 
     ``I_zz = m r^2 / 2`` (a stack of discs); ``I_xx = I_yy = m (3 r^2 + h^2) / 12``: a disc's
     diameter moment ``m r^2 / 4`` plus the rod term ``integral z^2 dm = m h^2 / 12``.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius [m], > 0.
-        height: length along z [m], > 0.
     """
     mass = _scalar("cylinder", "mass", mass)
     radius = _scalar("cylinder", "radius", radius)
@@ -318,18 +286,15 @@ def cylinder(mass: float, radius: float, height: float) -> MassProperties:
 
 
 def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
-    """Solid ellipsoid of uniform density, centred at the origin, semi-axes along x, y, z.
+    """Solid ellipsoid of uniform density and ``mass`` > 0, centred at the origin, semi-axes
+    ``(a, b, c)`` > 0 along x, y, z.
 
     The map ``x = a u`` (etc.) takes the unit ball onto the ellipsoid with constant Jacobian,
     so ``integral x^2 dm = a^2 integral u^2 dm = m a^2 / 5`` (unit ball: ``u^2`` averages 1/5),
     hence ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
-
-    Args:
-        mass: mass [kg], > 0.
-        semi_axes: (3,) semi-axes ``(a, b, c)`` along x, y, z [m], each > 0.
     """
     mass = _scalar("ellipsoid", "mass", mass)
-    a2, b2, c2 = _positive_vec3("ellipsoid", "semi_axes", semi_axes) ** 2
+    a2, b2, c2 = checked_floats("ellipsoid: semi_axes", semi_axes, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 5.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
@@ -354,12 +319,8 @@ def capsule(mass: float, radius: float, length: float) -> MassProperties:
       straight by ``h/2 + 3r/8``, skipping the step to the hemisphere's own COM, which
       overstates each cap by ``m_hemi (3r/8)^2``.)
 
-    ``length = 0`` is a sphere.
-
-    Args:
-        mass: mass [kg], > 0.
-        radius: radius of the cylinder and caps [m], > 0.
-        length: length of the cylindrical part along z [m], >= 0.
+    ``mass`` and ``radius`` (of the cylinder and the caps) > 0; ``length`` >= 0, and 0 is a
+    sphere.
     """
     mass = _scalar("capsule", "mass", mass)
     r = _scalar("capsule", "radius", radius)
@@ -449,7 +410,7 @@ def from_mesh(vertices: ArrayLike, faces: ArrayLike, density: float = 1.0) -> Ma
         density: uniform density [kg/m^3], > 0.
 
     Returns:
-        Mass properties (mass = density * volume); the centre of mass is in the reference frame.
+        Mass properties, the mass ``density * volume``.
 
     Raises:
         ValueError: on malformed arrays, a mesh that is not closed and consistently oriented,

@@ -8,15 +8,12 @@ under the active effects::
 
 with ``(fb, tb)`` the actuators' body-frame wrench (constant over a world step), ``m`` the
 body's model row and ``p`` the world's parameters (:mod:`rigid_env.core.kernels`). A world
-step is :func:`advance`: one compiled loop over the bodies, so one body and 65,536 run the
-same code and a batch equals its bodies stepped alone, bit for bit. ``exact_free`` is the one
-NumPy array integrator (Numba has no elliptic functions; :mod:`rigid_env.core.exact`), its
-force kicks compiled like the others.
+step is :func:`advance`, one compiled loop over the bodies. ``exact_free`` is the one NumPy
+array integrator (Numba has no elliptic functions; :mod:`rigid_env.core.exact`).
 
 Orientation moves by the exponential map ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``)
 except in ``rk4``, which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is
-renormalised. Choose by name from :data:`INTEGRATORS`; :func:`get_integrator` lists the known
-names when given an unknown one.
+renormalised. Choose by name from :data:`INTEGRATORS` (:func:`get_integrator`).
 """
 
 from __future__ import annotations
@@ -52,6 +49,7 @@ from rigid_env.core.kernels import (
     axpy,
     gyro_jacobian,
     gyroscopic,
+    header,
     kernel,
     load,
     model_row,
@@ -432,7 +430,8 @@ def advance(step, p, model, state, command, status):
     if set), the per-step maps (damping ``v <- alpha v``, ``w <- alpha w``), then the guard.
 
     Args:
-        p: the world's parameters. model: (N | 1, MODEL_WIDTH) model rows.
+        p: the world's parameters (the steps read their :func:`header`).
+        model: (N | 1, MODEL_WIDTH) model rows.
         state: (N, 13) rows ``(x, v, q, w)``, advanced in place.
         command: (N | 1, A) actuator commands.
         status: (N,) uint8: 0 a healthy body, 1 a body frozen by an earlier failure (skipped);
@@ -448,10 +447,11 @@ def advance(step, p, model, state, command, status):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
                 return -1
-    h = p[H]
-    substeps = int(p[SUBSTEPS])
-    limit = p[MAX_SPEED_VALUE]
-    stable = p[STABLE_SPEED] if p[STABLE_SPEED] != 0.0 else math.inf
+    c = header(p)
+    h = c[H]
+    substeps = int(c[SUBSTEPS])
+    limit = c[MAX_SPEED_VALUE]
+    stable = c[STABLE_SPEED] if c[STABLE_SPEED] != 0.0 else math.inf
     failures = over = 0
     for i in range(state.shape[0]):
         if status[i] != 0:
@@ -460,16 +460,16 @@ def advance(step, p, model, state, command, status):
         fb, tb = wrench(p, command, i)
         x, v, q, w = load(state, i)
         for _ in range(substeps):
-            if p[MAX_SPEED] != 0.0:
+            if c[MAX_SPEED] != 0.0:
                 w = _clamp(w, limit)
-            x, v, q, w = step(x, v, q, w, fb, tb, m, p, h)
-        if p[MAX_SPEED] != 0.0:
+            x, v, q, w = step(x, v, q, w, fb, tb, m, c, h)
+        if c[MAX_SPEED] != 0.0:
             w = _clamp(w, limit)
-        if p[LINEAR_DAMPING] != 0.0:
-            a = p[LINEAR_ALPHA]
+        if c[LINEAR_DAMPING] != 0.0:
+            a = c[LINEAR_ALPHA]
             v = (v[0] * a, v[1] * a, v[2] * a)
-        if p[ANGULAR_DAMPING] != 0.0:
-            a = p[ANGULAR_ALPHA]
+        if c[ANGULAR_DAMPING] != 0.0:
+            a = c[ANGULAR_ALPHA]
             w = (w[0] * a, w[1] * a, w[2] * a)
         if not _finite(x, v, q, w):
             status[i] = 2  # left at its last finite state
@@ -486,19 +486,19 @@ def clamp_bodies(state, limit):
     """:func:`_clamp` of every body's ``w`` in the state rows (N, 13), in place: the speed
     limit of the array integrator ``exact_free``."""
     for i in range(state.shape[0]):
-        state[i, 10], state[i, 11], state[i, 12] = _clamp(
-            (state[i, 10], state[i, 11], state[i, 12]), limit
-        )
+        x, v, q, w = load(state, i)
+        store(state, i, x, v, q, _clamp(w, limit))
 
 
 @kernel
 def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
     (N, 13): the force half-steps of ``exact_free``."""
+    c = header(p)
     for i in range(state.shape[0]):
         fb, tb = wrench(p, command, i)
         x, v, q, w = load(state, i)
-        v, w = kick(v, q, w, fb, tb, model_row(model, i), p, h)
+        v, w = kick(v, q, w, fb, tb, model_row(model, i), c, h)
         store(state, i, x, v, q, w)
 
 
@@ -508,10 +508,11 @@ def derivatives(p, model, state, command, out):
     acceleration (world) and the angular acceleration (body, Euler's equations included) of
     :func:`rigid_env.core.kernels.accelerations` (the right-hand side a reference solver
     integrates)."""
+    c = header(p)
     for i in range(state.shape[0]):
         fb, tb = wrench(p, command, i)
         _, v, q, w = load(state, i)
-        a, alpha = accelerations(v, q, w, fb, tb, model_row(model, i), p, True)
+        a, alpha = accelerations(v, q, w, fb, tb, model_row(model, i), c, True)
         out[i, 0], out[i, 1], out[i, 2] = a
         out[i, 3], out[i, 4], out[i, 5] = alpha
 
@@ -567,7 +568,7 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None for an
             array integrator.
-        world_step: the compiled world step ``(p, model, state, command, status) -> failures``
+        world_step: the compiled world step ``(p, model, state, command, status) -> code``
             (:func:`advance` of ``body``); None for an array integrator.
         stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
             stable about a principal axis, or None where it has no such limit; a world warns

@@ -2,9 +2,8 @@
 
 Every function here takes and returns plain numbers and small tuples (a 3-vector is
 ``(x, y, z)``, a quaternion ``(w, x, y, z)``), so Numba keeps them in registers; a world's
-step is one compiled loop over its ``N`` bodies calling them (see
-:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs the very same functions as
-plain Python, the debugging story.
+step is one compiled loop over its bodies (:mod:`rigid_env.core.integrators`).
+``NUMBA_DISABLE_JIT=1`` runs the same functions as plain Python.
 
 Two small float64 arrays carry everything an integrator reads besides the state:
 
@@ -12,7 +11,8 @@ Two small float64 arrays carry everything an integrator reads besides the state:
   principal moments, their reciprocals and whether the body is isotropic;
 * the **parameters** ``p`` of the world (:func:`rigid_env.core.effects.pack`): the time step,
   the active effects (a flag and its numbers each; an effect the scene does not list is a 0
-  flag, skipped by one branch) and the actuators' linear maps.
+  flag, skipped by one branch) and the actuators' linear maps; the per-body steps read the
+  part before the maps as a tuple (:func:`header`).
 
 Frames: forces on the centre of mass are world frame, torques and angular velocities body
 frame (principal axes), so the inertia is the constant diagonal ``I``.
@@ -20,37 +20,14 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 
 from __future__ import annotations
 
-import hashlib
 import math
-import os
-from pathlib import Path
 
-import numba
 from numba import njit
 
-
-def _use_cache_for_this_source() -> None:
-    """Keep compiled kernels under a folder named by a hash of the kernel sources
-    (``rigid_env/core`` and ``rigid_env/envs``): Numba checks only the time stamp of the file
-    that defines a cached function, not of the files whose functions it inlined, so an edit of
-    this file would otherwise leave stale code in the caches of the integrators. The folder is
-    ``$XDG_CACHE_HOME/rigid_env/numba/<hash>`` (``~/.cache`` by default; safe to delete);
-    ``NUMBA_CACHE_DIR``, where set, is used as it is."""
-    if os.environ.get("NUMBA_CACHE_DIR"):
-        return
-    package = Path(__file__).resolve().parents[1]
-    digest = hashlib.sha256()
-    for path in sorted([*package.glob("core/*.py"), *package.glob("envs/*.py")]):
-        digest.update(path.name.encode() + path.read_bytes())
-    home = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
-    numba.config.CACHE_DIR = str(home / "rigid_env" / "numba" / digest.hexdigest()[:16])
-
-
-_use_cache_for_this_source()
-
-kernel = njit(cache=True, nogil=True, error_model="numpy")
+kernel = njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
 """The decorator of every compiled function: cached on disk, the GIL released, IEEE
-arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception)."""
+arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception), and
+inlined into its caller, so that a world step is one loop with no calls but the maths library's."""
 
 # ---- a model row -----------------------------------------------------------------------------
 MASS, I0, I1, I2, INV_MASS, INV_I0, INV_I1, INV_I2, ISOTROPIC = range(9)
@@ -76,7 +53,7 @@ ANY_FORCE = 19  # flag: some effect or actuator acts (else the kicks of a splitt
 STABLE_SPEED = 20  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
 ACTIONS = 21  # number A of command components
 MAPS = 22  # then A rows of (force (3,), torque (3,)) body frame at |u| = 1
-HEADER = 22
+HEADER = 22  # the numbers before the maps, all of them in :func:`header`
 
 
 # ---- vectors and quaternions -----------------------------------------------------------------
@@ -234,7 +211,7 @@ def wrench(p, command, i):
     return (fx, fy, fz), (tx, ty, tz)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@kernel
 def accelerations(v, q, w, fb, tb, m, p, gyro):
     """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
     [rad/s^2] of one body, from the actuators' body wrench ``(fb, tb)`` and the active effects:
@@ -275,6 +252,17 @@ def accelerations(v, q, w, fb, tb, m, p, gyro):
         tz -= g[2]
     inv_m = m[INV_MASS]
     return (fx * inv_m, fy * inv_m, fz * inv_m), (tx * m[INV_I0], ty * m[INV_I1], tz * m[INV_I2])
+
+
+@kernel
+def header(p):
+    """The world's parameters before the actuator maps (:data:`HEADER` numbers) as a tuple, what
+    the per-body steps read: numbers in registers, where an array would cost two atomic
+    reference counts per call."""
+    return (
+        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10],
+        p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21],
+    )  # fmt: skip
 
 
 @kernel

@@ -46,15 +46,8 @@ def _as_float(a: ArrayLike) -> FloatArray:
 
 
 def quat_mul(p: ArrayLike, q: ArrayLike) -> FloatArray:
-    """Hamilton product ``p (x) q`` by the table ``i^2 = j^2 = k^2 = ijk = -1``.
-
-    Args:
-        p: (..., 4) quaternion (w, x, y, z).
-        q: (..., 4) quaternion (w, x, y, z).
-
-    Returns:
-        (..., 4) product (w, x, y, z).
-    """
+    """Hamilton product ``p (x) q`` of (..., 4) quaternions (w, x, y, z), by the table
+    ``i^2 = j^2 = k^2 = ijk = -1``."""
     p = _as_float(p)
     q = _as_float(q)
     pw, px, py, pz = p[..., 0], p[..., 1], p[..., 2], p[..., 3]
@@ -105,12 +98,6 @@ def quat_normalize(q: ArrayLike) -> FloatArray:
 
     Rows in the ordinary range take the plain ``q / |q|`` whatever the other rows hold, so one
     bad body in a batch does not change the rounding of the others.
-
-    Args:
-        q: (..., 4) quaternion (w, x, y, z).
-
-    Returns:
-        (..., 4) unit quaternion.
     """
     q = _as_float(q)
     with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
@@ -136,11 +123,7 @@ def identity_quat(shape: tuple[int, ...] = ()) -> FloatArray:
 
 def canonical(q: ArrayLike) -> FloatArray:
     """The representative of ``+-q`` with ``w >= 0`` (ties at ``w = 0`` keep the first
-    non-zero vector component positive), so a policy never sees the double-cover jump.
-
-    Args:
-        q: (..., 4) quaternion (w, x, y, z).
-    """
+    non-zero vector component positive), so a policy never sees the double-cover jump."""
     q = _as_float(q)
     w, x, y, z = (q[..., k] for k in range(4))
     lead = np.where(w != 0.0, w, np.where(x != 0.0, x, np.where(y != 0.0, y, z)))
@@ -148,17 +131,11 @@ def canonical(q: ArrayLike) -> FloatArray:
 
 
 def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
-    """Rotate vectors by unit quaternions: ``R(q) v``.
+    """``R(q) v``: (..., 3) vectors ``v`` in the frame ``q`` maps from, rotated by (..., 4) unit
+    quaternions (w, x, y, z).
 
     Uses ``v' = v + 2 w (u x v) + 2 u x (u x v)`` with ``u = (x, y, z)``, i.e. the expansion of
     ``q (x) (0, v) (x) q*`` for ``|q| = 1`` (15 products instead of the matrix's 27).
-
-    Args:
-        q: (..., 4) unit quaternion (w, x, y, z).
-        v: (..., 3) vector in the frame ``q`` maps from.
-
-    Returns:
-        (..., 3) rotated vector.
     """
     q = _as_float(q)
     v = _as_float(v)
@@ -198,16 +175,11 @@ def cross(a: ArrayLike, b: ArrayLike) -> FloatArray:
 
 
 def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
-    """Exponential map: the unit quaternion of the rotation vector ``phi = angle * axis``.
+    """Exponential map: the (..., 4) unit quaternion of the (..., 3) rotation vector
+    ``phi = angle * axis`` [rad].
 
     ``exp(phi) = (cos(|phi|/2), sin(|phi|/2) / |phi| * phi)``. Near ``|phi| = 0`` the factor
     ``sin(a/2)/a`` uses its series ``1/2 - a^2/48 + a^4/3840``.
-
-    Args:
-        rotvec: (..., 3) rotation vector [rad].
-
-    Returns:
-        (..., 4) unit quaternion (w, x, y, z).
     """
     rotvec = _as_float(rotvec)
     a2 = np.sum(rotvec * rotvec, axis=-1)
@@ -223,16 +195,11 @@ def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
 
 
 def quat_to_rotvec(q: ArrayLike) -> FloatArray:
-    """Logarithm map: rotation vector ``angle * axis`` of a unit quaternion, angle in [0, pi].
+    """Logarithm map: the (..., 3) rotation vector ``angle * axis`` [rad] of a (..., 4) unit
+    quaternion, angle in [0, pi].
 
     ``angle = 2 atan2(|u|, |w|)`` is accurate at 0 and at pi, where ``acos(w)`` loses half the
     digits. The sign of ``q`` is taken so that ``w >= 0`` (shortest rotation).
-
-    Args:
-        q: (..., 4) unit quaternion (w, x, y, z).
-
-    Returns:
-        (..., 3) rotation vector [rad].
     """
     q = _as_float(q)
     sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
@@ -297,12 +264,9 @@ def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
     (``m = 0``) the axis is any direction perpendicular to ``a``; we take ``a x e_k`` with
     ``e_k`` the basis vector least aligned with ``a``.
 
-    Args:
-        a: (..., 3) non-zero vector.
-        b: (..., 3) non-zero vector.
-
     Returns:
-        (..., 4) unit quaternion (w, x, y, z) with ``w >= 0`` and ``R(q) a / |a| = b / |b|``.
+        (..., 4) unit quaternion with ``w >= 0`` and ``R(q) a / |a| = b / |b|`` for (..., 3)
+        non-zero ``a``, ``b``.
 
     Raises:
         ValueError: if ``a`` or ``b`` has a zero or non-finite length.
@@ -341,15 +305,11 @@ def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
 
 
 def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike) -> FloatArray:
-    """Spherical linear interpolation along the shorter arc: ``p (x) exp(t log(p* q))``.
+    """Spherical linear interpolation along the shorter arc from ``p`` (at ``t = 0``) to ``q``
+    (at ``t = 1``), (..., 4) unit quaternions and (...,) ``t``: ``p (x) exp(t log(p* q))``.
 
     Written through the log/exp maps, so it is exact at ``t = 0, 1`` and stable when ``p`` and
     ``q`` are (nearly) equal or (nearly) opposite rotations (where ``sin(theta)`` vanishes).
-
-    Args:
-        p: (..., 4) unit quaternion at ``t = 0``.
-        q: (..., 4) unit quaternion at ``t = 1``.
-        t: (...,) interpolation parameter.
     """
     d = quat_mul(quat_conj(p), q)
     rv = quat_to_rotvec(d)
@@ -357,15 +317,9 @@ def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike) -> FloatArray:
 
 
 def quat_integrate_exp(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> FloatArray:
-    """Advance orientation with constant body angular velocity: ``q (x) exp(h w / 2)``.
-
-    Exact for constant ``w``; renormalised against round-off.
-
-    Args:
-        q: (..., 4) unit quaternion body -> world.
-        w_body: (..., 3) angular velocity, body frame [rad/s].
-        h: time step [s].
-    """
+    """Orientation ``q`` (..., 4) (body -> world) advanced by ``h`` [s] at the constant body
+    angular velocity ``w_body`` (..., 3) [rad/s]: ``q (x) exp(h w / 2)``, exact for constant
+    ``w``, renormalised against round-off."""
     return quat_normalize(quat_mul(q, quat_from_rotvec(_as_float(h) * _as_float(w_body))))
 
 
@@ -415,44 +369,21 @@ def matrix_to_quat(m: ArrayLike) -> FloatArray:
     trace = m00 + m11 + m22
     cands = np.stack([trace, m00, m11, m22], axis=-1)
     k = np.argmax(cands, axis=-1)
-    # 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22, ... ; off-diagonals give the products.
-    q_w = np.stack(
-        [
-            1.0 + trace,
-            m[..., 2, 1] - m[..., 1, 2],
-            m[..., 0, 2] - m[..., 2, 0],
-            m[..., 1, 0] - m[..., 0, 1],
-        ],
-        axis=-1,
+    # Row k of the table is 4 q_k (w, x, y, z): 4 w^2 = 1 + trace, 4 x^2 = 1 + m00 - m11 - m22,
+    # ... on the diagonal, 4 w x = m21 - m12, 4 x y = m01 + m10, ... off it.
+    d0 = m[..., 2, 1] - m[..., 1, 2]
+    d1 = m[..., 0, 2] - m[..., 2, 0]
+    d2 = m[..., 1, 0] - m[..., 0, 1]
+    s01 = m[..., 0, 1] + m[..., 1, 0]
+    s02 = m[..., 0, 2] + m[..., 2, 0]
+    s12 = m[..., 1, 2] + m[..., 2, 1]
+    table = (
+        (1.0 + trace, d0, d1, d2),
+        (d0, 1.0 + m00 - m11 - m22, s01, s02),
+        (d1, s01, 1.0 - m00 + m11 - m22, s12),
+        (d2, s02, s12, 1.0 - m00 - m11 + m22),
     )
-    q_x = np.stack(
-        [
-            m[..., 2, 1] - m[..., 1, 2],
-            1.0 + m00 - m11 - m22,
-            m[..., 0, 1] + m[..., 1, 0],
-            m[..., 0, 2] + m[..., 2, 0],
-        ],
-        axis=-1,
-    )
-    q_y = np.stack(
-        [
-            m[..., 0, 2] - m[..., 2, 0],
-            m[..., 0, 1] + m[..., 1, 0],
-            1.0 - m00 + m11 - m22,
-            m[..., 1, 2] + m[..., 2, 1],
-        ],
-        axis=-1,
-    )
-    q_z = np.stack(
-        [
-            m[..., 1, 0] - m[..., 0, 1],
-            m[..., 0, 2] + m[..., 2, 0],
-            m[..., 1, 2] + m[..., 2, 1],
-            1.0 - m00 - m11 + m22,
-        ],
-        axis=-1,
-    )
-    all_q = np.stack([q_w, q_x, q_y, q_z], axis=-2)
+    all_q = np.stack([np.stack(row, axis=-1) for row in table], axis=-2)
     q = np.take_along_axis(all_q, k[..., None, None], axis=-2)[..., 0, :]
     return canonical(quat_normalize(q))
 
@@ -494,21 +425,11 @@ def rodrigues(rotvec: ArrayLike) -> FloatArray:
 
 
 def euler_to_quat(angles: ArrayLike) -> FloatArray:
-    """Quaternion of Euler angles ``(x, y, z)`` [rad], Unity order: ``R = Ry(y) Rx(x) Rz(z)``.
-
-    Args:
-        angles: (..., 3) rotation angles about x (pitch), y (yaw), z (roll) [rad].
-
-    Returns:
-        (..., 4) unit quaternion (w, x, y, z).
-    """
+    """Unit quaternion (..., 4) of Euler angles ``(x, y, z)`` (..., 3) [rad] about x (pitch),
+    y (yaw), z (roll), Unity order: ``R = Ry(y) Rx(x) Rz(z)``."""
     angles = _as_float(angles)
-    ex = np.zeros_like(angles)
-    ex[..., 0] = angles[..., 0]
-    ey = np.zeros_like(angles)
-    ey[..., 1] = angles[..., 1]
-    ez = np.zeros_like(angles)
-    ez[..., 2] = angles[..., 2]
+    ex, ey, ez = (np.zeros_like(angles) for _ in range(3))  # the rotation vector of each angle
+    ex[..., 0], ey[..., 1], ez[..., 2] = angles[..., 0], angles[..., 1], angles[..., 2]
     return quat_mul(quat_from_rotvec(ey), quat_mul(quat_from_rotvec(ex), quat_from_rotvec(ez)))
 
 
@@ -555,8 +476,3 @@ def quat_to_euler(q: ArrayLike) -> FloatArray:
 def euler_to_matrix(angles: ArrayLike) -> FloatArray:
     """Rotation matrices (..., 3, 3) of Unity-order Euler angles ``(x, y, z)`` [rad]."""
     return quat_to_matrix(euler_to_quat(angles))
-
-
-# --------------------------------------------------------------------------------------------
-# 6-D representation (Zhou et al., "On the Continuity of Rotation Representations", CVPR 2019)
-# --------------------------------------------------------------------------------------------

@@ -37,10 +37,6 @@ class BodyModel:
 
     mass: FloatArray
     inertia: FloatArray
-    inv_mass: FloatArray = field(init=False, repr=False)
-    """(N, 1) reciprocal mass [1/kg], shaped to broadcast against (N, 3) vectors."""
-    inv_inertia: FloatArray = field(init=False, repr=False)
-    """(N, 3) reciprocal principal moments [1/(kg m^2)]."""
     isotropic: bool = field(init=False)
     """True when every body has three equal moments (no gyroscopic term)."""
 
@@ -57,8 +53,6 @@ class BodyModel:
             raise ValueError("inertia: every principal moment must be finite and > 0 [kg m^2]")
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "inertia", inertia)
-        object.__setattr__(self, "inv_mass", (1.0 / mass)[:, None])
-        object.__setattr__(self, "inv_inertia", 1.0 / inertia)
         object.__setattr__(self, "isotropic", bool(np.all(isotropic_rows(inertia))))
 
     @property
@@ -70,14 +64,9 @@ class BodyModel:
         """(N | 1, MODEL_WIDTH) model rows for the compiled kernels
         (:mod:`rigid_env.core.kernels`): mass, principal moments, their reciprocals and an
         isotropy flag (no gyroscopic term), one row per body or one shared."""
-        n = self.n
-        out = np.empty((n, 9))
-        out[:, 0] = np.broadcast_to(self.mass, (n,))
-        out[:, 1:4] = np.broadcast_to(self.inertia, (n, 3))
-        out[:, 4] = np.broadcast_to(self.inv_mass[:, 0], (n,))
-        out[:, 5:8] = np.broadcast_to(self.inv_inertia, (n, 3))
-        out[:, 8] = np.broadcast_to(isotropic_rows(self.inertia), (n,))
-        return out
+        mass, iso = self.mass[:, None], isotropic_rows(self.inertia)[:, None]
+        cols = (mass, self.inertia, 1.0 / mass, 1.0 / self.inertia, iso.astype(np.float64))
+        return np.hstack([np.broadcast_to(c, (self.n, c.shape[1])) for c in cols])
 
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:

@@ -2,13 +2,8 @@
 
 ``World.step`` reads as its stages: check the command -> the compiled world step of the
 integrator (per body: actuator wrench -> ``substeps`` integrator steps, each evaluating only
-the active effects -> per-step maps -> guard and freeze) -> counters and reports.
-
-The guard. A body whose state turns NaN or inf is never handed back silently: by default the
-step raises :class:`NumericalInstabilityError` (a ``FloatingPointError``) naming the body, the
-step, the integrator and what to do; with ``on_error="freeze"`` the failed bodies are held at
-their last finite state and flagged in :attr:`World.failed`, and every other body goes on
-exactly (bit for bit) as it would without them: the compiled step treats each body alone.
+the active effects -> per-step maps -> guard and freeze) -> counters and reports. A body whose
+state turns NaN or inf is never handed back silently (``on_error``, :class:`World`).
 """
 
 from __future__ import annotations
@@ -100,10 +95,8 @@ class World:
             safety valve against runaway spin, not physics: it removes energy and momentum.
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
             non-finite; ``"freeze"`` keeps the failed bodies at their last finite state, flags
-            them in :attr:`failed` and lets the others go on (what vector envs use).
-
-    The state lives in one (N, 13) array of rows ``(x, v, q, w)``; :attr:`state` gives (N, 3)
-    and (N, 4) views of it, so editing them in place edits the world.
+            them in :attr:`failed` and lets the others go on exactly, bit for bit, as without
+            them (what vector envs use).
     """
 
     def __init__(
@@ -136,7 +129,6 @@ class World:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
-        self.step_maps = tuple(e for e in effects if isinstance(e, StepMap))
         self.integrator = get_integrator(integrator)
         self.dt = float(dt)
         self.substeps = int(substeps)
@@ -165,7 +157,6 @@ class World:
         self._no_command = np.zeros((1, self.action_dim))
         self._none_failed = np.zeros(self._n, dtype=bool)
         self._none_failed.flags.writeable = False
-        self._stable = self.integrator.stability
         self._warned = False
         self.step_count = 0
         self.set_model(model)
@@ -173,7 +164,8 @@ class World:
     # ---------------------------------------------------------------------------------------
     @property
     def state(self) -> State:
-        """The bodies' state: (N, 3) and (N, 4) views of the world's (N, 13) rows."""
+        """The bodies' state: (N, 3) and (N, 4) views of the world's (N, 13) rows (editing them
+        in place edits the world)."""
         return self._state
 
     @state.setter
@@ -324,8 +316,7 @@ class World:
                 if forces:
                     kicks(p, self._model_rows, rows, u, 0.5 * h)
                 s.x[:] += h * s.v
-                q, w = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
-                s.q[:], s.w[:] = q, w
+                s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
                 if forces:
                     kicks(p, self._model_rows, rows, u, 0.5 * h)
                 s.q[:] = quat_normalize(s.q)
@@ -334,12 +325,11 @@ class World:
                 s.v[:] *= p[K.LINEAR_ALPHA]
             if p[K.ANGULAR_DAMPING] != 0.0:
                 s.w[:] *= p[K.ANGULAR_ALPHA]
-        frozen = self._status != 0
-        rows[frozen] = before[frozen]
-        bad = ~np.isfinite(rows).all(axis=1) & ~frozen
-        rows[bad] = before[bad]
-        self._status[bad] = 2
-        with np.errstate(over="ignore", invalid="ignore"):
+            frozen = self._status != 0
+            rows[frozen] = before[frozen]
+            bad = ~np.isfinite(rows).all(axis=1) & ~frozen
+            rows[bad] = before[bad]
+            self._status[bad] = 2
             over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
         return 2 * int(bad.sum()) + over
 
@@ -386,9 +376,9 @@ class World:
     def _warn_speed(self) -> None:
         self._warned = True
         warnings.warn(
-            f"integrator {self.integrator.name!r}: a body spins beyond its stable range "
-            f"(h |w| > {self._stable:g} rad per step at h = {self.h:g} s); results may drift or "
-            f"blow up: use a smaller dt or more substeps, or 'exact_free' / 'implicit_gyro'",
+            f"integrator {self.integrator.name!r}: a body spins beyond its stable range (h |w| > "
+            f"{self.integrator.stability:g} rad per step at h = {self.h:g} s); results may drift "
+            f"or blow up: use a smaller dt or more substeps, or 'exact_free' / 'implicit_gyro'",
             RuntimeWarning,
             stacklevel=3,
         )
@@ -425,8 +415,9 @@ class World:
         return e
 
     def angular_momentum_world(self) -> FloatArray:
-        """(N, 3) spin angular momentum about the centre of mass, world frame [kg m^2/s]."""
-        return angular_momentum_world(self.model, self.state)
+        """(N, 3) spin angular momentum about the centre of mass, world frame, ``R (I w)``
+        [kg m^2/s]."""
+        return quat_rotate(self.state.q, self.model.inertia * self.state.w)
 
 
 def check_state(state: State) -> None:
@@ -461,53 +452,7 @@ def check_state(state: State) -> None:
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
     """(N,) ``1/2 m |v|^2 + 1/2 sum_k I_k w_k^2`` [J]."""
-    inertia = model.inertia
-    v, w = s.v, s.w
-    trans = v[:, 0] * v[:, 0] + v[:, 1] * v[:, 1] + v[:, 2] * v[:, 2]
-    rot = (
-        inertia[:, 0] * w[:, 0] * w[:, 0]
-        + inertia[:, 1] * w[:, 1] * w[:, 1]
-        + inertia[:, 2] * w[:, 2] * w[:, 2]
-    )
+    vv, iww = s.v * s.v, model.inertia * s.w * s.w  # summed by columns, in a fixed order
+    trans = vv[:, 0] + vv[:, 1] + vv[:, 2]
+    rot = iww[:, 0] + iww[:, 1] + iww[:, 2]
     return 0.5 * (model.mass * trans + rot)
-
-
-def angular_momentum_world(model: BodyModel, s: State) -> FloatArray:
-    """(N, 3) ``R (I w)`` [kg m^2/s]."""
-    return quat_rotate(s.q, model.inertia * s.w)
-
-
-def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[str, FloatArray]:
-    """Step ``world`` ``steps`` times with a constant command and record the trajectory.
-
-    Returns:
-        Arrays of every body with a leading time axis of length ``T = steps + 1``: ``t (T,)``,
-        ``position (T, N, 3)``, ``velocity``, ``orientation (T, N, 4)``,
-        ``angular_velocity_body``, ``angular_velocity_world``, ``energy (T, N)``,
-        ``angular_momentum_world (T, N, 3)``.
-    """
-    if int(steps) != steps or steps < 0:
-        raise ValueError(f"steps: must be an integer >= 0, got {steps}")
-    rows = np.empty((int(steps) + 1, world.n, 13))
-    energy = np.empty((int(steps) + 1, world.n))
-    t0 = world.time
-    rows[0] = world.rows
-    energy[0] = world.energy()
-    for k in range(1, int(steps) + 1):
-        world.step(action)
-        rows[k] = world.rows
-        energy[k] = world.energy()
-    q, w = rows[..., 6:10], rows[..., 10:13]
-    flat = (-1, 4)
-    w_world = quat_rotate(q.reshape(flat), w.reshape(-1, 3)).reshape(w.shape)
-    lw = quat_rotate(q.reshape(flat), (world.model.inertia * w).reshape(-1, 3)).reshape(w.shape)
-    return {
-        "t": t0 + world.dt * np.arange(int(steps) + 1),
-        "position": rows[..., 0:3].copy(),
-        "velocity": rows[..., 3:6].copy(),
-        "orientation": q.copy(),
-        "angular_velocity_body": w.copy(),
-        "angular_velocity_world": w_world,
-        "energy": energy,
-        "angular_momentum_world": lw,
-    }

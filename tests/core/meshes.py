@@ -8,7 +8,7 @@ import numbers
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.inertia import _positive_vec3, _scalar
+from rigid_env.core.inertia import _scalar, checked_floats
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -25,7 +25,7 @@ def box_mesh(size: ArrayLike) -> tuple[FloatArray, IntArray]:
             of ``i`` is set.
         faces: (12, 3) vertex indices, counter-clockwise seen from outside.
     """
-    half = 0.5 * _positive_vec3("box_mesh", "size", size)
+    half = 0.5 * checked_floats("box_mesh: size", size, (3,), positive=True)
     bits = (np.arange(8)[:, None] >> np.arange(3)) & 1  # (8, 3) of 0/1
     vertices = (2.0 * bits - 1.0) * half
     faces = np.array(

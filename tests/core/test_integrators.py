@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator
+from rigid_env.core import kernels as K
 from rigid_env.core.rotation import quat_angle_between, quat_mul, quat_rotate
 
 from roundoff import FUNC_RTOL, U
@@ -221,6 +222,13 @@ def test_per_body_function_is_the_world_step(name: str) -> None:
     )  # fmt: skip
     world.step()
     assert [c for part in out for c in part] == world.rows[0].tolist()
+
+
+def test_header_is_every_parameter_before_the_maps() -> None:
+    """The per-body steps read the parameters' header tuple: every number before the maps."""
+    world = World(BodyModel.single(1.0, [1, 2, 3]), [Thrusters([[1, 0, 0]], [[0, 1, 0]], [1.0])])
+    assert K.header(world.params) == tuple(world.params[: K.MAPS].tolist())
+    assert K.HEADER == K.MAPS
 
 
 def test_energy_behaviour_signatures() -> None:

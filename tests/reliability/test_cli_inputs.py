@@ -13,8 +13,8 @@ from reliability_helpers import ROOT, assert_one_line_error
 
 import rigid_env.cli as cli
 from rigid_env.bench.report import prepare_out
-from rigid_env.core.world import simulate
 from rigid_env.scene import load_scene
+from rigid_env.trajectory import simulate
 
 SCENE = ROOT / "configs" / "scenes" / "asymmetric_spin.yaml"
 ERR = "rigid-env: error: "

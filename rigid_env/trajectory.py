@@ -1,0 +1,44 @@
+"""A world's trajectory as the arrays ``rigid-env simulate`` writes (the contract in DESIGN.md)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from rigid_env.core.rotation import quat_rotate
+from rigid_env.core.world import World
+
+FloatArray = NDArray[np.float64]
+
+
+def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[str, FloatArray]:
+    """Step ``world`` ``steps`` times with a constant command and record the trajectory.
+
+    Returns:
+        Arrays of every body with a leading time axis of length ``T = steps + 1``: ``t (T,)``,
+        ``position (T, N, 3)``, ``velocity``, ``orientation (T, N, 4)``,
+        ``angular_velocity_body``, ``angular_velocity_world``, ``energy (T, N)``,
+        ``angular_momentum_world (T, N, 3)``.
+    """
+    if int(steps) != steps or steps < 0:
+        raise ValueError(f"steps: must be an integer >= 0, got {steps}")
+    rows = np.empty((int(steps) + 1, world.n, 13))
+    energy = np.empty((int(steps) + 1, world.n))
+    t0 = world.time
+    rows[0] = world.rows
+    energy[0] = world.energy()
+    for k in range(1, int(steps) + 1):
+        world.step(action)
+        rows[k] = world.rows
+        energy[k] = world.energy()
+    q, w = rows[..., 6:10], rows[..., 10:13]
+    return {
+        "t": t0 + world.dt * np.arange(int(steps) + 1),
+        "position": rows[..., 0:3].copy(),
+        "velocity": rows[..., 3:6].copy(),
+        "orientation": q.copy(),
+        "angular_velocity_body": w.copy(),
+        "angular_velocity_world": quat_rotate(q, w),
+        "energy": energy,
+        "angular_momentum_world": quat_rotate(q, world.model.inertia * w),
+    }
