@@ -13,7 +13,9 @@ seeds) under each of :data:`CONDITIONS`:
   without it);
 * ``randomised``: mass, inertia (each principal moment) and thrust drawn within +-30 % per
   episode, and gaussian noise of 0.01 rad/s on the observed angular velocity;
-* ``dt x2``: the control step doubled (0.1 s), so each action holds twice as long.
+* ``inertia +-90 %``: each principal moment drawn within +-90 % per episode;
+* ``dt 0.1`` and ``dt 0.2``: the control step doubled and quadrupled (the tasks' is 0.05 s),
+  so each action holds that much longer.
 
 A model is run with the env kwargs its sidecar records, the condition's merged over them.
 ``<out>/results.md`` is the summary (per row: success rate as the mean over seeds with the
@@ -43,7 +45,9 @@ CONDITIONS: dict[str, dict[str, Any]] = {
     "randomised": {
         "randomization": {"mass": 0.3, "inertia": 0.3, "thrust": 0.3, "sensor_noise": 0.01}
     },
-    "dt x2": {"randomization": dict(_OFF), "dt": 0.1},
+    "inertia +-90 %": {"randomization": {**_OFF, "inertia": 0.9}},
+    "dt 0.1": {"randomization": dict(_OFF), "dt": 0.1},
+    "dt 0.2": {"randomization": dict(_OFF), "dt": 0.2},
 }
 CONTROLLER_ROWS = ("pd", "zero", "random")
 METRICS = (
@@ -71,7 +75,9 @@ class Run:
     def label(self) -> str:
         """The row's policy name: the algorithm, and what it was trained with if not the
         task's defaults (``PPO randomization.inertia=0.5``)."""
-        return " ".join([self.algo.upper(), *_flat(self.env_kwargs)])
+        flat = " ".join(_flat(self.env_kwargs))
+        flat = flat.replace("randomization.", "rand.").replace("sensor_noise", "noise")
+        return f"{self.algo.upper()} {flat}".strip()
 
     @property
     def model(self) -> Path:
