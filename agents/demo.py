@@ -89,7 +89,8 @@ class Row:
 
 
 def env_id(task: str) -> str:
-    return f"RigidEnv/{task}-v0"
+    """The task's newest id (the one its pretrained policy was trained on)."""
+    return f"RigidEnv/{task}-v{TASKS[task][2]}"
 
 
 def resolve_tasks(text: str | None) -> list[str]:

@@ -15,6 +15,7 @@ import yaml
 import rigid_env
 from agents.config import ConfigError, load_config
 from agents.controllers import BoundedAllocator, PDController
+from agents.demo import env_id, pretrained_model
 from agents.evaluate import evaluate
 from agents.evaluate import main as evaluate_main
 from agents.vec_adapter import RigidBodySB3VecEnv
@@ -209,22 +210,19 @@ def test_evaluate_cli_errors(tmp_path, capsys):
     assert evaluate_main(["none", "--env", "RigidEnv/Nope-v0"]) == 2
 
 
-@pytest.mark.skipif(not (PRETRAINED / "ppo_detumble.zip").exists(), reason="no pretrained policy")
-def test_pretrained_detumble_policy_reaches_95_percent():
-    res = evaluate(
-        PRETRAINED / "ppo_detumble.zip",
-        "RigidEnv/Detumble-v0",
-        episodes=20,
-        seed=777_000,
-        only=["model", "pd"],
-    )
-    assert res["model"]["success_rate"] >= 0.95
-    assert res["model"]["mean_fuel"] <= 1.5 * res["pd"]["mean_fuel"]
+@pytest.mark.parametrize("task", list(rigid_env.envs.TASKS))
+def test_pretrained_policy_reaches_its_bar(task):
+    """Each shipped policy, on 20 fixed seeds nobody trained on, succeeds on at least 19 (the
+    issue's 95 %) and spends at most 1.5x the PD controller's fuel on the same episodes."""
+    model = pretrained_model(task)
+    res = evaluate(model, env_id(task), episodes=20, seed=777_000, only=["model", "pd"])
+    assert res["model"]["success_rate"] >= 0.95, res["model"]
+    assert res["model"]["mean_fuel"] <= 1.5 * res["pd"]["mean_fuel"], res
 
 
 @pytest.mark.skipif(not (PRETRAINED / "ppo_detumble.zip").exists(), reason="no pretrained policy")
 def test_model_for_another_env_is_refused(capsys):
-    code = evaluate_main([str(PRETRAINED / "ppo_detumble.zip"), "--env", "RigidEnv/Reorient-v0"])
+    code = evaluate_main([str(PRETRAINED / "ppo_detumble.zip"), "--env", "RigidEnv/Reorient-v1"])
     assert code == 2
     assert "Detumble" in capsys.readouterr().err
 

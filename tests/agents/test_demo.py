@@ -121,7 +121,7 @@ def test_task_names():
     assert demo.resolve_tasks(None) == list(TASKS)
     for name in ("Detumble", "detumble", "RigidEnv/Detumble-v0"):
         assert demo.resolve_tasks(name) == ["Detumble"]
-    assert demo.resolve_tasks("RigidEnv/TumblingFall-v0") == ["TumblingFall"]
+    assert demo.resolve_tasks("RigidEnv/TumblingFall-v1") == ["TumblingFall"]
     with pytest.raises(demo.DemoError, match="choose one of Detumble, SpinStabilize"):
         demo.resolve_tasks("Detumble-v0")
 
