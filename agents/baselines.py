@@ -35,6 +35,8 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.config_files import read_yaml
+
 from ._cli import OneLineParser, integer
 from .evaluate import EvaluationError, evaluate
 
@@ -74,7 +76,7 @@ class Run:
     @property
     def label(self) -> str:
         """The row's policy name: the algorithm, and what it was trained with if not the
-        task's defaults (``PPO randomization.inertia=0.5``)."""
+        task's defaults (``PPO rand.inertia=0.5``)."""
         flat = " ".join(_flat(self.env_kwargs))
         flat = flat.replace("randomization.", "rand.").replace("sensor_noise", "noise")
         return f"{self.algo.upper()} {flat}".strip()
@@ -96,10 +98,8 @@ def find_run(folder: Path) -> Run:
             f"{folder}: no finished run (model.zip, model.json and config.yaml); finish it with "
             f"`python -m agents.train {config_path} --resume`"
         )
-    import yaml
-
     meta = json.loads(meta_path.read_text())
-    config = yaml.safe_load(config_path.read_text())
+    config = read_yaml(config_path)
     return Run(folder, meta["env_id"], meta["algo"], int(config["seed"]),
                int(meta["num_timesteps"]), dict(meta.get("env_kwargs") or {}))  # fmt: skip
 
@@ -118,8 +118,7 @@ def evaluate_runs(runs: list[Run], episodes: int, seed: int) -> list[dict[str, A
     """One record per (env id, policy, seed, condition): the metrics of
     :func:`agents.evaluate.evaluate` plus ``env_id, policy, seed, condition, timesteps``."""
     records: list[dict[str, Any]] = []
-    env_ids = sorted({r.env_id for r in runs}, key=[r.env_id for r in runs].index)
-    for env_id in env_ids:
+    for env_id in dict.fromkeys(r.env_id for r in runs):  # in the order given
         for condition, kwargs in CONDITIONS.items():
             for run in (r for r in runs if r.env_id == env_id):
                 res = evaluate(run.model, env_id, episodes, seed, ["model"], kwargs)["model"]

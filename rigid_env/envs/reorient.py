@@ -37,16 +37,12 @@ def evaluate(s, effort, target, memory, tp, stepped):
     )
     speed = T.safe_norm((s[10], s[11], s[12]))
     success = angle < tp[SUCCESS_ANGLE] and speed < tp[SUCCESS_SPIN]
-    if tp[VERSION] >= 1.0:
-        # v1: no flat top inside the success band (its edge is no optimum to hover at), and
-        # a bonus of 1 on every step that counts as success.
-        r_angle = tolerance_one(angle, 0.0, 0.0, math.pi, LINEAR, 0.0)
-        r_spin = tolerance_one(speed, 0.0, 0.0, tp[MAX_SPIN], LINEAR, 0.0)
-        bonus = 1.0 if success else 0.0
-    else:
-        r_angle = tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], math.pi, LINEAR, 0.0)
-        r_spin = tolerance_one(speed, 0.0, tp[SUCCESS_SPIN], tp[MAX_SPIN], LINEAR, 0.0)
-        bonus = 0.0
+    # v1: no flat top inside the success band (its edge is no optimum to hover at), and a
+    # bonus of 1 on every step that counts as success; v0: flat tops, no bonus.
+    v1 = tp[VERSION] >= 1.0
+    r_angle = tolerance_one(angle, 0.0, 0.0 if v1 else tp[SUCCESS_ANGLE], math.pi, LINEAR, 0.0)
+    r_spin = tolerance_one(speed, 0.0, 0.0 if v1 else tp[SUCCESS_SPIN], tp[MAX_SPIN], LINEAR, 0.0)
+    bonus = 1.0 if v1 and success else 0.0
     reward = r_angle * (0.5 + 0.5 * r_spin) + bonus - tp[T.FUEL_WEIGHT] * effort
     return reward, False, success, memory, err
 

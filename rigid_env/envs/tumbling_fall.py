@@ -22,7 +22,7 @@ from rigid_env.envs.rewards import LINEAR, tolerance_one
 from rigid_env.render import TaskView
 
 MAX_SPIN, THRESHOLD, BONUS, TOP, VERSION = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3, T.TASK + 4
-FALL_SPEED_SCALE = 20.0  # [m/s], the observed vertical speed's unit
+FALL_SPEED_SCALE = 20.0  # [m/s], the unit of the observed velocity (v0: its vertical part)
 
 
 @kernel
