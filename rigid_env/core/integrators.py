@@ -23,7 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numpy.typing import NDArray
 
 from rigid_env.core.kernels import (
@@ -47,17 +47,20 @@ from rigid_env.core.kernels import (
     H,
     accelerations,
     axpy,
+    body_model,
     gyro_jacobian,
     gyroscopic,
     header,
     kernel,
     load,
-    model_row,
     normalize,
     qdot,
+    sincos,
     solve3,
     spin,
     store,
+    threads_kernel,
+    world_kernel,
     wrench,
 )
 
@@ -278,7 +281,7 @@ def _turn(qw, qa, qi, qj, li, lj, half):
     axis ``a``, ``q <- q (x) (cos(theta/2), sin(theta/2) e_a)``, and the body ``L`` by
     ``-theta`` about ``e_a`` (``(a, i, j)`` a cyclic order of the axes); ``cos theta`` and
     ``sin theta`` from the half angle."""
-    ch, sh = math.cos(half), math.sin(half)
+    sh, ch = sincos(half)
     c = 1.0 - 2.0 * (sh * sh)
     s = 2.0 * (sh * ch)
     return (
@@ -413,30 +416,77 @@ def _clamp(w, limit):
 
 @kernel
 def _finite(x, v, q, w):
-    """Whether every number of a body's state is finite (one sum when it is)."""
-    total = x[0] + x[1] + x[2] + v[0] + v[1] + v[2] + q[0] + q[1] + q[2] + q[3]
-    if math.isfinite(total + w[0] + w[1] + w[2]):
-        return True
-    for c in (*x, *v, *q, *w):
-        if not math.isfinite(c):
-            return False
-    return True  # finite numbers whose sum overflowed
+    """Whether every number of a body's state is finite, without a branch: ``a - a`` is 0 for a
+    finite ``a`` and NaN for an inf or a NaN."""
+    z = (x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (v[0] - v[0]) + (v[1] - v[1])
+    z += (v[2] - v[2]) + (q[0] - q[0]) + (q[1] - q[1]) + (q[2] - q[2]) + (q[3] - q[3])
+    return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance(step, p, model, state, command, status):
-    """One world step of every body: the actuators' wrench of its command, ``SUBSTEPS`` steps
-    of the integrator ``step`` (with the angular speed limit before each and after the last,
-    if set), the per-step maps (damping ``v <- alpha v``, ``w <- alpha w``), then the guard.
+def _wrench_of(p, command, wrenches, i):
+    """Body ``i``'s actuator wrench (:func:`wrench`) into column ``i`` of ``wrenches`` (6, N)."""
+    fb, tb = wrench(p, command, i)
+    wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
+    wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _substep_of(step, c, model, wrenches, state, status, last, i):
+    """One integrator step of body ``i`` in place on its column of ``state`` (13, N), the
+    speed limit (if set) first; on the ``last`` substep of a world step also the speed limit
+    after it and the per-step maps (damping ``v <- alpha v``, ``w <- alpha w``). Then the
+    guard, by selects: a healthy body (``status[i]`` 0) whose new state is finite takes it;
+    one whose new state is not keeps its column and gets ``status[i] = 2``; a frozen body
+    (``status[i]`` 1) keeps its column. Returns ``(failed, beyond)``, each 0 or 1, ``beyond``
+    for a body that ends the world step beyond the integrator's stable ``|w|``."""
+    x0, v0, q0, w0 = load(state, i)
+    w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
+    fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
+    tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c[H])
+    if last:
+        if c[MAX_SPEED] != 0.0:
+            w = _clamp(w, c[MAX_SPEED_VALUE])
+        if c[LINEAR_DAMPING] != 0.0:
+            a = c[LINEAR_ALPHA]
+            v = (v[0] * a, v[1] * a, v[2] * a)
+        if c[ANGULAR_DAMPING] != 0.0:
+            a = c[ANGULAR_ALPHA]
+            w = (w[0] * a, w[1] * a, w[2] * a)
+    healthy = status[i] == 0
+    ok = healthy & _finite(x, v, q, w)
+    status[i] = 2 if healthy & ~ok else status[i]
+    store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
+    fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c[STABLE_SPEED] * c[STABLE_SPEED]
+    return (1 if healthy & ~ok else 0), (1 if ok & last & fast & (c[STABLE_SPEED] != 0.0) else 0)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def advance(step, p, model, state, command, status, wrenches, start, stop):
+    """One world step of the bodies ``start <= i < stop``, in passes over them whose loops the
+    compiler vectorises (struct-of-arrays columns; no call, no inner loop and no branch in the
+    loop body, only selects):
+
+    1. the actuators' body wrench of each body's command (:func:`wrench`), if any;
+    2. ``SUBSTEPS`` passes of the integrator ``step`` in place, each with its guard
+       (:func:`_substep_of`); the last one also applies the per-step maps.
 
     Args:
-        p: the world's parameters (the steps read their :func:`header`).
-        model: (N | 1, MODEL_WIDTH) model rows.
-        state: (N, 13) rows ``(x, v, q, w)``, advanced in place.
+        p: the world's parameters (the passes read their :func:`header`).
+        model: (MODEL_WIDTH, N) model columns.
+        state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
         command: (N | 1, A) actuator commands.
-        status: (N,) uint8: 0 a healthy body, 1 a body frozen by an earlier failure (skipped);
-            set to 2 where the state turned non-finite in this step (the row is left at its
-            last finite state).
+        status: (N,) uint8: 0 a healthy body, 1 a body frozen by an earlier failure (left
+            alone); set to 2 where the state turned non-finite (its column is left at its
+            last finite state: the one before the world step when ``SUBSTEPS`` is 1, else
+            the one before the failing substep, which :class:`rigid_env.core.world.World`
+            replaces by the one before the world step).
+        wrenches: (6, N) scratch for the wrenches (zero without actuators).
+        start, stop: the bodies to step (threads step disjoint ranges of one world).
+
+    The arrays must not overlap (the loops are compiled on that promise:
+    :data:`rigid_env.core.kernels.world_kernel`).
 
     Returns:
         ``2 f + o``: ``f`` the number of bodies that failed in this step, ``o`` 1 if a body
@@ -448,44 +498,44 @@ def advance(step, p, model, state, command, status):
             if not math.isfinite(command[r, a]):
                 return -1
     c = header(p)
-    h = c[H]
-    substeps = int(c[SUBSTEPS])
-    limit = c[MAX_SPEED_VALUE]
-    stable = c[STABLE_SPEED] if c[STABLE_SPEED] != 0.0 else math.inf
+    if command.shape[1] > 0:
+        for i in range(start, stop):
+            _wrench_of(p, command, wrenches, i)
     failures = over = 0
-    for i in range(state.shape[0]):
-        if status[i] != 0:
-            continue
-        m = model_row(model, i)
-        fb, tb = wrench(p, command, i)
-        x, v, q, w = load(state, i)
-        for _ in range(substeps):
-            if c[MAX_SPEED] != 0.0:
-                w = _clamp(w, limit)
-            x, v, q, w = step(x, v, q, w, fb, tb, m, c, h)
-        if c[MAX_SPEED] != 0.0:
-            w = _clamp(w, limit)
-        if c[LINEAR_DAMPING] != 0.0:
-            a = c[LINEAR_ALPHA]
-            v = (v[0] * a, v[1] * a, v[2] * a)
-        if c[ANGULAR_DAMPING] != 0.0:
-            a = c[ANGULAR_ALPHA]
-            w = (w[0] * a, w[1] * a, w[2] * a)
-        if not _finite(x, v, q, w):
-            status[i] = 2  # left at its last finite state
-            failures += 1
-            continue
-        store(state, i, x, v, q, w)
-        if w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > stable * stable:
-            over = 1
-    return 2 * failures + over
+    substeps = int(c[SUBSTEPS])
+    for k in range(substeps):
+        last = k == substeps - 1
+        for i in range(start, stop):
+            # An unsigned index: no wraparound of negative indices to compute, which would
+            # keep the compiler from vectorising the loop.
+            j = np.uint64(i)
+            failed, beyond = _substep_of(step, c, model, wrenches, state, status, last, j)
+            failures += failed
+            over += beyond
+    return 2 * failures + min(over, 1)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def advance_threads(step, p, model, state, command, status, wrenches, start, stop, threads):
+    """:func:`advance` of ``start <= i < stop`` split into ``threads`` contiguous ranges over
+    Numba's threads (``prange``; each body is computed alone, so the split changes no number).
+    ``threads`` is an argument (``numba.get_num_threads()`` in Python): called in here it
+    would keep the function from being cached."""
+    n = stop - start
+    codes = np.zeros(threads, np.int64)
+    for t in prange(threads):
+        lo, hi = start + n * t // threads, start + n * (t + 1) // threads
+        codes[t] = advance(step, p, model, state, command, status, wrenches, lo, hi)
+    if codes.min() < 0:
+        return -1  # every range checks the command before it steps: nothing stepped
+    return 2 * np.sum(codes >> 1) + np.max(codes & 1)
 
 
 @kernel
 def clamp_bodies(state, limit):
-    """:func:`_clamp` of every body's ``w`` in the state rows (N, 13), in place: the speed
+    """:func:`_clamp` of every body's ``w`` in the state columns (13, N), in place: the speed
     limit of the array integrator ``exact_free``."""
-    for i in range(state.shape[0]):
+    for i in range(state.shape[1]):
         x, v, q, w = load(state, i)
         store(state, i, x, v, q, _clamp(w, limit))
 
@@ -493,26 +543,26 @@ def clamp_bodies(state, limit):
 @kernel
 def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
-    (N, 13): the force half-steps of ``exact_free``."""
+    (13, N): the force half-steps of ``exact_free``."""
     c = header(p)
-    for i in range(state.shape[0]):
+    for i in range(state.shape[1]):
         fb, tb = wrench(p, command, i)
         x, v, q, w = load(state, i)
-        v, w = kick(v, q, w, fb, tb, model_row(model, i), c, h)
+        v, w = kick(v, q, w, fb, tb, body_model(model, i), c, h)
         store(state, i, x, v, q, w)
 
 
 @kernel
 def derivatives(p, model, state, command, out):
-    """``(v', w')`` of every body at its state row (N, 13) into ``out`` (N, 6): the linear
+    """``(v', w')`` of every body at its state column (13, N) into ``out`` (N, 6): the linear
     acceleration (world) and the angular acceleration (body, Euler's equations included) of
     :func:`rigid_env.core.kernels.accelerations` (the right-hand side a reference solver
     integrates)."""
     c = header(p)
-    for i in range(state.shape[0]):
+    for i in range(state.shape[1]):
         fb, tb = wrench(p, command, i)
         _, v, q, w = load(state, i)
-        a, alpha = accelerations(v, q, w, fb, tb, model_row(model, i), c, True)
+        a, alpha = accelerations(v, q, w, fb, tb, body_model(model, i), c, True)
         out[i, 0], out[i, 1], out[i, 2] = a
         out[i, 3], out[i, 4], out[i, 5] = alpha
 
@@ -520,27 +570,98 @@ def derivatives(p, model, state, command, out):
 # One compiled entry per integrator: Numba resolves the per-body function at compile time and
 # caches the specialised loop on disk (a function object passed from Python would cost a slow
 # type lookup at every call, and a closure would not be cached).
-# Arguments (p, model, state, command, status) and result as advance's.
-# fmt: off
-@kernel
-def _explicit_euler(p, m, s, u, f): return advance(explicit_euler, p, m, s, u, f)
-@kernel
-def _symplectic_euler(p, m, s, u, f): return advance(symplectic_euler, p, m, s, u, f)
-@kernel
-def _implicit_euler(p, m, s, u, f): return advance(implicit_euler, p, m, s, u, f)
-@kernel
-def _leapfrog(p, m, s, u, f): return advance(leapfrog, p, m, s, u, f)
-@kernel
-def _midpoint(p, m, s, u, f): return advance(midpoint, p, m, s, u, f)
-@kernel
-def _rk4(p, m, s, u, f): return advance(rk4, p, m, s, u, f)
-@kernel
-def _implicit_gyro(p, m, s, u, f): return advance(implicit_gyro, p, m, s, u, f)
-@kernel
-def _splitting(p, m, s, u, f): return advance(splitting, p, m, s, u, f)
-@kernel
-def _yoshida4(p, m, s, u, f): return advance(yoshida4, p, m, s, u, f)
-# fmt: on
+# Arguments (p, model, state, command, status, wrenches, start, stop) and result as advance's;
+# the ``_threads`` entries split the bodies over Numba's threads (compiled on first use).
+
+
+@world_kernel
+def _explicit_euler(p, m, s, u, f, b, i, j):
+    return advance(explicit_euler, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _explicit_euler_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(explicit_euler, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _symplectic_euler(p, m, s, u, f, b, i, j):
+    return advance(symplectic_euler, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _symplectic_euler_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(symplectic_euler, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _implicit_euler(p, m, s, u, f, b, i, j):
+    return advance(implicit_euler, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _implicit_euler_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(implicit_euler, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _leapfrog(p, m, s, u, f, b, i, j):
+    return advance(leapfrog, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _leapfrog_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(leapfrog, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _midpoint(p, m, s, u, f, b, i, j):
+    return advance(midpoint, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _midpoint_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(midpoint, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _rk4(p, m, s, u, f, b, i, j):
+    return advance(rk4, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _rk4_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(rk4, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _implicit_gyro(p, m, s, u, f, b, i, j):
+    return advance(implicit_gyro, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _implicit_gyro_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(implicit_gyro, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _splitting(p, m, s, u, f, b, i, j):
+    return advance(splitting, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _splitting_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(splitting, p, m, s, u, f, b, i, j, t)
+
+
+@world_kernel
+def _yoshida4(p, m, s, u, f, b, i, j):
+    return advance(yoshida4, p, m, s, u, f, b, i, j)
+
+
+@threads_kernel
+def _yoshida4_threads(p, m, s, u, f, b, i, j, t):
+    return advance_threads(yoshida4, p, m, s, u, f, b, i, j, t)
 
 
 # --------------------------------------------------------------------------------------------
@@ -568,8 +689,9 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None for an
             array integrator.
-        world_step: the compiled world step ``(p, model, state, command, status) -> code``
-            (:func:`advance` of ``body``); None for an array integrator.
+        world_step: the compiled world step ``(p, model, state, command, status, wrenches,
+            start, stop) -> code`` (:func:`advance` of ``body``); None for an array integrator.
+        world_step_threads: the same over Numba's threads (:func:`advance_threads`).
         stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
             stable about a principal axis, or None where it has no such limit; a world warns
             once when a body goes beyond it.
@@ -580,6 +702,7 @@ class IntegratorInfo:
     note: str
     body: Callable | None
     world_step: Callable | None
+    world_step_threads: Callable | None
     stability: float | None = None
 
 
@@ -603,7 +726,9 @@ _REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
      "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
      None, None, EXACT_PHASE_LIMIT),
 )  # fmt: skip
-INTEGRATORS: dict[str, IntegratorInfo] = {r[0]: IntegratorInfo(*r) for r in _REGISTRY}
+INTEGRATORS: dict[str, IntegratorInfo] = {  # with the threaded world step of each, by its name
+    r[0]: IntegratorInfo(*r[:5], globals().get(f"_{r[0]}_threads"), r[5]) for r in _REGISTRY
+}
 
 
 def get_integrator(name: str) -> IntegratorInfo:

@@ -7,8 +7,8 @@ step is one compiled loop over its bodies (:mod:`rigid_env.core.integrators`).
 
 Two small float64 arrays carry everything an integrator reads besides the state:
 
-* a **model row** ``m`` (:data:`MODEL_WIDTH` numbers, one row per body or one shared): mass,
-  principal moments, their reciprocals and whether the body is isotropic;
+* a body's **model** ``m`` (:data:`MODEL_WIDTH` numbers, a column of the world's model
+  columns): mass, principal moments, their reciprocals and whether the body is isotropic;
 * the **parameters** ``p`` of the world (:func:`rigid_env.core.effects.pack`): the time step,
   the active effects (a flag and its numbers each; an effect the scene does not list is a 0
   flag, skipped by one branch) and the actuators' linear maps; the per-body steps read the
@@ -22,14 +22,35 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
+from numba.core.compiler import Compiler
 
 kernel = njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
 """The decorator of every compiled function: cached on disk, the GIL released, IEEE
 arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception), and
 inlined into its caller, so that a world step is one loop with no calls but the maths library's."""
 
-# ---- a model row -----------------------------------------------------------------------------
+
+class NoAliasCompiler(Compiler):
+    """Numba's compiler with its ``noalias`` flag set: the arrays a function gets do not
+    overlap (the flag Numba sets itself for the body of a ``prange`` loop). Without the
+    promise LLVM cannot vectorise a loop that reads one array and writes another."""
+
+    def define_pipelines(self):
+        self.state.flags.noalias = True
+        return super().define_pipelines()
+
+
+world_kernel = njit(cache=True, nogil=True, error_model="numpy", pipeline_class=NoAliasCompiler)
+"""The decorator of a world step (:func:`rigid_env.core.integrators.advance` of one
+integrator): cached, the GIL released, and arrays that must not overlap."""
+threads_kernel = njit(
+    cache=True, nogil=True, error_model="numpy", parallel=True, pipeline_class=NoAliasCompiler
+)
+"""The same for a world step over Numba's threads (``prange``)."""
+
+# ---- a body's model -----------------------------------------------------------------------------
 MASS, I0, I1, I2, INV_MASS, INV_I0, INV_I1, INV_I2, ISOTROPIC = range(9)
 MODEL_WIDTH = 9
 
@@ -118,6 +139,43 @@ def normalize(q):
     return (q[0] * inv, q[1] * inv, q[2] * inv, q[3] * inv)
 
 
+# Sine and cosine by the polynomials of fdlibm's ``__kernel_sin`` / ``__kernel_cos`` (Sun
+# Microsystems, 1993: minimax on |r| <= pi/4, errors below 2^-58) after a Cody-Waite reduction
+# by pi/2 in two parts (the first has 33 bits, so ``k * PIO2_HI`` is exact for |k| < 2^20).
+# Plain arithmetic and selects, no call and no branch: the compiler vectorises a loop over
+# bodies that uses it (a libm call would keep it scalar). Within 2 ulp of libm's for
+# |x| < 1e6 (tests/core/test_sincos.py); beyond 2^20 pi/2 (a body turning 1.6e6 rad in one
+# step, far past any integrator's stable range) a unit pair but not sin x; NaN for inf or NaN.
+TWO_OVER_PI = 0.63661977236758134308
+PIO2_HI = 1.57079632673412561417e00
+PIO2_LO = 6.07710050650619224932e-11
+R_MAX = 0.7854  # pi/4 plus room for the rounding of k near a quadrant boundary
+S1, S2, S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+S4, S5, S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+C1, C2, C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+C4, C5, C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+
+
+@kernel
+def sincos(x):
+    """``(sin x, cos x)``: ``x = k pi/2 + r``, the polynomials on ``r``, then the quadrant
+    ``k mod 4`` swaps and negates them."""
+    k = np.floor(x * TWO_OVER_PI + 0.5)  # a float (math.floor would give an int64)
+    r = (x - k * PIO2_HI) - k * PIO2_LO
+    # Beyond |x| = 2^20 pi/2 the reduction has lost its digits: r is clamped into +-R_MAX
+    # (where the polynomials still hold), so that the pair stays on the unit circle (a NaN stays
+    # NaN).
+    r = math.copysign(R_MAX, r) if abs(r) > R_MAX else r
+    z = r * r
+    s = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))))
+    c = 1.0 - 0.5 * z + z * z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))))
+    quadrant = k - 4.0 * np.floor(0.25 * k)  # 0, 1, 2 or 3
+    odd = quadrant == 1.0 or quadrant == 3.0
+    sin_x = c if odd else s
+    cos_x = s if odd else c
+    return (-sin_x if quadrant >= 2.0 else sin_x), (-cos_x if 0.5 < quadrant < 2.5 else cos_x)
+
+
 @kernel
 def spin(q, w, h):
     """``q (x) exp(h w / 2)``: the body turned by the body-frame angle vector ``h w`` (the exact
@@ -125,9 +183,10 @@ def spin(q, w, h):
     below ``a = 1e-4`` ``sin a / a = 1 - a^2 / 6`` to a relative ``a^4 / 120 < 1e-18``."""
     half = 0.5 * h
     a = half * norm(w)
-    sinc = 1.0 - a * a / 6.0 if abs(a) < 1.0e-4 else math.sin(a) / a
+    sin_a, cos_a = sincos(a)
+    sinc = 1.0 - a * a / 6.0 if abs(a) < 1.0e-4 else sin_a / a
     f = half * sinc
-    return quat_mul(q, (math.cos(a), f * w[0], f * w[1], f * w[2]))
+    return quat_mul(q, (cos_a, f * w[0], f * w[1], f * w[2]))
 
 
 @kernel
@@ -145,7 +204,7 @@ def qdot(q, w):
 # ---- Euler's equations -----------------------------------------------------------------------
 @kernel
 def gyroscopic(w, m):
-    """``w x (I w)`` [N m] for the principal moments of model row ``m``."""
+    """``w x (I w)`` [N m] for the principal moments of the body model ``m``."""
     return (
         w[1] * w[2] * (m[I2] - m[I1]),
         w[2] * w[0] * (m[I0] - m[I2]),
@@ -266,33 +325,32 @@ def header(p):
 
 
 @kernel
-def model_row(model, i):
-    """Body ``i``'s model row (or the only, shared one) of ``model`` (N | 1, 9) as a tuple."""
-    j = 0 if model.shape[0] == 1 else i
+def body_model(model, i):
+    """Body ``i``'s model numbers from the model columns (MODEL_WIDTH, N) as a tuple."""
     return (
-        model[j, 0], model[j, 1], model[j, 2], model[j, 3], model[j, 4],
-        model[j, 5], model[j, 6], model[j, 7], model[j, 8],
+        model[0, i], model[1, i], model[2, i], model[3, i], model[4, i],
+        model[5, i], model[6, i], model[7, i], model[8, i],
     )  # fmt: skip
 
 
 @kernel
 def load(state, i):
-    """Body ``i``'s ``(x, v, q, w)`` from the state rows (N, 13), as tuples."""
+    """Body ``i``'s ``(x, v, q, w)`` from the state columns (13, N), as tuples."""
     return (
-        (state[i, 0], state[i, 1], state[i, 2]),
-        (state[i, 3], state[i, 4], state[i, 5]),
-        (state[i, 6], state[i, 7], state[i, 8], state[i, 9]),
-        (state[i, 10], state[i, 11], state[i, 12]),
+        (state[0, i], state[1, i], state[2, i]),
+        (state[3, i], state[4, i], state[5, i]),
+        (state[6, i], state[7, i], state[8, i], state[9, i]),
+        (state[10, i], state[11, i], state[12, i]),
     )
 
 
 @kernel
 def store(state, i, x, v, q, w):
-    """Write ``(x, v, q, w)`` into row ``i`` of the state rows (N, 13)."""
-    state[i, 0], state[i, 1], state[i, 2] = x
-    state[i, 3], state[i, 4], state[i, 5] = v
-    state[i, 6], state[i, 7], state[i, 8], state[i, 9] = q
-    state[i, 10], state[i, 11], state[i, 12] = w
+    """Write ``(x, v, q, w)`` into column ``i`` of the state columns (13, N)."""
+    state[0, i], state[1, i], state[2, i] = x
+    state[3, i], state[4, i], state[5, i] = v
+    state[6, i], state[7, i], state[8, i], state[9, i] = q
+    state[10, i], state[11, i], state[12, i] = w
 
 
 @kernel

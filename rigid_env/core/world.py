@@ -8,13 +8,13 @@ state turns NaN or inf is never handed back silently (``on_error``, :class:`Worl
 
 from __future__ import annotations
 
-import itertools
 import os
+import threading
 import warnings
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any, Literal
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -30,29 +30,23 @@ BoolArray = NDArray[np.bool_]
 
 
 THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-"""Threads a large batch is split over (the cores this process may use)."""
+"""Cores this process may use."""
 THREAD_MIN_BODIES = 1024
-"""Smallest batch split over threads: below it one thread is faster than the hand-over."""
-_pool: ThreadPoolExecutor | None = None
+"""Smallest batch split over Numba's threads: below it one thread is faster than the
+hand-over."""
+_threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
 
 
-def over_threads(n: int, call: Callable[[slice], Any]) -> list[Any]:
-    """``call(rows)`` for contiguous row slices covering ``range(n)``: one slice on this
-    thread for a small batch, else one per core on a thread pool (the compiled kernels
-    release the GIL and treat every row alone, so the split changes no number)."""
-    if n < THREAD_MIN_BODIES or THREADS == 1:
-        return [call(slice(0, n))]
-    global _pool
-    if _pool is None:
-        _pool = ThreadPoolExecutor(THREADS, thread_name_prefix="rigid_env")
-    bounds = np.linspace(0, n, THREADS + 1).astype(int).tolist()
-    parts = [slice(a, b) for a, b in itertools.pairwise(bounds)]
-    return [f.result() for f in [_pool.submit(call, rows) for rows in parts]]
+def threaded(n: int) -> bool:
+    """Whether a compiled pass over ``n`` bodies or envs is split over the cores."""
+    return n >= THREAD_MIN_BODIES and THREADS > 1
 
 
-def rows_of(a: NDArray[Any], rows: slice) -> NDArray[Any]:
-    """The rows of a per-body array (N, ...), or the array itself when it is shared (1, ...)."""
-    return a if a.shape[0] == 1 else a[rows]
+def call_threaded(call: Callable[[int], Any]) -> Any:
+    """``call(threads)``, a compiled pass over Numba's threads (``threads`` of them), one at a
+    time in this process."""
+    with _threads_lock:
+        return call(numba.get_num_threads())
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -146,10 +140,10 @@ class World:
             check_state(state)
             n = state.n
         self._n = int(n)
-        self._rows = np.zeros((self._n, 13))
-        self._state = State(
-            self._rows[:, 0:3], self._rows[:, 3:6], self._rows[:, 6:10], self._rows[:, 10:13]
-        )
+        self._cols = np.zeros((13, self._n))
+        cols = self._cols
+        self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
+        self._wrenches = np.zeros((6, self._n))
         self._state.q[:, 0] = 1.0
         if state is not None:
             self._state.assign(state)
@@ -164,8 +158,8 @@ class World:
     # ---------------------------------------------------------------------------------------
     @property
     def state(self) -> State:
-        """The bodies' state: (N, 3) and (N, 4) views of the world's (N, 13) rows (editing them
-        in place edits the world)."""
+        """The bodies' state: (N, 3) and (N, 4) views of the world's (13, N) columns (editing
+        them in place edits the world)."""
         return self._state
 
     @state.setter
@@ -176,8 +170,14 @@ class World:
 
     @property
     def rows(self) -> FloatArray:
-        """(N, 13) the state as rows ``(x, v, q, w)`` (the array the compiled step advances)."""
-        return self._rows
+        """(N, 13) the state as rows ``(x, v, q, w)``: a view of :attr:`columns`."""
+        return self._cols.T
+
+    @property
+    def columns(self) -> FloatArray:
+        """(13, N) the state as columns ``(x, v, q, w)``, one body per column: the array the
+        compiled step advances (struct-of-arrays, so that its loops vectorise)."""
+        return self._cols
 
     @property
     def no_failures(self) -> BoolArray:
@@ -202,8 +202,14 @@ class World:
 
     @property
     def model_rows(self) -> FloatArray:
-        """(N | 1, MODEL_WIDTH) the model rows the compiled step reads."""
+        """(N | 1, MODEL_WIDTH) the model rows (:meth:`BodyModel.rows`)."""
         return self._model_rows
+
+    @property
+    def model_columns(self) -> FloatArray:
+        """(MODEL_WIDTH, N) the model numbers of every body, one column each: what the
+        compiled step reads."""
+        return self._model_cols
 
     def set_model(self, model: BodyModel) -> None:
         """Replace the mass properties (per body or shared), e.g. for domain randomisation."""
@@ -211,6 +217,9 @@ class World:
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
         self._model_rows = model.rows()
+        self._model_cols = np.ascontiguousarray(
+            np.broadcast_to(self._model_rows, (self._n, K.MODEL_WIDTH)).T
+        )
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -234,6 +243,8 @@ class World:
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self.integrator = get_integrator(state["integrator"])
+        cols = self._cols  # pickling copies views apart: make the state views of it again
+        self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
 
     # ---------------------------------------------------------------------------------------
     def step(self, action: ArrayLike | None = None) -> BoolArray:
@@ -258,16 +269,17 @@ class World:
         float64 (N, action_dim) or (1, action_dim) array (environments that shape their
         actions call this). A NaN or inf in it raises ``ValueError``, nothing stepped."""
         u = self._no_command if command is None else command
-        # Under "raise" a failed step leaves the whole world as it was: the kernel restores a
-        # failed body itself, the others of a batch come back from this copy.
-        backup = self._rows.copy() if self.on_error == "raise" and self._n > 1 else None
-        step = self.integrator.world_step
-        if step is None:
+        if np.may_share_memory(u, self._cols):  # the compiled step's arrays must not overlap
+            u = u.copy()
+        # A failed body is left at its state before the step: by the kernel itself for one
+        # substep; for several, and for the other bodies of a batch under "raise" (which leaves
+        # the whole world as it was), from this copy.
+        raise_batch = self.on_error == "raise" and self._n > 1
+        backup = self._cols.copy() if raise_batch or self.substeps > 1 else None
+        if self.integrator.world_step is None:
             code = self._step_arrays(u)
-        elif self._n < THREAD_MIN_BODIES or THREADS == 1:
-            code = step(self.params, self._model_rows, self._rows, u, self._status)
         else:
-            code = self._step_threads(step, u)
+            code = self._step_compiled(u)
         if code < 0:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
         if code & 1 and not self._warned:
@@ -276,10 +288,12 @@ class World:
             self.step_count += 1
             return self._none_failed
         bad = self._status == 2
+        if backup is not None:
+            self._cols[:, bad] = backup[:, bad]
         if self.on_error == "raise":
             self._status[bad] = 0
             if backup is not None:
-                self._rows[:] = backup
+                self._cols[:] = backup
             raise NumericalInstabilityError(
                 np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name,
                 self.dt, self._likely_cause(),
@@ -288,16 +302,13 @@ class World:
         self.step_count += 1
         return bad
 
-    def _step_threads(self, step: Callable[..., int], u: FloatArray) -> int:
-        """The compiled step of a large batch, its rows split over the cores."""
-        if not np.isfinite(u).all():  # refused before any thread steps its rows
-            return -1
-        p, model, rows, status = self.params, self._model_rows, self._rows, self._status
-        codes = over_threads(
-            self._n,
-            lambda r: step(p, rows_of(model, r), rows[r], rows_of(u, r), status[r]),
-        )
-        return 2 * sum(c >> 1 for c in codes) + max(c & 1 for c in codes)
+    def _step_compiled(self, u: FloatArray) -> int:
+        """The compiled world step, over the cores for a large batch."""
+        p, m, s, f, b = self.params, self._model_cols, self._cols, self._status, self._wrenches
+        if not threaded(self._n):
+            return self.integrator.world_step(p, m, s, u, f, b, 0, self._n)
+        step = self.integrator.world_step_threads
+        return call_threaded(lambda t: step(p, m, s, u, f, b, 0, self._n, t))
 
     def _step_arrays(self, u: FloatArray) -> int:
         """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
@@ -305,8 +316,8 @@ class World:
         then the same per-step maps, speed limit and guard as the compiled step."""
         if not np.all(np.isfinite(u)):
             return -1
-        rows, p, h = self._rows, self.params, self.h
-        before = rows.copy()
+        cols, p, h = self._cols, self.params, self.h
+        before = cols.copy()
         forces = p[K.ANY_FORCE] != 0.0
         inertia = np.broadcast_to(self.model.inertia, (self._n, 3))
         s = self._state
@@ -314,11 +325,11 @@ class World:
             for _ in range(self.substeps):
                 self._clamp()
                 if forces:
-                    kicks(p, self._model_rows, rows, u, 0.5 * h)
+                    kicks(p, self._model_cols, cols, u, 0.5 * h)
                 s.x[:] += h * s.v
                 s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
                 if forces:
-                    kicks(p, self._model_rows, rows, u, 0.5 * h)
+                    kicks(p, self._model_cols, cols, u, 0.5 * h)
                 s.q[:] = quat_normalize(s.q)
             self._clamp()
             if p[K.LINEAR_DAMPING] != 0.0:
@@ -326,16 +337,16 @@ class World:
             if p[K.ANGULAR_DAMPING] != 0.0:
                 s.w[:] *= p[K.ANGULAR_ALPHA]
             frozen = self._status != 0
-            rows[frozen] = before[frozen]
-            bad = ~np.isfinite(rows).all(axis=1) & ~frozen
-            rows[bad] = before[bad]
+            cols[:, frozen] = before[:, frozen]
+            bad = ~np.isfinite(cols).all(axis=0) & ~frozen
+            cols[:, bad] = before[:, bad]
             self._status[bad] = 2
             over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
         return 2 * int(bad.sum()) + over
 
     def _clamp(self) -> None:
         if self.max_angular_speed is not None:
-            clamp_bodies(self._rows, self.max_angular_speed)
+            clamp_bodies(self._cols, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if type(action) is np.ndarray and action.dtype == np.float64 and self.action_dim:
@@ -394,10 +405,13 @@ class World:
         """Linear (world) [m/s^2] and angular (body) [rad/s^2] accelerations (N, 3) of this
         world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A):
         the right-hand side ``v' = F / m``, ``I w' = tau - w x I w`` of the compiled step."""
-        rows = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]))
+        cols = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]).T)
+        model = np.ascontiguousarray(
+            np.broadcast_to(self._model_rows, (cols.shape[1], K.MODEL_WIDTH)).T
+        )
         u = self._check_action(action)
-        out = np.empty((rows.shape[0], 6))
-        derivatives(self.params, self._model_rows, rows, self._no_command if u is None else u, out)
+        out = np.empty((cols.shape[1], 6))
+        derivatives(self.params, model, cols, self._no_command if u is None else u, out)
         return out[:, 0:3], out[:, 3:6]
 
     # ---------------------------------------------------------------------------------------

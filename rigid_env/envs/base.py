@@ -354,7 +354,8 @@ class TaskBatch:
         failed = self.world.advance(self.command)
         self.steps += 1
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
-        self._pass(self.world.rows, self.command, self.target, noise, True, self.record, self.obs)
+        self._pass(self.world.columns, self.world.model_columns, self.command, self.target, noise,
+                   True, self.record, self.obs)  # fmt: skip
         r = self.record
         return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
 
@@ -364,30 +365,21 @@ class TaskBatch:
         failed = self.world.advance(self.command)
         self.steps[0] += 1
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
-        self._pass(self.world.rows, self.command, self.target, noise, True, self.record, self.obs)
+        self._pass(self.world.columns, self.world.model_columns, self.command, self.target, noise,
+                   True, self.record, self.obs)  # fmt: skip
         return self.record[0].tolist(), failed is not self.world.no_failures
 
-    def _pass(self, rows, command, target, noise, stepped, record, obs) -> None:
-        """The task's compiled pass over the envs of ``rows`` (split over the cores when many;
-        each env is computed alone, so the split changes no number)."""
-        tp, model = self.tp, self.world.model_rows
-        if rows.shape[0] < core_world.THREAD_MIN_BODIES:
-            self.task_pass(tp, rows, model, command, target, noise, stepped, record, obs)
-            return
-        core_world.over_threads(
-            rows.shape[0],
-            lambda r: self.task_pass(
-                tp,
-                rows[r],
-                core_world.rows_of(model, r),
-                command[r],
-                target[r],
-                core_world.rows_of(noise, r),
-                stepped,
-                record[r],
-                obs[r],
-            ),
-        )
+    def _pass(self, cols, model, command, target, noise, stepped, record, obs) -> None:
+        """The task's compiled pass over the envs of the state and model columns ``cols``,
+        ``model`` (split over the cores when many; each env is computed alone, so the split
+        changes no number)."""
+        args = (self.tp, cols, model, command, target, noise, stepped, record, obs, 0)
+        n = cols.shape[1]
+        threads = getattr(self, "task_pass_threads", None)
+        if threads is None or not core_world.threaded(n):
+            self.task_pass(*args, n)
+        else:
+            core_world.call_threaded(lambda t: threads(*args, n, t))
 
     def _noise(
         self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
@@ -430,8 +422,10 @@ class TaskBatch:
         if idx.size == 0:
             return
         record, obs = self.record[idx], self.obs[idx]
-        rows = self.world.rows[idx]
-        self._pass(rows, self.command[idx], self.target[idx], self._noise(rngs), False, record, obs)
+        cols = np.ascontiguousarray(self.world.columns[:, idx])
+        model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        noise = self._noise(rngs)
+        self._pass(cols, model, self.command[idx], self.target[idx], noise, False, record, obs)
         self.record[idx], self.obs[idx] = record, obs
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:

@@ -33,8 +33,17 @@ def evaluate(s, effort, target, memory, tp, stepped):
 
 
 @kernel
-def detumble_pass(tp, state, model, command, target, noise, stepped, record, obs):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
+def detumble_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
+
+
+@T.threads_kernel
+def detumble_pass_threads(
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+):
+    T.task_pass_threads(
+        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    )
 
 
 class DetumbleTask(TaskBatch):
@@ -49,6 +58,7 @@ class DetumbleTask(TaskBatch):
 
     scene_name = "detumble"
     task_pass = staticmethod(detumble_pass)
+    task_pass_threads = staticmethod(detumble_pass_threads)
 
     def __init__(
         self,

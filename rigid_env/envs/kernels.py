@@ -14,10 +14,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-from numba import njit
+from numba import njit, prange
 
-from rigid_env.core.kernels import kernel, kinetic_energy, model_row, rotate
+from rigid_env.core.kernels import body_model, kernel, kinetic_energy, rotate
 
 # ---- task parameters: the common header ------------------------------------------------------
 DT = 0  # control step [s]
@@ -55,6 +54,16 @@ def canonical(q):
 
 
 @kernel
+def soft_sign(x):
+    """``tanh(x)`` by ``expm1``: ``e = expm1(-2 |x|)``, ``tanh |x| = -e / (2 + e)``, in float64
+    (within a few ulp, far finer than the float32 observation it goes into; the sign put
+    back), one libm call where ``math.tanh`` of a float32 costs more."""
+    e = math.expm1(-2.0 * abs(x))
+    t = -e / (2.0 + e)
+    return t if x >= 0.0 else -t
+
+
+@kernel
 def _clip(x, bound):
     return min(bound, max(-bound, x))
 
@@ -83,11 +92,11 @@ def observe_body(tp, s, noise, obs, i):
     for k in range(3):
         wk = s[10 + k] + noise[k]
         obs[i, r + k] = _clip(wk / scale, 5.0)
-        obs[i, r + 3 + k] = math.tanh(np.float32(wk / 0.1))  # in float32, the obs' precision
+        obs[i, r + 3 + k] = soft_sign(wk / 0.1)
     return r + 6
 
 
-# ---- columns of an env's record (N, RECORD + 1) -----------------------------------------------
+# ---- columns of an env's record (N, RECORD) -----------------------------------------------
 REWARD, TERMINATED, SUCCESS, SPEED, ENERGY, W_WORLD, FUEL = 0, 1, 2, 3, 4, 5, 8
 MEMORY = 9  # one number of task memory (e.g. a success streak)
 RECORD = 10
@@ -95,17 +104,56 @@ TARGET_WIDTH = 4  # a per-env target (a quaternion, or unused zeros)
 
 
 @kernel
-def _row13(a, i):
+def _column13(a, i):
     return (
-        a[i, 0], a[i, 1], a[i, 2], a[i, 3], a[i, 4], a[i, 5], a[i, 6],
-        a[i, 7], a[i, 8], a[i, 9], a[i, 10], a[i, 11], a[i, 12],
+        a[0, i], a[1, i], a[2, i], a[3, i], a[4, i], a[5, i], a[6, i],
+        a[7, i], a[8, i], a[9, i], a[10, i], a[11, i], a[12, i],
     )  # fmt: skip
 
 
+@kernel
+def _env_of(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i):
+    """:func:`task_pass` of env ``i``."""
+    s = _column13(state, i)
+    effort = 0.0
+    if stepped:
+        actions = command.shape[1]
+        magnitude = thrust = 0.0
+        for k in range(actions):
+            a = abs(command[i, k])
+            magnitude += a
+            thrust += a * tp[FMAX + k]
+        effort = magnitude / actions
+        rec[i, FUEL] += thrust * tp[DT]
+    j = 0 if noise.shape[0] == 1 else i
+    start = observe_body(tp, s, (noise[j, 0], noise[j, 1], noise[j, 2]), obs, i)
+    goal = (target[i, 0], target[i, 1], target[i, 2], target[i, 3])
+    reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[i, MEMORY], tp, stepped)
+    if stepped:
+        rec[i, MEMORY] = memory
+    bound = tp[EXTRA_BOUND]
+    for k in range(obs.shape[1] - start):
+        obs[i, start + k] = min(bound, max(-bound, extra[k]))
+    rec[i, REWARD] = reward
+    rec[i, TERMINATED] = 1.0 if done else 0.0
+    rec[i, SUCCESS] = 1.0 if ok else 0.0
+    # Info numbers: a body on its way to a numerical failure may have a finite state whose
+    # energy or world w overflows; its record then keeps the last finite values.
+    w = (s[10], s[11], s[12])
+    rec[i, SPEED] = safe_norm(w)
+    energy = kinetic_energy((s[3], s[4], s[5]), w, body_model(model, i))
+    if math.isfinite(energy):
+        rec[i, ENERGY] = energy
+    ww = rotate((s[6], s[7], s[8], s[9]), w)
+    if math.isfinite(ww[0] + ww[1] + ww[2]):
+        rec[i, W_WORLD], rec[i, W_WORLD + 1], rec[i, W_WORLD + 2] = ww
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs):
-    """Fuel, task and observation of every env after a step (``stepped``), or the observation
-    and info alone after a reset (``stepped`` false: no fuel, and the memory is kept).
+def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
+    """Fuel, task and observation of the envs ``start <= i < stop`` after a step
+    (``stepped``), or the observation and info alone after a reset (``stepped`` false: no
+    fuel, and the memory is kept).
 
     Args:
         evaluate: the task's per-env function ``(s, effort, target, memory, tp, stepped) ->
@@ -113,48 +161,32 @@ def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, 
             effort (mean ``|u|``), the target (4-tuple) and the memory (a number), returning
             the new memory (kept after a step) and the extra observations (a 4-tuple, the
             first ``task_obs_dim`` used, clipped into +-``EXTRA_BOUND``).
-        tp: task parameters. state: (N, 13) rows. model: (N | 1, 9) model rows.
-        command: (N, A) the commands the bodies got. target: (N, TARGET_WIDTH) targets.
-        noise: (N | 1, 3) sensor noise on the observed ``w`` [rad/s].
+        tp: task parameters. state: (13, N) state columns. model: (MODEL_WIDTH, N) model
+            columns. command: (N, A) the commands the bodies got. target: (N, TARGET_WIDTH)
+            targets. noise: (N | 1, 3) sensor noise on the observed ``w`` [rad/s].
         rec: (N, RECORD) each env's record: reward, terminated, success, ``|w|``, kinetic
             energy, world ``w`` (written), fuel spent [N s] (increased) and the task memory.
         obs: (N, D) float32 observations (written).
+        start, stop: the envs to treat (threads treat disjoint ranges at once).
     """
-    actions = command.shape[1]
-    extras = obs.shape[1]
-    bound = tp[EXTRA_BOUND]
-    for i in range(state.shape[0]):
-        s = _row13(state, i)
-        effort = 0.0
-        if stepped:
-            magnitude = thrust = 0.0
-            for k in range(actions):
-                a = abs(command[i, k])
-                magnitude += a
-                thrust += a * tp[FMAX + k]
-            effort = magnitude / actions
-            rec[i, FUEL] += thrust * tp[DT]
-        j = 0 if noise.shape[0] == 1 else i
-        start = observe_body(tp, s, (noise[j, 0], noise[j, 1], noise[j, 2]), obs, i)
-        goal = (target[i, 0], target[i, 1], target[i, 2], target[i, 3])
-        reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[i, MEMORY], tp, stepped)
-        if stepped:
-            rec[i, MEMORY] = memory
-        for k in range(extras - start):
-            obs[i, start + k] = min(bound, max(-bound, extra[k]))
-        rec[i, REWARD] = reward
-        rec[i, TERMINATED] = 1.0 if done else 0.0
-        rec[i, SUCCESS] = 1.0 if ok else 0.0
-        # Info numbers: a body on its way to a numerical failure may have a finite state whose
-        # energy or world w overflows; its record then keeps the last finite values.
-        w = (s[10], s[11], s[12])
-        rec[i, SPEED] = safe_norm(w)
-        energy = kinetic_energy((s[3], s[4], s[5]), w, model_row(model, i))
-        if math.isfinite(energy):
-            rec[i, ENERGY] = energy
-        ww = rotate((s[6], s[7], s[8], s[9]), w)
-        if math.isfinite(ww[0] + ww[1] + ww[2]):
-            rec[i, W_WORLD], rec[i, W_WORLD + 1], rec[i, W_WORLD + 2] = ww
+    for i in range(start, stop):
+        _env_of(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def task_pass_threads(evaluate, tp, state, model, command, target, noise, stepped, rec, obs,
+                      start, stop, threads):  # fmt: skip
+    """:func:`task_pass` of ``start <= i < stop`` split into ``threads`` contiguous ranges over
+    Numba's threads (``prange``; each env is computed alone, so the split changes no number)."""
+    n = stop - start
+    for t in prange(threads):
+        lo, hi = start + n * t // threads, start + n * (t + 1) // threads
+        task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, lo, hi)
+
+
+threads_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+"""The decorator of a task's pass over Numba's threads (:func:`task_pass_threads`): optional,
+a task without one runs its pass on one thread."""
 
 
 @kernel

@@ -48,8 +48,17 @@ def evaluate(s, effort, target, memory, tp, stepped):
 
 
 @kernel
-def reorient_pass(tp, state, model, command, target, noise, stepped, record, obs):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
+def reorient_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
+
+
+@T.threads_kernel
+def reorient_pass_threads(
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+):
+    T.task_pass_threads(
+        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    )
 
 
 class ReorientTask(TaskBatch):
@@ -68,6 +77,7 @@ class ReorientTask(TaskBatch):
     task_obs_dim = 4
     target_dim = 4
     task_pass = staticmethod(reorient_pass)
+    task_pass_threads = staticmethod(reorient_pass_threads)
 
     def __init__(
         self,

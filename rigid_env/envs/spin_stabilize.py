@@ -60,8 +60,17 @@ def evaluate(s, effort, target, memory, tp, stepped):
 
 
 @kernel
-def spin_stabilize_pass(tp, state, model, command, target, noise, stepped, record, obs):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
+def spin_stabilize_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
+
+
+@T.threads_kernel
+def spin_stabilize_pass_threads(
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+):
+    T.task_pass_threads(
+        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    )
 
 
 class SpinStabilizeTask(TaskBatch):
@@ -80,6 +89,7 @@ class SpinStabilizeTask(TaskBatch):
     scene_name = "spin_stabilize"
     task_obs_dim = 1
     task_pass = staticmethod(spin_stabilize_pass)
+    task_pass_threads = staticmethod(spin_stabilize_pass_threads)
 
     def __init__(
         self,

@@ -46,8 +46,17 @@ def evaluate(s, effort, target, memory, tp, stepped):
 
 
 @kernel
-def tumbling_fall_pass(tp, state, model, command, target, noise, stepped, record, obs):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, record, obs)
+def tumbling_fall_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
+    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
+
+
+@T.threads_kernel
+def tumbling_fall_pass_threads(
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+):
+    T.task_pass_threads(
+        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    )
 
 
 class TumblingFallTask(TaskBatch):
@@ -67,6 +76,7 @@ class TumblingFallTask(TaskBatch):
     task_obs_dim = 2
     task_obs_bound = 5.0
     task_pass = staticmethod(tumbling_fall_pass)
+    task_pass_threads = staticmethod(tumbling_fall_pass_threads)
 
     def __init__(
         self,
