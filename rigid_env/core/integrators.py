@@ -463,7 +463,7 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance(step, p, model, state, command, status, wrenches, start, stop):
+def advance(step, world, start, stop):
     """One world step of the bodies ``start <= i < stop``, in passes over them whose loops the
     compiler vectorises (struct-of-arrays columns; no call, no inner loop and no branch in the
     loop body, only selects):
@@ -473,6 +473,7 @@ def advance(step, p, model, state, command, status, wrenches, start, stop):
        (:func:`_substep_of`); the last one also applies the per-step maps.
 
     Args:
+        world: the world's arrays ``(p, model, state, command, status, wrenches)``:
         p: the world's parameters (the passes read their :func:`header`).
         model: (MODEL_WIDTH, N) model columns.
         state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
@@ -493,6 +494,7 @@ def advance(step, p, model, state, command, status, wrenches, start, stop):
         ended the step beyond the integrator's stable ``h |w|`` (``STABLE_SPEED``); or -1
         (nothing stepped) if the command has a NaN or inf.
     """
+    p, model, state, command, status, wrenches = world
     for r in range(command.shape[0]):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
@@ -516,7 +518,7 @@ def advance(step, p, model, state, command, status, wrenches, start, stop):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance_threads(step, p, model, state, command, status, wrenches, start, stop, threads):
+def advance_threads(step, world, start, stop, threads):
     """:func:`advance` of ``start <= i < stop`` split into ``threads`` contiguous ranges over
     Numba's threads (``prange``; each body is computed alone, so the split changes no number).
     ``threads`` is an argument (``numba.get_num_threads()`` in Python): called in here it
@@ -525,7 +527,7 @@ def advance_threads(step, p, model, state, command, status, wrenches, start, sto
     codes = np.zeros(threads, np.int64)
     for t in prange(threads):
         lo, hi = start + n * t // threads, start + n * (t + 1) // threads
-        codes[t] = advance(step, p, model, state, command, status, wrenches, lo, hi)
+        codes[t] = advance(step, world, lo, hi)
     if codes.min() < 0:
         return -1  # every range checks the command before it steps: nothing stepped
     return 2 * np.sum(codes >> 1) + np.max(codes & 1)
@@ -570,98 +572,48 @@ def derivatives(p, model, state, command, out):
 # One compiled entry per integrator: Numba resolves the per-body function at compile time and
 # caches the specialised loop on disk (a function object passed from Python would cost a slow
 # type lookup at every call, and a closure would not be cached).
-# Arguments (p, model, state, command, status, wrenches, start, stop) and result as advance's;
-# the ``_threads`` entries split the bodies over Numba's threads (compiled on first use).
+# Arguments (world, start, stop) and result as advance's; the ``_threads`` entries split the
+# bodies over Numba's threads (advance_threads; compiled on first use).
 
 
+# fmt: off
 @world_kernel
-def _explicit_euler(p, m, s, u, f, b, i, j):
-    return advance(explicit_euler, p, m, s, u, f, b, i, j)
-
-
+def _explicit_euler(w, i, j): return advance(explicit_euler, w, i, j)
 @threads_kernel
-def _explicit_euler_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(explicit_euler, p, m, s, u, f, b, i, j, t)
-
-
+def _explicit_euler_threads(w, i, j, t): return advance_threads(explicit_euler, w, i, j, t)
 @world_kernel
-def _symplectic_euler(p, m, s, u, f, b, i, j):
-    return advance(symplectic_euler, p, m, s, u, f, b, i, j)
-
-
+def _symplectic_euler(w, i, j): return advance(symplectic_euler, w, i, j)
 @threads_kernel
-def _symplectic_euler_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(symplectic_euler, p, m, s, u, f, b, i, j, t)
-
-
+def _symplectic_euler_threads(w, i, j, t): return advance_threads(symplectic_euler, w, i, j, t)
 @world_kernel
-def _implicit_euler(p, m, s, u, f, b, i, j):
-    return advance(implicit_euler, p, m, s, u, f, b, i, j)
-
-
+def _implicit_euler(w, i, j): return advance(implicit_euler, w, i, j)
 @threads_kernel
-def _implicit_euler_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(implicit_euler, p, m, s, u, f, b, i, j, t)
-
-
+def _implicit_euler_threads(w, i, j, t): return advance_threads(implicit_euler, w, i, j, t)
 @world_kernel
-def _leapfrog(p, m, s, u, f, b, i, j):
-    return advance(leapfrog, p, m, s, u, f, b, i, j)
-
-
+def _leapfrog(w, i, j): return advance(leapfrog, w, i, j)
 @threads_kernel
-def _leapfrog_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(leapfrog, p, m, s, u, f, b, i, j, t)
-
-
+def _leapfrog_threads(w, i, j, t): return advance_threads(leapfrog, w, i, j, t)
 @world_kernel
-def _midpoint(p, m, s, u, f, b, i, j):
-    return advance(midpoint, p, m, s, u, f, b, i, j)
-
-
+def _midpoint(w, i, j): return advance(midpoint, w, i, j)
 @threads_kernel
-def _midpoint_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(midpoint, p, m, s, u, f, b, i, j, t)
-
-
+def _midpoint_threads(w, i, j, t): return advance_threads(midpoint, w, i, j, t)
 @world_kernel
-def _rk4(p, m, s, u, f, b, i, j):
-    return advance(rk4, p, m, s, u, f, b, i, j)
-
-
+def _rk4(w, i, j): return advance(rk4, w, i, j)
 @threads_kernel
-def _rk4_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(rk4, p, m, s, u, f, b, i, j, t)
-
-
+def _rk4_threads(w, i, j, t): return advance_threads(rk4, w, i, j, t)
 @world_kernel
-def _implicit_gyro(p, m, s, u, f, b, i, j):
-    return advance(implicit_gyro, p, m, s, u, f, b, i, j)
-
-
+def _implicit_gyro(w, i, j): return advance(implicit_gyro, w, i, j)
 @threads_kernel
-def _implicit_gyro_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(implicit_gyro, p, m, s, u, f, b, i, j, t)
-
-
+def _implicit_gyro_threads(w, i, j, t): return advance_threads(implicit_gyro, w, i, j, t)
 @world_kernel
-def _splitting(p, m, s, u, f, b, i, j):
-    return advance(splitting, p, m, s, u, f, b, i, j)
-
-
+def _splitting(w, i, j): return advance(splitting, w, i, j)
 @threads_kernel
-def _splitting_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(splitting, p, m, s, u, f, b, i, j, t)
-
-
+def _splitting_threads(w, i, j, t): return advance_threads(splitting, w, i, j, t)
 @world_kernel
-def _yoshida4(p, m, s, u, f, b, i, j):
-    return advance(yoshida4, p, m, s, u, f, b, i, j)
-
-
+def _yoshida4(w, i, j): return advance(yoshida4, w, i, j)
 @threads_kernel
-def _yoshida4_threads(p, m, s, u, f, b, i, j, t):
-    return advance_threads(yoshida4, p, m, s, u, f, b, i, j, t)
+def _yoshida4_threads(w, i, j, t): return advance_threads(yoshida4, w, i, j, t)
+# fmt: on
 
 
 # --------------------------------------------------------------------------------------------
@@ -689,8 +641,8 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None for an
             array integrator.
-        world_step: the compiled world step ``(p, model, state, command, status, wrenches,
-            start, stop) -> code`` (:func:`advance` of ``body``); None for an array integrator.
+        world_step: the compiled world step ``(world, start, stop) -> code`` (:func:`advance` of
+            ``body``); None for an array integrator.
         world_step_threads: the same over Numba's threads (:func:`advance_threads`).
         stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
             stable about a principal axis, or None where it has no such limit; a world warns

@@ -304,11 +304,11 @@ class World:
 
     def _step_compiled(self, u: FloatArray) -> int:
         """The compiled world step, over the cores for a large batch."""
-        p, m, s, f, b = self.params, self._model_cols, self._cols, self._status, self._wrenches
+        arrays = (self.params, self._model_cols, self._cols, u, self._status, self._wrenches)
         if not threaded(self._n):
-            return self.integrator.world_step(p, m, s, u, f, b, 0, self._n)
+            return self.integrator.world_step(arrays, 0, self._n)
         step = self.integrator.world_step_threads
-        return call_threaded(lambda t: step(p, m, s, u, f, b, 0, self._n, t))
+        return call_threaded(lambda t: step(arrays, 0, self._n, t))
 
     def _step_arrays(self, u: FloatArray) -> int:
         """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
