@@ -518,19 +518,25 @@ def advance(step, world, start, stop):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance_threads(step, world, start, stop, threads):
-    """:func:`advance` of ``start <= i < stop`` split into ``threads`` contiguous ranges over
-    Numba's threads (``prange``; each body is computed alone, so the split changes no number).
-    ``threads`` is an argument (``numba.get_num_threads()`` in Python): called in here it
-    would keep the function from being cached."""
+def over_threads(entry, world, start, stop, threads):
+    """A world step ``entry(world, start, stop)`` (one integrator's compiled :func:`advance`)
+    of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
+    (``prange``; each body is computed alone, so the split changes no number). ``entry`` is
+    called, not inlined, so this compiles in a second or two. ``threads`` is an argument
+    (``numba.get_num_threads()`` in Python): called in here it would keep the function from
+    being cached."""
     n = stop - start
-    codes = np.zeros(threads, np.int64)
+    codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
     for t in prange(threads):
-        lo, hi = start + n * t // threads, start + n * (t + 1) // threads
-        codes[t] = advance(step, world, lo, hi)
-    if codes.min() < 0:
-        return -1  # every range checks the command before it steps: nothing stepped
-    return 2 * np.sum(codes >> 1) + np.max(codes & 1)
+        k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
+        codes[t] = entry(world, start + n * k // threads, start + n * (k + 1) // threads)
+    failures = over = 0
+    for t in range(threads):
+        if codes[t] < 0:
+            return -1  # every range checks the command before it steps: nothing stepped
+        failures += codes[t] >> 1
+        over = max(over, codes[t] & 1)
+    return 2 * failures + over
 
 
 @kernel
@@ -573,46 +579,46 @@ def derivatives(p, model, state, command, out):
 # caches the specialised loop on disk (a function object passed from Python would cost a slow
 # type lookup at every call, and a closure would not be cached).
 # Arguments (world, start, stop) and result as advance's; the ``_threads`` entries split the
-# bodies over Numba's threads (advance_threads; compiled on first use).
+# bodies over Numba's threads (over_threads; compiled on first use).
 
 
 # fmt: off
 @world_kernel
 def _explicit_euler(w, i, j): return advance(explicit_euler, w, i, j)
 @threads_kernel
-def _explicit_euler_threads(w, i, j, t): return advance_threads(explicit_euler, w, i, j, t)
+def _explicit_euler_threads(w, i, j, t): return over_threads(_explicit_euler, w, i, j, t)
 @world_kernel
 def _symplectic_euler(w, i, j): return advance(symplectic_euler, w, i, j)
 @threads_kernel
-def _symplectic_euler_threads(w, i, j, t): return advance_threads(symplectic_euler, w, i, j, t)
+def _symplectic_euler_threads(w, i, j, t): return over_threads(_symplectic_euler, w, i, j, t)
 @world_kernel
 def _implicit_euler(w, i, j): return advance(implicit_euler, w, i, j)
 @threads_kernel
-def _implicit_euler_threads(w, i, j, t): return advance_threads(implicit_euler, w, i, j, t)
+def _implicit_euler_threads(w, i, j, t): return over_threads(_implicit_euler, w, i, j, t)
 @world_kernel
 def _leapfrog(w, i, j): return advance(leapfrog, w, i, j)
 @threads_kernel
-def _leapfrog_threads(w, i, j, t): return advance_threads(leapfrog, w, i, j, t)
+def _leapfrog_threads(w, i, j, t): return over_threads(_leapfrog, w, i, j, t)
 @world_kernel
 def _midpoint(w, i, j): return advance(midpoint, w, i, j)
 @threads_kernel
-def _midpoint_threads(w, i, j, t): return advance_threads(midpoint, w, i, j, t)
+def _midpoint_threads(w, i, j, t): return over_threads(_midpoint, w, i, j, t)
 @world_kernel
 def _rk4(w, i, j): return advance(rk4, w, i, j)
 @threads_kernel
-def _rk4_threads(w, i, j, t): return advance_threads(rk4, w, i, j, t)
+def _rk4_threads(w, i, j, t): return over_threads(_rk4, w, i, j, t)
 @world_kernel
 def _implicit_gyro(w, i, j): return advance(implicit_gyro, w, i, j)
 @threads_kernel
-def _implicit_gyro_threads(w, i, j, t): return advance_threads(implicit_gyro, w, i, j, t)
+def _implicit_gyro_threads(w, i, j, t): return over_threads(_implicit_gyro, w, i, j, t)
 @world_kernel
 def _splitting(w, i, j): return advance(splitting, w, i, j)
 @threads_kernel
-def _splitting_threads(w, i, j, t): return advance_threads(splitting, w, i, j, t)
+def _splitting_threads(w, i, j, t): return over_threads(_splitting, w, i, j, t)
 @world_kernel
 def _yoshida4(w, i, j): return advance(yoshida4, w, i, j)
 @threads_kernel
-def _yoshida4_threads(w, i, j, t): return advance_threads(yoshida4, w, i, j, t)
+def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4, w, i, j, t)
 # fmt: on
 
 
@@ -643,7 +649,7 @@ class IntegratorInfo:
             array integrator.
         world_step: the compiled world step ``(world, start, stop) -> code`` (:func:`advance` of
             ``body``); None for an array integrator.
-        world_step_threads: the same over Numba's threads (:func:`advance_threads`).
+        world_step_threads: the same over Numba's threads (:func:`over_threads`).
         stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
             stable about a principal axis, or None where it has no such limit; a world warns
             once when a body goes beyond it.

@@ -38,12 +38,10 @@ def detumble_pass(tp, state, model, command, target, noise, stepped, rec, obs, s
 
 
 @T.threads_kernel
-def detumble_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-):
+def detumble_pass_threads(tp, state, model, command, target, noise, stepped, rec, obs, i, j, t):
     T.task_pass_threads(
-        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-    )
+        detumble_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
+    )  # fmt: skip
 
 
 class DetumbleTask(TaskBatch):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit, prange
 
 from rigid_env.core.kernels import body_model, kernel, kinetic_energy, rotate
@@ -174,14 +175,17 @@ def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, 
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def task_pass_threads(evaluate, tp, state, model, command, target, noise, stepped, rec, obs,
+def task_pass_threads(entry, tp, state, model, command, target, noise, stepped, rec, obs,
                       start, stop, threads):  # fmt: skip
-    """:func:`task_pass` of ``start <= i < stop`` split into ``threads`` contiguous ranges over
-    Numba's threads (``prange``; each env is computed alone, so the split changes no number)."""
+    """A task's pass ``entry`` (its compiled :func:`task_pass`) of ``start <= i < stop`` split
+    into ``threads`` contiguous ranges over Numba's threads (``prange``; each env is computed
+    alone, so the split changes no number); ``entry`` is called, not inlined, so this compiles
+    in a second or two."""
     n = stop - start
     for t in prange(threads):
-        lo, hi = start + n * t // threads, start + n * (t + 1) // threads
-        task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, lo, hi)
+        k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
+        lo, hi = start + n * k // threads, start + n * (k + 1) // threads
+        entry(tp, state, model, command, target, noise, stepped, rec, obs, lo, hi)
 
 
 threads_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)

@@ -53,12 +53,10 @@ def reorient_pass(tp, state, model, command, target, noise, stepped, rec, obs, s
 
 
 @T.threads_kernel
-def reorient_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-):
+def reorient_pass_threads(tp, state, model, command, target, noise, stepped, rec, obs, i, j, t):
     T.task_pass_threads(
-        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-    )
+        reorient_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
+    )  # fmt: skip
 
 
 class ReorientTask(TaskBatch):

@@ -66,11 +66,11 @@ def spin_stabilize_pass(tp, state, model, command, target, noise, stepped, rec, 
 
 @T.threads_kernel
 def spin_stabilize_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
 ):
     T.task_pass_threads(
-        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-    )
+        spin_stabilize_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
+    )  # fmt: skip
 
 
 class SpinStabilizeTask(TaskBatch):

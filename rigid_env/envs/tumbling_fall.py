@@ -52,11 +52,11 @@ def tumbling_fall_pass(tp, state, model, command, target, noise, stepped, rec, o
 
 @T.threads_kernel
 def tumbling_fall_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
+    tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
 ):
     T.task_pass_threads(
-        evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i, j, threads
-    )
+        tumbling_fall_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
+    )  # fmt: skip
 
 
 class TumblingFallTask(TaskBatch):
