@@ -1,14 +1,12 @@
-"""Effects: small frozen, validated parameter specs of the terms a scene can list.
+"""Effects: small frozen, validated specs of the terms a scene can list.
 
-A world composes only the effects its scene lists: each spec writes its flag and numbers into
-the world's parameters (:func:`pack`), and the compiled per-body kernels
-(:func:`rigid_env.core.kernels.accelerations`) evaluate exactly those: :class:`ForceEffect`
-terms of the differential equation (actuators among them, reading the command) and
+A world composes only those: each spec writes its flag and numbers into the world's parameters
+(:func:`pack`), which the compiled kernels (:func:`rigid_env.core.kernels.accelerations`)
+evaluate: :class:`ForceEffect` terms of the differential equation (actuators among them) and
 :class:`StepMap` maps applied once per world step, outside it.
 
-Torque convention: a force ``f`` applied at body point ``r`` (body frame, relative to the centre
-of mass) gives the world torque ``(R r) x (R f_b) = R (r x f_b)``; we keep torques in the body
-frame, so ``tau_body = r x f_body``.
+Torque convention: a force ``f`` at body point ``r`` (body frame, from the centre of mass) gives
+the world torque ``(R r) x (R f_b) = R (r x f_b)``, kept in the body frame: ``r x f_body``.
 """
 
 from __future__ import annotations
@@ -56,11 +54,7 @@ class StepMap:
         raise NotImplementedError
 
 
-# --------------------------------------------------------------------------------------------
-# Environment terms
-# --------------------------------------------------------------------------------------------
-
-
+# ---- environment terms -----------------------------------------------------------------------
 @dataclass(frozen=True)
 class Gravity(ForceEffect):
     """Uniform gravity ``F = m g`` at the centre of mass (no torque).
@@ -88,12 +82,9 @@ class Gravity(ForceEffect):
 
 @dataclass(frozen=True)
 class QuadraticDrag(ForceEffect):
-    """Quadratic air drag at a centre of pressure.
-
-    ``F = -1/2 rho C_D A |v_p| v_p`` with ``v_p = v + R (w x r_cp)`` the velocity of the centre
-    of pressure ``r_cp`` (body frame). If ``r_cp`` is not the centre of mass the force also
-    makes a torque ``tau_body = r_cp x R^T F`` (a weathervane effect). With ``r_cp = 0`` the term
-    is purely translational and costs one norm per body.
+    """Quadratic air drag ``F = -1/2 rho C_D A |v_p| v_p`` at the centre of pressure ``r_cp``
+    (body frame), whose velocity is ``v_p = v + R (w x r_cp)``. Off the centre of mass it also
+    makes a torque ``tau_body = r_cp x R^T F`` (weathervane); at it, it costs one norm per body.
 
     Attributes:
         rho: air density [kg/m^3].
@@ -179,18 +170,11 @@ class AngularDamping(_Damping):
     slots: ClassVar[tuple[int, int]] = (K.ANGULAR_DAMPING, K.ANGULAR_ALPHA)
 
 
-# --------------------------------------------------------------------------------------------
-# Actuators: forces at body points, linear in the command
-# --------------------------------------------------------------------------------------------
-
-
+# ---- actuators: forces at body points, linear in the command ---------------------------------
 class LinearActuator(ForceEffect):
-    """Body-frame forces at body points, linear in a command ``u`` (A,) in [-1, 1].
-
-    The body-frame force is ``f_body = u @ force_map`` and the body-frame torque
-    ``tau_body = u @ torque_map``, row ``a`` of ``torque_map`` being ``r_a x force_map[a]``
-    (force at point ``r_a``): one actuator step is a short weighted sum whatever the layout.
-    """
+    """Body-frame forces at body points, linear in a command ``u`` (A,) in [-1, 1]: ``f_body =
+    u @ force_map``, ``tau_body = u @ torque_map`` with row ``a`` of ``torque_map`` ``r_a x
+    force_map[a]`` (force at point ``r_a``), a short weighted sum whatever the layout."""
 
     name: ClassVar[str] = "actuator"
     force_map: FloatArray

@@ -1,8 +1,6 @@
-"""The exact torque-free flow of a rigid body, on NumPy arrays (written once: the
-``exact_free`` integrator, the accuracy benchmark's reference and the stability cases use it).
-
-Numba has no elliptic functions, so this is the one integrator step that stays a NumPy array
-function: vectorised over bodies with SciPy's elliptic ufuncs, no Python loop.
+"""The exact torque-free flow of a rigid body, written once for the ``exact_free`` integrator,
+the accuracy benchmark's reference and the stability cases: Numba has no elliptic functions, so
+it stays a NumPy array function, vectorised over bodies with SciPy's elliptic ufuncs.
 """
 
 from __future__ import annotations
@@ -105,10 +103,8 @@ def free_rotation_exact(
     (``J_c``, ``J_p`` the moments of the ``cn`` and pole axes). ``kappa`` cancels the small
     ``c1`` analytically, so nothing is ill-conditioned near a pure spin. A body with constant
     ``w`` (a spin about a principal axis, a symmetric body spinning about a transverse axis)
-    rotates by ``exp(h w)``.
-
-    Vectorised over bodies (scipy.special ufuncs, no Python loop). Both invariants, ``E`` and
-    ``|L|``, and the world ``L`` are kept to round-off for any ``h``. Returns new ``(q, w)``.
+    rotates by ``exp(h w)``. ``E``, ``|L|`` and the world ``L`` are kept to round-off for any
+    ``h``. Returns new ``(q, w)``.
     """
     if isotropic:
         return quat_integrate_exp(q, w, h), w

@@ -1,19 +1,14 @@
-"""Mass properties of rigid bodies: mass, centre of mass and inertia tensor; principal axes.
+"""Mass properties of rigid bodies: mass, centre of mass, inertia tensor and principal axes.
 
-Every constructor returns a :class:`MassProperties` whose inertia tensor is taken about the
-centre of mass with the axes of the frame the input was given in (the *reference frame*):
+Every constructor returns a :class:`MassProperties` whose tensor is about the centre of mass, in
+the axes the input was given in (the *reference frame*):
 
-    I_ref = integral over the body of rho(r) (|r|^2 1 - r r^T) dV,     r measured from the COM,
+    I_ref = integral rho(r) (|r|^2 1 - r r^T) dV,     r from the COM,
 
-which for point masses is ``I_ref = sum_i m_i (r_i.r_i 1 - r_i r_i^T)``. Primitive shapes are
-centred on their centre of mass with their symmetry axes along the reference axes, so their
-tensors are diagonal. :func:`principal_axes` diagonalises any tensor, ``I_ref = R diag(I) R^T``;
-the simulator keeps the body frame on the principal axes (see DESIGN.md, "Physics conventions").
-
-Closed triangle meshes are integrated with the divergence theorem as a sum of signed tetrahedra
-(Tonon 2004; Blow & Binstock 2004), vectorised over the faces.
-
-Units are SI throughout: [kg], [m], [kg m^2].
+for point masses ``sum_i m_i (r_i.r_i 1 - r_i r_i^T)``. Primitives are centred on their COM with
+their symmetry axes along the reference axes (diagonal tensors); :func:`principal_axes`
+diagonalises any tensor, ``I_ref = R diag(I) R^T``. Closed triangle meshes are summed as signed
+tetrahedra (divergence theorem). SI units: [kg], [m], [kg m^2].
 """
 
 from __future__ import annotations
@@ -26,28 +21,22 @@ from numpy.typing import ArrayLike, NDArray
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
-# Relative tolerance of the checks on a given inertia tensor: asymmetry |I - I^T| and negative
-# principal moments are accepted up to this fraction of the tensor's scale (trace), which is
-# far above the rounding of any computation here (~1e-16 relative) and far below a real error.
+# Asymmetry |I - I^T| and negative moments of a given tensor accepted up to this fraction of
+# its trace: far above rounding (~1e-16 relative), far below a real error.
 _TENSOR_RTOL = 1.0e-9
 
 
-# --------------------------------------------------------------------------------------------
-# Argument checks (one-line messages that name the argument and the fix)
-# --------------------------------------------------------------------------------------------
-
-
+# ---- argument checks (one-line messages that name the argument and the fix) ------------------
 def _scalar(func: str, name: str, value: object, *, allow_zero: bool = False) -> float:
     """A finite real scalar > 0 (or >= 0 with ``allow_zero``), else ValueError naming it."""
     bound = ">= 0" if allow_zero else "> 0"
+    wrong = f"{func}: {name} must be a single finite number {bound}, got {value!r}"
     if isinstance(value, bool) or np.ndim(value) != 0:  # type: ignore[arg-type]
-        raise ValueError(f"{func}: {name} must be a single finite number {bound}, got {value!r}")
+        raise ValueError(wrong)
     try:
         x = float(value)  # type: ignore[arg-type]
     except (TypeError, ValueError):
-        raise ValueError(
-            f"{func}: {name} must be a single finite number {bound}, got {value!r}"
-        ) from None
+        raise ValueError(wrong) from None
     if not np.isfinite(x) or x < 0.0 or (x == 0.0 and not allow_zero):
         raise ValueError(f"{func}: {name} must be finite and {bound}, got {x!r}")
     return x
@@ -80,28 +69,20 @@ def _frozen(a: FloatArray) -> FloatArray:
     return out
 
 
-# --------------------------------------------------------------------------------------------
-# Principal axes and the triangle inequality
-# --------------------------------------------------------------------------------------------
-
-
+# ---- principal axes and the triangle inequality ----------------------------------------------
 def principal_axes(inertia: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """Principal moments and axes of a symmetric inertia tensor: ``I = R diag(m) R^T``.
 
-    The input is symmetrised, ``(I + I^T) / 2``, and diagonalised by ``numpy.linalg.eigh``
-    (symmetric eigensolver: real ascending eigenvalues, orthonormal eigenvectors). Each column's
-    sign is fixed so that its largest-magnitude component is positive (a reproducible choice for
-    distinct moments), then the last column is flipped if needed so that ``R`` is a proper
-    rotation (``det R = +1``); an eigenvector's sign is free, so ``R diag(m) R^T`` is unchanged.
-    For repeated moments any orthonormal basis of the eigenspace is a valid answer.
+    ``numpy.linalg.eigh`` of ``(I + I^T) / 2``; each column's largest-magnitude component is made
+    positive (reproducible for distinct moments), then the last column flipped if needed so that
+    ``det R = +1``. For repeated moments any orthonormal basis of the eigenspace is valid.
 
     Args:
         inertia: (3, 3) inertia tensor in some frame [kg m^2].
 
     Returns:
         moments: (3,) principal moments, ascending [kg m^2].
-        axes: (3, 3) rotation whose columns are the principal axes in that frame (column ``k``
-            belongs to ``moments[k]``), ``det = +1``.
+        axes: (3, 3) rotation, column ``k`` the axis of ``moments[k]`` in that frame, det +1.
 
     Raises:
         ValueError: if ``inertia`` is not a finite (3, 3) array.
@@ -118,10 +99,9 @@ def principal_axes(inertia: ArrayLike) -> tuple[FloatArray, FloatArray]:
 def check_triangle_inequality(moments: ArrayLike, rtol: float = 1.0e-9) -> None:
     """Check that principal moments can belong to a real mass distribution.
 
-    With ``I_x = integral (y^2 + z^2) dm`` and its cyclic versions, ``I_x + I_y - I_z =
-    2 integral z^2 dm >= 0``: each moment is at most the sum of the other two, with equality
-    exactly for a flat body (all mass in one plane), and every moment is >= 0. A violation
-    larger than ``rtol * (I_1 + I_2 + I_3)`` raises; a flat plate on the equality passes.
+    ``I_x + I_y - I_z = 2 integral z^2 dm >= 0`` (and cyclic): no moment exceeds the sum of the
+    other two (equality for a flat body) and none is < 0. A violation beyond ``rtol * (I_1 + I_2
+    + I_3)`` raises.
 
     Args:
         moments: (3,) principal moments [kg m^2].
@@ -150,29 +130,22 @@ def check_triangle_inequality(moments: ArrayLike, rtol: float = 1.0e-9) -> None:
             )
 
 
-# --------------------------------------------------------------------------------------------
-# Mass properties
-# --------------------------------------------------------------------------------------------
-
-
+# ---- mass properties -------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
 class MassProperties:
     """Mass, centre of mass and inertia tensor of one rigid body.
 
-    The triangle inequality of the moments is not enforced here (call
-    :func:`check_triangle_inequality` where a user may give made-up moments); a tensor must be
-    symmetric and positive semi-definite (a single point mass has zero inertia).
+    The tensor must be symmetric and positive semi-definite (a point mass has zero inertia);
+    the triangle inequality is not enforced (:func:`check_triangle_inequality`).
 
     Attributes:
         mass: total mass [kg], > 0.
-        center_of_mass: (3,) centre of mass in the reference frame (the frame the shape or
-            points were given in) [m].
-        inertia_ref: (3, 3) inertia tensor about the centre of mass, axes of the reference
-            frame [kg m^2]; stored symmetrised.
+        center_of_mass: (3,) centre of mass in the reference frame [m].
+        inertia_ref: (3, 3) inertia tensor about the centre of mass, reference axes [kg m^2];
+            stored symmetrised.
         principal_moments: (3,) ascending eigenvalues of ``inertia_ref`` [kg m^2] (derived).
-        principal_axes: (3, 3) rotation (det +1) whose columns are the principal axes in the
-            reference frame, ``inertia_ref = principal_axes @ diag(principal_moments) @
-            principal_axes.T`` (derived).
+        principal_axes: (3, 3) rotation (det +1), columns the principal axes: ``inertia_ref =
+            principal_axes @ diag(principal_moments) @ principal_axes.T`` (derived).
     """
 
     mass: float
@@ -209,12 +182,9 @@ def _diagonal(mass: float, moments: ArrayLike) -> MassProperties:
 
 
 def from_points(points: ArrayLike) -> MassProperties:
-    """Mass properties of a set of point masses.
-
-    ``M = sum m_i``, ``c = sum m_i r_i / M``, and with ``d_i = r_i - c``
-    ``I = sum m_i (d_i.d_i 1 - d_i d_i^T)``. Subtracting the centre of mass first is the
-    parallel-axis theorem (``I_c = I_o - M (c.c 1 - c c^T)``) without its cancellation error
-    for points far from the origin.
+    """Mass properties of point masses: ``M = sum m_i``, ``c = sum m_i r_i / M`` and, with
+    ``d_i = r_i - c``, ``I = sum m_i (d_i.d_i 1 - d_i d_i^T)`` (the parallel-axis theorem
+    without its cancellation for points far from the origin).
 
     Args:
         points: (M, 4) rows ``x, y, z`` [m] in the reference frame and ``m`` [kg] >= 0.
@@ -245,39 +215,32 @@ def from_points(points: ArrayLike) -> MassProperties:
         raise ValueError(f"{func}: points has zero total mass; give at least one mass > 0")
     com = m @ r / total
     d = r - com
-    # sum_i m_i (|d_i|^2 1 - d_i d_i^T), with S = sum_i m_i d_i d_i^T the second moment.
+    # I = tr(S) 1 - S with the second moment S = sum_i m_i d_i d_i^T.
     second = (d * m[:, None]).T @ d
     inertia = np.trace(second) * np.eye(3) - second
     return MassProperties(total, com, inertia)
 
 
 def box(mass: float, size: ArrayLike) -> MassProperties:
-    """Solid cuboid of uniform density and ``mass`` > 0, centred at the origin, full side
-    lengths ``size = (a, b, c)`` > 0 along x, y, z.
-
-    ``I = m/12 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``: integrate ``y^2`` over ``[-b/2, b/2]``,
-    ``integral y^2 dm = m b^2 / 12``, and sum the two perpendicular axes.
-    """
+    """Solid uniform cuboid of ``mass`` > 0, centred, full sides ``size = (a, b, c)`` > 0 along
+    x, y, z: ``I = m/12 (b^2 + c^2, a^2 + c^2, a^2 + b^2)`` (``integral y^2 dm = m b^2 / 12``
+    over ``[-b/2, b/2]``, summed over the two perpendicular axes)."""
     mass = _scalar("box", "mass", mass)
     a2, b2, c2 = checked_floats("box: size", size, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 12.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))
 
 
 def sphere(mass: float, radius: float) -> MassProperties:
-    """Solid sphere of uniform density, ``mass`` and ``radius`` > 0, centred at the origin:
-    ``I = 2/5 m r^2`` on each axis."""
+    """Solid uniform sphere, ``mass`` and ``radius`` > 0, centred: ``I = 2/5 m r^2`` each axis."""
     mass = _scalar("sphere", "mass", mass)
     radius = _scalar("sphere", "radius", radius)
     return _diagonal(mass, np.full(3, 0.4 * mass * radius**2))
 
 
 def cylinder(mass: float, radius: float, height: float) -> MassProperties:
-    """Solid circular cylinder of uniform density, ``mass``, ``radius`` and ``height`` > 0,
-    centred at the origin, axis along z.
-
-    ``I_zz = m r^2 / 2`` (a stack of discs); ``I_xx = I_yy = m (3 r^2 + h^2) / 12``: a disc's
-    diameter moment ``m r^2 / 4`` plus the rod term ``integral z^2 dm = m h^2 / 12``.
-    """
+    """Solid uniform cylinder, ``mass``, ``radius``, ``height`` > 0, centred, axis z: ``I_zz =
+    m r^2 / 2`` (stacked discs), ``I_xx = I_yy = m (3 r^2 + h^2) / 12`` (a disc's diameter
+    moment ``m r^2 / 4`` plus the rod term ``integral z^2 dm = m h^2 / 12``)."""
     mass = _scalar("cylinder", "mass", mass)
     radius = _scalar("cylinder", "radius", radius)
     height = _scalar("cylinder", "height", height)
@@ -286,12 +249,9 @@ def cylinder(mass: float, radius: float, height: float) -> MassProperties:
 
 
 def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
-    """Solid ellipsoid of uniform density and ``mass`` > 0, centred at the origin, semi-axes
-    ``(a, b, c)`` > 0 along x, y, z.
-
-    The map ``x = a u`` (etc.) takes the unit ball onto the ellipsoid with constant Jacobian,
-    so ``integral x^2 dm = a^2 integral u^2 dm = m a^2 / 5`` (unit ball: ``u^2`` averages 1/5),
-    hence ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
+    """Solid uniform ellipsoid of ``mass`` > 0, centred, semi-axes ``(a, b, c)`` > 0 along x, y,
+    z: ``x = a u`` maps the unit ball (where ``u^2`` averages 1/5) onto it with constant
+    Jacobian, so ``integral x^2 dm = m a^2 / 5`` and ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
     """
     mass = _scalar("ellipsoid", "mass", mass)
     a2, b2, c2 = checked_floats("ellipsoid: semi_axes", semi_axes, (3,), positive=True) ** 2
@@ -299,28 +259,18 @@ def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
 
 
 def capsule(mass: float, radius: float, length: float) -> MassProperties:
-    """Solid capsule of uniform density: a cylinder of ``length`` along z capped by two
-    hemispheres of ``radius``, centred at the origin (total extent ``length + 2 radius``).
+    """Solid uniform capsule: a cylinder of ``length`` >= 0 along z capped by hemispheres of
+    ``radius`` > 0, centred (extent ``length + 2 radius``; length 0 is a sphere), ``mass`` > 0.
 
-    Derivation as in B. Lovrovic, "Capsule Inertia Tensor" (gamedev.net, 2015) and R. Gaul,
-    "Inertia Tensor - Capsule" (randygaul.github.io, 2013). With ``h = length``:
-
-    * mass split by volume: ``V_cyl = pi r^2 h``, each cap ``V_hemi = 2/3 pi r^3``;
-      ``m_cyl = m V_cyl / V``, ``m_hemi = m V_hemi / V``, ``V = V_cyl + 2 V_hemi``.
-    * axis z: the cylinder gives ``m_cyl r^2 / 2`` and each hemisphere half a sphere's
-      ``2/5 (2 m_hemi) r^2``, i.e. ``2/5 m_hemi r^2``.
-    * axis x through the origin: the cylinder gives ``m_cyl (3 r^2 + h^2) / 12``. A hemisphere
-      about a transverse axis through the centre of its flat face has ``2/5 m_hemi r^2`` (half a
-      sphere, by symmetry). Its centre of mass lies ``3r/8`` from that face, so about its own
-      centre of mass (parallel axis theorem, which holds only about the COM) it has
-      ``2/5 m_hemi r^2 - m_hemi (3r/8)^2``; shifted to the capsule centre, at distance
-      ``h/2 + 3r/8``, it has ``2/5 m_hemi r^2 - m_hemi (3r/8)^2 + m_hemi (h/2 + 3r/8)^2
-      = m_hemi (2/5 r^2 + h^2/4 + 3 h r / 8)``. (The common mistake shifts ``2/5 m_hemi r^2``
-      straight by ``h/2 + 3r/8``, skipping the step to the hemisphere's own COM, which
-      overstates each cap by ``m_hemi (3r/8)^2``.)
-
-    ``mass`` and ``radius`` (of the cylinder and the caps) > 0; ``length`` >= 0, and 0 is a
-    sphere.
+    After B. Lovrovic, "Capsule Inertia Tensor" (gamedev.net, 2015) and R. Gaul, "Inertia
+    Tensor - Capsule" (randygaul.github.io, 2013), with ``h = length``: the mass splits by
+    volume (``V_cyl = pi r^2 h``, each cap ``V_hemi = 2/3 pi r^3``). About z the cylinder gives
+    ``m_cyl r^2 / 2`` and each cap ``2/5 m_hemi r^2`` (half a sphere). About x the cylinder
+    gives ``m_cyl (3 r^2 + h^2) / 12``; a cap has ``2/5 m_hemi r^2`` about its flat face's
+    centre, so ``2/5 m_hemi r^2 - m_hemi (3r/8)^2`` about its own COM (``3r/8`` from the face),
+    and shifted to the capsule centre (``h/2 + 3r/8`` away) ``m_hemi (2/5 r^2 + h^2/4 +
+    3 h r / 8)``. Shifting ``2/5 m_hemi r^2`` straight, skipping the cap's own COM (the common
+    mistake), overstates each cap by ``m_hemi (3r/8)^2``.
     """
     mass = _scalar("capsule", "mass", mass)
     r = _scalar("capsule", "radius", radius)
@@ -337,11 +287,7 @@ def capsule(mass: float, radius: float, length: float) -> MassProperties:
     return _diagonal(mass, [ixx, ixx, izz])
 
 
-# --------------------------------------------------------------------------------------------
-# Closed triangle meshes
-# --------------------------------------------------------------------------------------------
-
-
+# ---- closed triangle meshes ------------------------------------------------------------------
 def _check_mesh(func: str, vertices: ArrayLike, faces: ArrayLike) -> tuple[FloatArray, IntArray]:
     """Validate a triangle mesh; return (V, 3) float vertices and (F, 3) int faces."""
     try:
@@ -366,13 +312,9 @@ def _check_mesh(func: str, vertices: ArrayLike, faces: ArrayLike) -> tuple[Float
 
 
 def _open_edge_count(faces: IntArray, n_vertices: int) -> int:
-    """Number of undirected edges whose two directions are not used equally often.
-
-    A triangle mesh is a closed surface (the 2-chain has no boundary, which the divergence
-    theorem needs) exactly when every edge is traversed as often from i to j as from j to i by
-    consistently oriented faces. An open hole leaves edges used once; a face with flipped
-    winding uses an edge twice in the same direction.
-    """
+    """Number of undirected edges not traversed equally often in both directions: 0 exactly for
+    a closed, consistently oriented surface, as the divergence theorem needs (a hole leaves an
+    edge used once, a flipped face uses one twice in the same direction)."""
     start = faces.reshape(-1)
     end = np.roll(faces, -1, axis=1).reshape(-1)
     key = np.minimum(start, end) * n_vertices + np.maximum(start, end)
@@ -385,24 +327,18 @@ def _open_edge_count(faces: IntArray, n_vertices: int) -> int:
 def from_mesh(vertices: ArrayLike, faces: ArrayLike, density: float = 1.0) -> MassProperties:
     """Mass properties of a uniform solid bounded by a closed, outward-oriented triangle mesh.
 
-    Divergence theorem, as a sum of signed tetrahedra (Tonon, "Explicit exact formulas for the
-    3-D tetrahedron inertia tensor in terms of its vertex coordinates", J. Math. Stat. 1(1),
-    2004; Blow & Binstock, "How to find the inertia tensor of a 3D solid body represented by a
-    triangle mesh", 2004; equivalent to Mirtich 1996 and Eberly, "Polyhedral Mass
-    Properties"). Each face ``(a, b, c)``, counter-clockwise seen from outside, spans with the
-    origin a tetrahedron of signed volume ``D / 6``, ``D = a.(b x c)``; summing them counts
-    every interior point once (faces seen from the inside subtract what lies outside).
-
-    The tetrahedron is the image of the unit one under ``A = [a b c]``, ``det A = D``, and the
-    unit tetrahedron has ``integral u u^T dV = (1 + 1 1^T) / 120``, so
+    Divergence theorem as a sum of signed tetrahedra (Tonon, J. Math. Stat. 1(1), 2004; Blow &
+    Binstock 2004; equivalent to Mirtich 1996). Each face ``(a, b, c)``, counter-clockwise seen
+    from outside, spans with the origin a tetrahedron of signed volume ``D / 6``, ``D = a.(b x
+    c)``: the unit tetrahedron mapped by ``A = [a b c]``, which has ``integral u u^T dV = (1 +
+    1 1^T) / 120``, so
 
         integral x dV     = D (a + b + c) / 24,
         integral x x^T dV = D (a a^T + b b^T + c c^T + s s^T) / 120,   s = a + b + c.
 
-    With ``V = sum D / 6``, ``c = (sum integral x dV) / V`` and the second moment about the COM
-    ``S = sum integral x x^T dV - V c c^T``: ``I = rho (tr(S) 1 - S)``. Coordinates are taken
-    relative to the mean vertex, which keeps the result exact to rounding for meshes far from
-    the origin.
+    With ``V = sum D / 6``, ``c = (sum integral x dV) / V`` and ``S = sum integral x x^T dV -
+    V c c^T``: ``I = rho (tr(S) 1 - S)``. Coordinates relative to the mean vertex keep meshes
+    far from the origin exact to rounding.
 
     Args:
         vertices: (V, 3) vertex positions in the reference frame [m].

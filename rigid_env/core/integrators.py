@@ -1,19 +1,15 @@
 """Named integrators, each ONE per-body function compiled with Numba.
 
-An integrator advances one body's ``(x, v, q, w)`` (position and velocity world frame,
-orientation body -> world ``(w, x, y, z)``, angular velocity body frame) by one step ``h``
-under the active effects::
+An integrator advances one body's ``(x, v, q, w)`` (x, v world frame; q body -> world
+``(w, x, y, z)``; w body frame) by one step ``h`` under the active effects,
+``step(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``, with ``(fb, tb)`` the actuators'
+body-frame wrench (constant over a world step), ``m`` the body's model row and ``p`` the world's
+parameters (:mod:`rigid_env.core.kernels`). A world step is :func:`advance`, one compiled loop
+over the bodies; ``exact_free`` is the one NumPy array integrator (:mod:`rigid_env.core.exact`).
 
-    step(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)
-
-with ``(fb, tb)`` the actuators' body-frame wrench (constant over a world step), ``m`` the
-body's model row and ``p`` the world's parameters (:mod:`rigid_env.core.kernels`). A world
-step is :func:`advance`, one compiled loop over the bodies. ``exact_free`` is the one NumPy
-array integrator (Numba has no elliptic functions; :mod:`rigid_env.core.exact`).
-
-Orientation moves by the exponential map ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``)
-except in ``rk4``, which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is
-renormalised. Choose by name from :data:`INTEGRATORS` (:func:`get_integrator`).
+Orientation moves by ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``) except in ``rk4``,
+which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is renormalised. Choose by name
+from :data:`INTEGRATORS` (:func:`get_integrator`).
 """
 
 from __future__ import annotations
@@ -67,19 +63,14 @@ from rigid_env.core.kernels import (
 FloatArray = NDArray[np.float64]
 
 
-# --------------------------------------------------------------------------------------------
-# Textbook methods
-# --------------------------------------------------------------------------------------------
-
-
+# ---- textbook methods ------------------------------------------------------------------------
 @kernel
 def explicit_euler(x, v, q, w, fb, tb, m, p, h):
     """Forward Euler, every derivative at the start of the step:
 
         x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0)
 
-    On free rotation ``w1 = w + h alpha(w)`` inflates the energy by ``O(h^2)`` each step (it
-    steps along the tangent of a curved orbit), so spins drift outward for ever."""
+    Torque-free it inflates the energy by ``O(h^2)`` a step (along the tangent of the orbit)."""
     a, alpha = accelerations(v, q, w, fb, tb, m, p, True)
     return axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha)
 
@@ -110,14 +101,10 @@ def implicit_euler(x, v, q, w, fb, tb, m, p, h):
         v1 = v + h a(y1),  w1 = w + h I^-1 (tau(y1) - w1 x I w1),
         x1 = x + h v1,     q1 = q exp(h w1 / 2),
 
-    solved for ``(v1, w1)`` by Newton's method on the gyroscopic term (Jacobian
-    ``1 + h I^-1 (skew(w) I - skew(I w))``) with the external terms iterated as a fixed point
-    (not stiff at the step sizes used here), until the update is below 1e-13 relative to
-    ``1 + |w|`` (at most 50 iterations).
-
-    Torque-free the exact solution never gains energy: with ``f(w) = -I^-1 (w x I w)``,
-    ``(I w1) . f(w1) = 0`` and ``E`` quadratic give ``E(w0) = E(w1 - h f(w1)) =
-    E(w1) + h^2/2 f(w1) . I f(w1) >= E(w1)``."""
+    by Newton's method on the gyroscopic term (Jacobian ``1 + h I^-1 (skew(w) I - skew(I w))``),
+    the external terms as a fixed point (not stiff here), to an update below 1e-13 relative to
+    ``1 + |w|`` (at most 50 iterations). Torque-free it never gains energy: with ``f(w) =
+    -I^-1 (w x I w)``, ``(I w1) . f(w1) = 0`` gives ``E(w0) = E(w1) + h^2/2 f(w1) . I f(w1)``."""
     v1, w1 = v, w
     for _ in range(50):
         q1 = spin(q, w1, h)
@@ -226,11 +213,7 @@ def rk4(x, v, q, w, fb, tb, m, p, h):
     )
 
 
-# --------------------------------------------------------------------------------------------
-# Methods for fast spin
-# --------------------------------------------------------------------------------------------
-
-
+# ---- methods for fast spin -------------------------------------------------------------------
 @kernel
 def _energy2(w, m):
     """``2 E = w . I w`` [J]."""
@@ -247,13 +230,11 @@ def implicit_gyro(x, v, q, w, fb, tb, m, p, h):
         w1 = w_e - J^-1 h (w_e x I w_e),   J = I + h (skew(w_e) I - skew(I w_e))
         v1 = v + h a(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)
 
-    Energy safeguard. One Newton step is not backward Euler and can *gain* energy at large
-    ``h |w|`` (+3e-7 relative in one step at ``h |w| = 2``, inertia (1, 2, 3)): its
-    linearisation adds a term that can only raise the energy (``<w_e, w1>_I = |w_e|_I^2``) to
-    one that can only lower it. Where ``E(w1) > E(w_e)`` the step is projected back onto the
-    energy ellipsoid ``E = E(w_e)``, in the metric ``<a, b>_I = a . I b`` the radial scaling
-    ``w1 <- w1 sqrt(E(w_e) / E(w1))`` (Hairer, Lubich and Wanner, "Geometric Numerical
-    Integration", 2nd ed., Sec. IV.4), formed from ``w1 / max|w1|`` so it cannot overflow."""
+    One Newton step is not backward Euler and can *gain* energy at large ``h |w|`` (+3e-7
+    relative in one step at ``h |w| = 2``, inertia (1, 2, 3)); where ``E(w1) > E(w_e)`` it is
+    projected back onto ``E = E(w_e)`` by the radial scaling ``w1 <- w1 sqrt(E(w_e) / E(w1))``
+    (Hairer, Lubich and Wanner, "Geometric Numerical Integration", 2nd ed., Sec. IV.4), formed
+    from ``w1 / max|w1|`` so it cannot overflow."""
     a, alpha = accelerations(v, q, w, fb, tb, m, p, False)
     v1 = axpy(v, h, a)
     w1 = w_e = axpy(w, h, alpha)
@@ -277,10 +258,9 @@ def implicit_gyro(x, v, q, w, fb, tb, m, p, h):
 
 @kernel
 def _turn(qw, qa, qi, qj, li, lj, half):
-    """Exact flow of ``H_a = L_a^2 / (2 I_a)``: the body turns by ``theta = 2 half`` about its
-    axis ``a``, ``q <- q (x) (cos(theta/2), sin(theta/2) e_a)``, and the body ``L`` by
-    ``-theta`` about ``e_a`` (``(a, i, j)`` a cyclic order of the axes); ``cos theta`` and
-    ``sin theta`` from the half angle."""
+    """Exact flow of ``H_a = L_a^2 / (2 I_a)``, ``(a, i, j)`` cyclic: the body turns by ``theta =
+    2 half`` about ``e_a``, ``q <- q (x) (cos(theta/2), sin(theta/2) e_a)``, and the body ``L``
+    by ``-theta`` (``cos theta``, ``sin theta`` from the half angle)."""
     sh, ch = sincos(half)
     c = 1.0 - 2.0 * (sh * sh)
     s = 2.0 * (sh * ch)
@@ -331,12 +311,9 @@ def kick(v, q, w, fb, tb, m, p, h):
 
 @kernel
 def splitting(x, v, q, w, fb, tb, m, p, h):
-    """Strang splitting of external forces and free motion:
-
-        kick(h/2) -> [x += h v ; free rotation] -> kick(h/2)
-
-    Torque-free it keeps ``|L|`` and the world ``L`` to round-off and the energy up to a bounded
-    oscillation (symplectic); with forces it is second order."""
+    """Strang splitting ``kick(h/2) -> [x += h v ; free rotation] -> kick(h/2)``: torque-free it
+    keeps ``|L|`` and the world ``L`` to round-off and the energy up to a bounded oscillation
+    (symplectic); with forces it is second order."""
     if p[ANY_FORCE] != 0.0:
         v, w = kick(v, q, w, fb, tb, m, p, 0.5 * h)
     x1 = axpy(x, h, v)
@@ -398,11 +375,7 @@ def yoshida4(x, v, q, w, fb, tb, m, p, h):
     return x, v, normalize(q), w
 
 
-# --------------------------------------------------------------------------------------------
-# The world step: one compiled loop over the bodies
-# --------------------------------------------------------------------------------------------
-
-
+# ---- the world step: one compiled loop over the bodies ---------------------------------------
 @kernel
 def _clamp(w, limit):
     """PhysX's ``setMaxAngularVelocity``: ``w`` scaled down to ``|w| = limit`` when above it,
@@ -433,13 +406,11 @@ def _wrench_of(p, command, wrenches, i):
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _substep_of(step, c, model, wrenches, state, status, last, i):
-    """One integrator step of body ``i`` in place on its column of ``state`` (13, N), the
-    speed limit (if set) first; on the ``last`` substep of a world step also the speed limit
-    after it and the per-step maps (damping ``v <- alpha v``, ``w <- alpha w``). Then the
-    guard, by selects: a healthy body (``status[i]`` 0) whose new state is finite takes it;
-    one whose new state is not keeps its column and gets ``status[i] = 2``; a frozen body
-    (``status[i]`` 1) keeps its column. Returns ``(failed, beyond)``, each 0 or 1, ``beyond``
-    for a body that ends the world step beyond the integrator's stable ``|w|``."""
+    """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
+    speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
+    maps. Then the guard, by selects: a healthy body (``status[i]`` 0) takes a finite new state,
+    else keeps its column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns
+    ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
     x0, v0, q0, w0 = load(state, i)
     w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
@@ -464,35 +435,29 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def advance(step, world, start, stop):
-    """One world step of the bodies ``start <= i < stop``, in passes over them whose loops the
-    compiler vectorises (struct-of-arrays columns; no call, no inner loop and no branch in the
-    loop body, only selects):
-
-    1. the actuators' body wrench of each body's command (:func:`wrench`), if any;
-    2. ``SUBSTEPS`` passes of the integrator ``step`` in place, each with its guard
-       (:func:`_substep_of`); the last one also applies the per-step maps.
+    """One world step of the bodies ``start <= i < stop``, in passes whose loops the compiler
+    vectorises (struct-of-arrays columns; no call, inner loop or branch in the body, only
+    selects): the actuators' wrench of each body's command (:func:`wrench`), if any, then
+    ``SUBSTEPS`` passes of ``step`` in place, each with its guard (:func:`_substep_of`).
 
     Args:
-        world: the world's arrays ``(p, model, state, command, status, wrenches)``:
+        world: the world's arrays ``(p, model, state, command, status, wrenches)``, which must
+            not overlap (:data:`rigid_env.core.kernels.world_kernel` compiles on that promise):
         p: the world's parameters (the passes read their :func:`header`).
         model: (MODEL_WIDTH, N) model columns.
         state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
         command: (N | 1, A) actuator commands.
-        status: (N,) uint8: 0 a healthy body, 1 a body frozen by an earlier failure (left
-            alone); set to 2 where the state turned non-finite (its column is left at its
-            last finite state: the one before the world step when ``SUBSTEPS`` is 1, else
-            the one before the failing substep, which :class:`rigid_env.core.world.World`
-            replaces by the one before the world step).
+        status: (N,) uint8: 0 healthy, 1 frozen by an earlier failure (left alone); set to 2
+            where the state turned non-finite, its column left at its last finite state (before
+            the world step for one substep, else before the failing substep, which
+            :class:`rigid_env.core.world.World` replaces by the one before the world step).
         wrenches: (6, N) scratch for the wrenches (zero without actuators).
         start, stop: the bodies to step (threads step disjoint ranges of one world).
 
-    The arrays must not overlap (the loops are compiled on that promise:
-    :data:`rigid_env.core.kernels.world_kernel`).
-
     Returns:
-        ``2 f + o``: ``f`` the number of bodies that failed in this step, ``o`` 1 if a body
-        ended the step beyond the integrator's stable ``h |w|`` (``STABLE_SPEED``); or -1
-        (nothing stepped) if the command has a NaN or inf.
+        ``2 f + o``: ``f`` the number of bodies that failed, ``o`` 1 if a body ended the step
+        beyond the stable ``h |w|`` (``STABLE_SPEED``); -1 (nothing stepped) if the command has
+        a NaN or inf.
     """
     p, model, state, command, status, wrenches = world
     for r in range(command.shape[0]):
@@ -521,10 +486,9 @@ def advance(step, world, start, stop):
 def over_threads(entry, world, start, stop, threads):
     """A world step ``entry(world, start, stop)`` (one integrator's compiled :func:`advance`)
     of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
-    (``prange``; each body is computed alone, so the split changes no number). ``entry`` is
-    called, not inlined, so this compiles in a second or two. ``threads`` is an argument
-    (``numba.get_num_threads()`` in Python): called in here it would keep the function from
-    being cached."""
+    (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
+    called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
+    Python): called in here it would keep the function from being cached."""
     n = stop - start
     codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
     for t in prange(threads):
@@ -562,10 +526,9 @@ def kicks(p, model, state, command, h):
 
 @kernel
 def derivatives(p, model, state, command, out):
-    """``(v', w')`` of every body at its state column (13, N) into ``out`` (N, 6): the linear
-    acceleration (world) and the angular acceleration (body, Euler's equations included) of
-    :func:`rigid_env.core.kernels.accelerations` (the right-hand side a reference solver
-    integrates)."""
+    """``(v', w')`` of every body's state column (13, N) into ``out`` (N, 6): the linear (world)
+    and angular (body, Euler's equations included) accelerations of
+    :func:`rigid_env.core.kernels.accelerations`, the right-hand side a reference solver needs."""
     c = header(p)
     for i in range(state.shape[1]):
         fb, tb = wrench(p, command, i)
@@ -575,11 +538,10 @@ def derivatives(p, model, state, command, out):
         out[i, 3], out[i, 4], out[i, 5] = alpha
 
 
-# One compiled entry per integrator: Numba resolves the per-body function at compile time and
-# caches the specialised loop on disk (a function object passed from Python would cost a slow
-# type lookup at every call, and a closure would not be cached).
-# Arguments (world, start, stop) and result as advance's; the ``_threads`` entries split the
-# bodies over Numba's threads (over_threads; compiled on first use).
+# One compiled entry per integrator, arguments and result as advance's (``_threads``: over
+# over_threads, compiled on first use). Numba resolves the per-body function at compile time
+# and caches the loop on disk; a function object from Python would cost a slow type lookup per
+# call, and a closure would not be cached.
 
 
 # fmt: off
@@ -622,10 +584,7 @@ def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4, w, i, j, t)
 # fmt: on
 
 
-# --------------------------------------------------------------------------------------------
-# Registry
-# --------------------------------------------------------------------------------------------
-
+# ---- registry --------------------------------------------------------------------------------
 EXACT_PHASE_LIMIT = 1.0e9
 """``h |w|`` [rad] beyond which ``exact_free`` loses its exactness: the elliptic phase
 ``omega h`` carries a rounding of ``|omega h| eps`` (eps = 2.2e-16), 2e-7 rad per step here;
@@ -645,14 +604,12 @@ class IntegratorInfo:
         name: registry key.
         order: global order of accuracy on smooth problems.
         note: one line for tables and ``--help``.
-        body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None for an
-            array integrator.
-        world_step: the compiled world step ``(world, start, stop) -> code`` (:func:`advance` of
-            ``body``); None for an array integrator.
+        body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None (as the
+            world steps) for an array integrator.
+        world_step: the compiled world step ``(world, start, stop) -> code`` (:func:`advance`).
         world_step_threads: the same over Numba's threads (:func:`over_threads`).
-        stability: largest ``h |w|`` [rad] (step times angular speed) up to which the method is
-            stable about a principal axis, or None where it has no such limit; a world warns
-            once when a body goes beyond it.
+        stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;
+            a world warns once when a body goes beyond it.
     """
 
     name: str

@@ -1,9 +1,8 @@
 """Per-body maths of the compiled step, written once for one body and compiled with Numba.
 
-Every function here takes and returns plain numbers and small tuples (a 3-vector is
-``(x, y, z)``, a quaternion ``(w, x, y, z)``), so Numba keeps them in registers; a world's
-step is one compiled loop over its bodies (:mod:`rigid_env.core.integrators`).
-``NUMBA_DISABLE_JIT=1`` runs the same functions as plain Python.
+Functions take and return plain numbers and small tuples (3-vectors ``(x, y, z)``, quaternions
+``(w, x, y, z)``) that Numba keeps in registers; a world's step is one compiled loop over its
+bodies (:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs them as plain Python.
 
 Two small float64 arrays carry everything an integrator reads besides the state:
 
@@ -50,7 +49,7 @@ threads_kernel = njit(
 )
 """The same for a world step over Numba's threads (``prange``)."""
 
-# ---- a body's model -----------------------------------------------------------------------------
+# ---- a body's model --------------------------------------------------------------------------
 MASS, I0, I1, I2, INV_MASS, INV_I0, INV_I1, INV_I2, ISOTROPIC = range(9)
 MODEL_WIDTH = 9
 
@@ -162,9 +161,8 @@ def sincos(x):
     ``k mod 4`` swaps and negates them."""
     k = np.floor(x * TWO_OVER_PI + 0.5)  # a float (math.floor would give an int64)
     r = (x - k * PIO2_HI) - k * PIO2_LO
-    # Beyond |x| = 2^20 pi/2 the reduction has lost its digits: r is clamped into +-R_MAX
-    # (where the polynomials still hold), so that the pair stays on the unit circle (a NaN stays
-    # NaN).
+    # Beyond |x| = 2^20 pi/2 the reduction has lost its digits: r clamped into +-R_MAX (where the
+    # polynomials hold) keeps the pair on the unit circle (a NaN stays NaN).
     r = math.copysign(R_MAX, r) if abs(r) > R_MAX else r
     z = r * r
     s = r + r * z * (S1 + z * (S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)))))
@@ -252,10 +250,9 @@ def solve3(a, b):
 
 @kernel
 def wrench(p, command, i):
-    """Body-frame force and torque of the actuators for body ``i``'s command (row ``i`` of
-    ``command`` (N, A), or its only row): each actuator is linear in its command,
-    ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`),
-    summed in a fixed order."""
+    """Body-frame actuator force and torque of body ``i``'s command (row ``i`` of ``command``
+    (N, A), or its only row): ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a (r_a x F_a)``
+    (rows of :data:`MAPS`), summed in a fixed order."""
     r = 0 if command.shape[0] == 1 else i
     fx = fy = fz = tx = ty = tz = 0.0
     for a in range(command.shape[1]):

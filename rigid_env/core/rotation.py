@@ -2,22 +2,19 @@
 
 Conventions (fixed for the whole package):
 
-* A quaternion is ``(w, x, y, z)``: scalar first. Unit quaternions represent rotations; ``q`` and
-  ``-q`` are the same rotation (double cover). :func:`canonical` picks ``w >= 0``.
+* A quaternion is ``(w, x, y, z)``, scalar first; ``q`` and ``-q`` are the same rotation (double
+  cover), :func:`canonical` picks ``w >= 0``.
 * ``quat_rotate(q, v)`` maps body-frame vectors to the world frame: ``v_world = R(q) v_body``.
-* Composition ``quat_mul(p, q)`` is "apply ``q`` first, then ``p``" for active rotations, so a
-  body-frame increment is applied on the right: ``q <- q (x) dq``.
-* Euler angles follow Unity's convention: a vector ``(x, y, z)`` of angles [rad] applied as
-  extrinsic rotations about world Z, then world X, then world Y, i.e. ``R = Ry(y) Rx(x) Rz(z)``.
-  Gimbal lock sits at ``x = +-pi/2``.
+* ``quat_mul(p, q)`` applies ``q`` first, then ``p``, so a body-frame increment goes on the
+  right: ``q <- q (x) dq``.
+* Euler angles follow Unity: ``(x, y, z)`` [rad] applied as extrinsic rotations about world Z,
+  then X, then Y, i.e. ``R = Ry(y) Rx(x) Rz(z)``; gimbal lock at ``x = +-pi/2``.
 
-Every function broadcasts over leading batch axes: quaternions are ``(..., 4)``, vectors
-``(..., 3)``, matrices ``(..., 3, 3)``. Functions are written with explicit component
-arithmetic rather than ``np.cross``/``einsum`` since these calls dominate small-array cost.
-
-Numerical care (issue: "acos of 1.0000001"): angles come from ``atan2`` of a sine and a cosine
-rather than ``acos``/``asin`` of a single ratio; sin(x)/x style factors switch to Taylor series
-near zero; normalisation never divides by zero.
+Every function broadcasts over leading batch axes (quaternions ``(..., 4)``, vectors
+``(..., 3)``, matrices ``(..., 3, 3)``), by explicit components (cheaper than ``np.cross`` or
+``einsum`` on small arrays). Angles come from ``atan2`` of a sine and a cosine, never ``acos``
+or ``asin`` of a ratio; ``sin(x)/x``-like factors switch to series near zero; normalisation
+never divides by zero.
 """
 
 from __future__ import annotations
@@ -40,11 +37,7 @@ def _as_float(a: ArrayLike) -> FloatArray:
     return np.asarray(a, dtype=np.float64)
 
 
-# --------------------------------------------------------------------------------------------
-# Algebra
-# --------------------------------------------------------------------------------------------
-
-
+# ---- algebra ---------------------------------------------------------------------------------
 def quat_mul(p: ArrayLike, q: ArrayLike) -> FloatArray:
     """Hamilton product ``p (x) q`` of (..., 4) quaternions (w, x, y, z), by the table
     ``i^2 = j^2 = k^2 = ijk = -1``."""
@@ -89,15 +82,10 @@ def quat_inv(q: ArrayLike) -> FloatArray:
 def quat_normalize(q: ArrayLike) -> FloatArray:
     """Unit quaternion along ``q``; never divides by zero and never hides a bad number.
 
-    * the zero quaternion (no direction) maps to the identity;
-    * a quaternion with a NaN or inf component maps to all-NaN, so that a non-finite state
-      stays visible to the world's guard instead of turning into a silent identity;
-    * a quaternion whose squared norm would under- or overflow (``|q|`` outside
-      ``[1e-150, 1e150]``) is first divided by its largest component (as LAPACK's ``dnrm2``
-      scales), so it still normalises to full precision.
-
-    Rows in the ordinary range take the plain ``q / |q|`` whatever the other rows hold, so one
-    bad body in a batch does not change the rounding of the others.
+    Zero maps to the identity; a NaN or inf component to all-NaN (visible to the world's guard);
+    ``|q|`` outside ``[1e-150, 1e150]`` is first divided by its largest component (as LAPACK's
+    ``dnrm2`` scales) to keep full precision. Ordinary rows take the plain ``q / |q|`` whatever
+    the other rows hold, so one bad body does not change the rounding of the others.
     """
     q = _as_float(q)
     with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
@@ -131,12 +119,8 @@ def canonical(q: ArrayLike) -> FloatArray:
 
 
 def quat_rotate(q: ArrayLike, v: ArrayLike) -> FloatArray:
-    """``R(q) v``: (..., 3) vectors ``v`` in the frame ``q`` maps from, rotated by (..., 4) unit
-    quaternions (w, x, y, z).
-
-    Uses ``v' = v + 2 w (u x v) + 2 u x (u x v)`` with ``u = (x, y, z)``, i.e. the expansion of
-    ``q (x) (0, v) (x) q*`` for ``|q| = 1`` (15 products instead of the matrix's 27).
-    """
+    """``R(q) v`` of (..., 3) vectors by (..., 4) unit quaternions (w, x, y, z): ``v + 2 w (u x v)
+    + 2 u x (u x v)``, ``u = (x, y, z)``, i.e. ``q (x) (0, v) (x) q*`` in 15 products, not 27."""
     q = _as_float(q)
     v = _as_float(v)
     w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
@@ -158,8 +142,7 @@ def quat_rotate_inv(q: ArrayLike, v: ArrayLike) -> FloatArray:
 
 
 def cross(a: ArrayLike, b: ArrayLike) -> FloatArray:
-    """Cross product of (..., 3) vectors by components (cheaper than ``np.cross`` on small
-    arrays)."""
+    """Cross product of (..., 3) vectors by components (cheaper than ``np.cross``)."""
     a = _as_float(a)
     b = _as_float(b)
     out = np.empty(np.broadcast_shapes(a.shape, b.shape), dtype=np.float64)
@@ -169,18 +152,11 @@ def cross(a: ArrayLike, b: ArrayLike) -> FloatArray:
     return out
 
 
-# --------------------------------------------------------------------------------------------
-# Exponential and logarithm
-# --------------------------------------------------------------------------------------------
-
-
+# ---- exponential and logarithm ---------------------------------------------------------------
 def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
-    """Exponential map: the (..., 4) unit quaternion of the (..., 3) rotation vector
-    ``phi = angle * axis`` [rad].
-
-    ``exp(phi) = (cos(|phi|/2), sin(|phi|/2) / |phi| * phi)``. Near ``|phi| = 0`` the factor
-    ``sin(a/2)/a`` uses its series ``1/2 - a^2/48 + a^4/3840``.
-    """
+    """Exponential map: the (..., 4) unit quaternion ``(cos(a/2), sin(a/2) / a * phi)``, ``a =
+    |phi|``, of (..., 3) rotation vectors ``phi`` [rad]; near 0 ``sin(a/2)/a = 1/2 - a^2/48 +
+    a^4/3840``."""
     rotvec = _as_float(rotvec)
     a2 = np.sum(rotvec * rotvec, axis=-1)
     a = np.sqrt(a2)
@@ -195,12 +171,9 @@ def quat_from_rotvec(rotvec: ArrayLike) -> FloatArray:
 
 
 def quat_to_rotvec(q: ArrayLike) -> FloatArray:
-    """Logarithm map: the (..., 3) rotation vector ``angle * axis`` [rad] of a (..., 4) unit
-    quaternion, angle in [0, pi].
-
-    ``angle = 2 atan2(|u|, |w|)`` is accurate at 0 and at pi, where ``acos(w)`` loses half the
-    digits. The sign of ``q`` is taken so that ``w >= 0`` (shortest rotation).
-    """
+    """Logarithm map: the (..., 3) rotation vector ``angle * axis`` [rad], angle in [0, pi], of
+    (..., 4) unit quaternions taken with ``w >= 0``; ``angle = 2 atan2(|u|, |w|)`` is accurate
+    at 0 and at pi, where ``acos(w)`` loses half the digits."""
     q = _as_float(q)
     sign = np.where(q[..., 0] < 0.0, -1.0, 1.0)
     w = sign * q[..., 0]
@@ -250,19 +223,14 @@ def quat_angle_between(p: ArrayLike, q: ArrayLike) -> FloatArray:
 def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
     """Shortest-arc unit quaternion rotating the direction of ``a`` onto that of ``b``.
 
-    With unit ``a``, ``b`` and the half-way vector ``m = a + b``, ``q ~ (a.m, a x m)`` rotates by
-    twice the angle between ``a`` and ``m`` about ``a x m``, i.e. takes ``a`` to ``b``; and
-    ``a.m = 1 + a.b = |m|^2 / 2``. The textbook ``(1 + a.b, a x b)`` loses ``1 + a.b`` to
-    cancellation when ``a`` and ``b`` are nearly antiparallel (an angle error of ``eps / |m|``,
-    1e-4 rad at ``|m| = 1e-12``). Here ``w = |m|^2 / 2`` instead, with the axis ``a x m``.
-    Past 90 degrees one more step: the rounded unit vectors differ in length by ~eps, which puts
-    a spurious component of that size into ``m`` along ``d = a - b`` (~``2 a``), comparable to
-    ``m`` itself when the vectors are nearly opposite; removing it
-    (``m <- m - (m.d / d.d) d``, exact for unit vectors since ``m.d = |a|^2 - |b|^2``) leaves
-    ``m`` perpendicular to ``a``, so ``w`` and ``a x m`` are both known to ``eps`` *relative*
-    and ``R(q) a`` lands on ``b`` to a few ulps at any angle. For exactly antiparallel inputs
-    (``m = 0``) the axis is any direction perpendicular to ``a``; we take ``a x e_k`` with
-    ``e_k`` the basis vector least aligned with ``a``.
+    With unit ``a``, ``b`` and ``m = a + b``, ``q ~ (a.m, a x m)`` rotates by twice the angle
+    between ``a`` and ``m``, taking ``a`` to ``b``; ``w = a.m = |m|^2 / 2`` avoids the textbook
+    ``1 + a.b``, lost to cancellation near antiparallel (an angle error of ``eps / |m|``). Past
+    90 degrees the unit vectors' rounded lengths put a spurious ~eps component along ``d = a -
+    b`` into ``m``, comparable to ``m`` when nearly opposite; removing it (``m <- m - (m.d / d.d)
+    d``, exact for unit vectors since ``m.d = |a|^2 - |b|^2``) leaves ``m`` perpendicular to
+    ``a``, so ``R(q) a`` lands on ``b`` to a few ulps at any angle. For ``m = 0`` the axis is
+    ``a x e_k``, ``e_k`` the basis vector least aligned with ``a``.
 
     Returns:
         (..., 4) unit quaternion with ``w >= 0`` and ``R(q) a / |a| = b / |b|`` for (..., 3)
@@ -305,12 +273,9 @@ def quat_from_two_vectors(a: ArrayLike, b: ArrayLike) -> FloatArray:
 
 
 def slerp(p: ArrayLike, q: ArrayLike, t: ArrayLike) -> FloatArray:
-    """Spherical linear interpolation along the shorter arc from ``p`` (at ``t = 0``) to ``q``
-    (at ``t = 1``), (..., 4) unit quaternions and (...,) ``t``: ``p (x) exp(t log(p* q))``.
-
-    Written through the log/exp maps, so it is exact at ``t = 0, 1`` and stable when ``p`` and
-    ``q`` are (nearly) equal or (nearly) opposite rotations (where ``sin(theta)`` vanishes).
-    """
+    """Spherical linear interpolation along the shorter arc from ``p`` (``t = 0``) to ``q`` (``t =
+    1``), (..., 4) unit quaternions and (...,) ``t``: ``p (x) exp(t log(p* q))``, exact at ``t =
+    0, 1`` and stable for (nearly) equal or opposite rotations, where ``sin(theta)`` vanishes."""
     d = quat_mul(quat_conj(p), q)
     rv = quat_to_rotvec(d)
     return quat_mul(p, quat_from_rotvec(_as_float(t)[..., None] * rv))
@@ -324,22 +289,15 @@ def quat_integrate_exp(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> FloatAr
 
 
 def quat_integrate_linear(q: ArrayLike, w_body: ArrayLike, h: ArrayLike) -> FloatArray:
-    """The seed's linear update ``q + h/2 q (x) (0, w)`` then normalise.
-
-    Kept to show its lag: per step it rotates by ``2 atan(h|w|/2)`` instead of ``h|w|``, an
-    error of about ``(h|w|)^3 / 12`` rad per step.
-    """
+    """The seed's linear update ``q + h/2 q (x) (0, w)``, normalised; kept to show its lag: a
+    step turns by ``2 atan(h|w|/2)`` instead of ``h|w|``, about ``(h|w|)^3 / 12`` rad short."""
     q = _as_float(q)
     w_body = _as_float(w_body)
     wq = np.concatenate([np.zeros((*w_body.shape[:-1], 1)), w_body], axis=-1)
     return quat_normalize(q + 0.5 * _as_float(h) * quat_mul(q, wq))
 
 
-# --------------------------------------------------------------------------------------------
-# Matrices
-# --------------------------------------------------------------------------------------------
-
-
+# ---- matrices --------------------------------------------------------------------------------
 def quat_to_matrix(q: ArrayLike) -> FloatArray:
     """Rotation matrix (..., 3, 3) of unit quaternions (w, x, y, z); columns are the body axes
     in the world frame."""
@@ -359,11 +317,9 @@ def quat_to_matrix(q: ArrayLike) -> FloatArray:
 
 
 def matrix_to_quat(m: ArrayLike) -> FloatArray:
-    """Unit quaternion (w >= 0) of rotation matrices (..., 3, 3).
-
-    Shepperd's method (J. Guidance and Control 1(3), 1978): of the four candidate formulas the
-    one with the largest diagonal term is used, so the square root never takes a small number.
-    """
+    """Unit quaternion (w >= 0) of rotation matrices (..., 3, 3) by Shepperd's method (J.
+    Guidance and Control 1(3), 1978): of four candidate formulas the one with the largest
+    diagonal term, so the square root never takes a small number."""
     m = _as_float(m)
     m00, m11, m22 = m[..., 0, 0], m[..., 1, 1], m[..., 2, 2]
     trace = m00 + m11 + m22
@@ -419,11 +375,7 @@ def rodrigues(rotvec: ArrayLike) -> FloatArray:
     return eye + s1[..., None, None] * k + s2[..., None, None] * (k @ k)
 
 
-# --------------------------------------------------------------------------------------------
-# Euler angles, Unity convention (Z, then X, then Y; extrinsic)
-# --------------------------------------------------------------------------------------------
-
-
+# ---- Euler angles, Unity convention (Z, then X, then Y; extrinsic) ---------------------------
 def euler_to_quat(angles: ArrayLike) -> FloatArray:
     """Unit quaternion (..., 4) of Euler angles ``(x, y, z)`` (..., 3) [rad] about x (pitch),
     y (yaw), z (roll), Unity order: ``R = Ry(y) Rx(x) Rz(z)``."""
@@ -437,13 +389,11 @@ def matrix_to_euler(m: ArrayLike) -> FloatArray:
     """Euler angles ``(x, y, z)`` [rad] (Unity order) of rotation matrices (..., 3, 3).
 
     ``R = Ry Rx Rz`` has ``R[1, 2] = -sin x`` and ``R[1, 0] / R[1, 1] = tan z``. Near gimbal
-    lock (``cos x -> 0``) ``R[1, 0]`` and ``R[1, 1]`` are both of size ``cos x``, so ``z`` (like
-    any one angle there) is known only to ``eps / cos x``; ``y`` is therefore not read from its
-    own pair of entries but from ``R Rz(-z) = Ry Rx``, whose first column is
-    ``(cos y, 0, -sin y)``. Then ``y`` absorbs the error of ``z`` and the round trip
-    ``euler -> matrix`` gives back ``R`` to rounding even next to the lock (the third angle taken
-    from the matrix with the others removed, as Eigen's ``eulerAngles`` does). At the lock itself
-    (``cos x < 1e-15``) only ``y -+ z`` is defined and we set ``z = 0``.
+    lock both entries are of size ``cos x``, so ``z`` is known only to ``eps / cos x``; ``y`` is
+    therefore read from ``R Rz(-z) = Ry Rx``, first column ``(cos y, 0, -sin y)``, where it
+    absorbs the error of ``z``, and the round trip gives back ``R`` to rounding even next to the
+    lock (as Eigen's ``eulerAngles``). At the lock (``cos x < 1e-15``) only ``y -+ z`` is
+    defined: ``z = 0``.
 
     Returns:
         (..., 3) angles with x in [-pi/2, pi/2], y and z in (-pi, pi].
@@ -452,8 +402,7 @@ def matrix_to_euler(m: ArrayLike) -> FloatArray:
     sx = np.clip(-m[..., 1, 2], -1.0, 1.0)
     cx = np.hypot(m[..., 1, 0], m[..., 1, 1])
     x = np.arctan2(sx, cx)
-    # Below cos(x) = 1e-15 (x within 1e-15 rad of +-pi/2) setting z = 0 moves R by < 1e-15;
-    # above it the consistent y below keeps the round trip exact whatever noise z carries.
+    # Below cos(x) = 1e-15 (x within 1e-15 rad of +-pi/2) setting z = 0 moves R by < 1e-15.
     locked = cx < 1.0e-15
     z = np.where(locked, 0.0, np.arctan2(m[..., 1, 0], m[..., 1, 1]))
     cz, sz = np.cos(z), np.sin(z)

@@ -32,8 +32,7 @@ BoolArray = NDArray[np.bool_]
 THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 """Cores this process may use."""
 THREAD_MIN_BODIES = 1024
-"""Smallest batch split over Numba's threads: below it one thread is faster than the
-hand-over."""
+"""Smallest batch split over Numba's threads (below it one thread beats the hand-over)."""
 _threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
 
 
@@ -43,8 +42,7 @@ def threaded(n: int) -> bool:
 
 
 def call_threaded(call: Callable[[int], Any]) -> Any:
-    """``call(threads)``, a compiled pass over Numba's threads (``threads`` of them), one at a
-    time in this process."""
+    """``call(threads)``, a compiled pass over Numba's threads, one at a time in this process."""
     with _threads_lock:
         return call(numba.get_num_threads())
 
@@ -83,14 +81,13 @@ class World:
         substeps: integrator steps per :meth:`step` (each of ``dt / substeps``).
         state: initial state; ``n`` bodies at rest if omitted.
         n: number of bodies when ``state`` is omitted.
-        max_angular_speed: optional limit on ``|w|`` [rad/s]; None (the default) = off. As
-            PhysX's ``setMaxAngularVelocity``, an angular velocity above the limit is scaled
-            down to it, its direction kept, before every substep and after the last one. A
-            safety valve against runaway spin, not physics: it removes energy and momentum.
+        max_angular_speed: optional limit on ``|w|`` [rad/s], None = off: as PhysX's
+            ``setMaxAngularVelocity``, a faster ``w`` is scaled down to it, direction kept,
+            before every substep and after the last. A safety valve, not physics: it removes
+            energy and momentum.
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
-            non-finite; ``"freeze"`` keeps the failed bodies at their last finite state, flags
-            them in :attr:`failed` and lets the others go on exactly, bit for bit, as without
-            them (what vector envs use).
+            non-finite; ``"freeze"`` keeps failed bodies at their last finite state, flagged in
+            :attr:`failed`, the others going on bit for bit as without them (vector envs).
     """
 
     def __init__(
@@ -175,8 +172,7 @@ class World:
 
     @property
     def columns(self) -> FloatArray:
-        """(13, N) the state as columns ``(x, v, q, w)``, one body per column: the array the
-        compiled step advances (struct-of-arrays, so that its loops vectorise)."""
+        """(13, N) the state as columns ``(x, v, q, w)``: what the compiled step advances."""
         return self._cols
 
     @property
@@ -207,8 +203,7 @@ class World:
 
     @property
     def model_columns(self) -> FloatArray:
-        """(MODEL_WIDTH, N) the model numbers of every body, one column each: what the
-        compiled step reads."""
+        """(MODEL_WIDTH, N) the model numbers, a column per body: what the compiled step reads."""
         return self._model_cols
 
     def set_model(self, model: BodyModel) -> None:
@@ -373,8 +368,7 @@ class World:
         return act
 
     def _likely_cause(self) -> str:
-        """The fix the error message proposes: the input when the body itself is extreme, else
-        the step size."""
+        """The fix the error proposes when the body itself is extreme ("": the step size)."""
         m = self.model
         scale = np.max(np.abs(np.concatenate([m.mass, m.inertia.ravel(), 1.0 / m.inertia.ravel()])))
         if not scale < 1.0e150:
@@ -429,14 +423,12 @@ class World:
         return e
 
     def angular_momentum_world(self) -> FloatArray:
-        """(N, 3) spin angular momentum about the centre of mass, world frame, ``R (I w)``
-        [kg m^2/s]."""
+        """(N, 3) spin angular momentum about the COM, world frame, ``R (I w)`` [kg m^2/s]."""
         return quat_rotate(self.state.q, self.model.inertia * self.state.w)
 
 
 def check_state(state: State) -> None:
-    """Check a state given from outside: shapes ``(N, 3|4)``, finite numbers, no zero
-    quaternion.
+    """Check an outside state: shapes ``(N, 3|4)``, finite numbers, no zero quaternion.
 
     Raises:
         ValueError: naming the field, the first bad body and the fix.

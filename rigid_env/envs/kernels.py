@@ -179,8 +179,7 @@ def task_pass_threads(entry, tp, state, model, command, target, noise, stepped, 
                       start, stop, threads):  # fmt: skip
     """A task's pass ``entry`` (its compiled :func:`task_pass`) of ``start <= i < stop`` split
     into ``threads`` contiguous ranges over Numba's threads (``prange``; each env is computed
-    alone, so the split changes no number); ``entry`` is called, not inlined, so this compiles
-    in a second or two."""
+    alone, so the split changes no number); ``entry`` is called, not inlined again."""
     n = stop - start
     for t in prange(threads):
         k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
