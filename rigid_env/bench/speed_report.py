@@ -96,7 +96,7 @@ def core(res: Results) -> tuple[Section, Panel]:
     ours = [n for n in names if not n.startswith("MuJoCo")]
     panel = Panel(
         "lines",
-        "(1) core: World.step vs MuJoCo (one thread)",
+        "(1) core: World.step vs MuJoCo",
         "bodies N",
         "body-steps / s",
         _curves(rows, ours, {}) + _curves(rows, list(styles), styles),
