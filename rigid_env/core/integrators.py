@@ -441,17 +441,17 @@ def advance(step, world, start, stop):
     ``SUBSTEPS`` passes of ``step`` in place, each with its guard (:func:`_substep_of`).
 
     Args:
-        world: the world's arrays ``(p, model, state, command, status, wrenches)``, which must
+        world: the world's arrays ``(p, model, state, status, wrenches, command)``, which must
             not overlap (:data:`rigid_env.core.kernels.world_kernel` compiles on that promise):
         p: the world's parameters (the passes read their :func:`header`).
         model: (MODEL_WIDTH, N) model columns.
         state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
-        command: (N | 1, A) actuator commands.
         status: (N,) uint8: 0 healthy, 1 frozen by an earlier failure (left alone); set to 2
             where the state turned non-finite, its column left at its last finite state (before
             the world step for one substep, else before the failing substep, which
             :class:`rigid_env.core.world.World` replaces by the one before the world step).
         wrenches: (6, N) scratch for the wrenches (zero without actuators).
+        command: (N | 1, A) actuator commands.
         start, stop: the bodies to step (threads step disjoint ranges of one world).
 
     Returns:
@@ -459,7 +459,7 @@ def advance(step, world, start, stop):
         beyond the stable ``h |w|`` (``STABLE_SPEED``); -1 (nothing stepped) if the command has
         a NaN or inf.
     """
-    p, model, state, command, status, wrenches = world
+    p, model, state, status, wrenches, command = world
     for r in range(command.shape[0]):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
@@ -484,7 +484,7 @@ def advance(step, world, start, stop):
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def over_threads(entry, world, start, stop, threads):
-    """A world step ``entry(world, start, stop)`` (one integrator's compiled :func:`advance`)
+    """A world step ``entry(*world, start, stop)`` (one integrator's compiled :func:`advance`)
     of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
     (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
     called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
@@ -493,7 +493,7 @@ def over_threads(entry, world, start, stop, threads):
     codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
     for t in prange(threads):
         k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
-        codes[t] = entry(world, start + n * k // threads, start + n * (k + 1) // threads)
+        codes[t] = entry(*world, start + n * k // threads, start + n * (k + 1) // threads)
     failures = over = 0
     for t in range(threads):
         if codes[t] < 0:
@@ -546,39 +546,48 @@ def derivatives(p, model, state, command, out):
 
 # fmt: off
 @world_kernel
-def _explicit_euler(w, i, j): return advance(explicit_euler, w, i, j)
+def _explicit_euler(p, m, s, f, b, u, i, j):
+    return advance(explicit_euler, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _explicit_euler_threads(w, i, j, t): return over_threads(_explicit_euler, w, i, j, t)
 @world_kernel
-def _symplectic_euler(w, i, j): return advance(symplectic_euler, w, i, j)
+def _symplectic_euler(p, m, s, f, b, u, i, j):
+    return advance(symplectic_euler, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _symplectic_euler_threads(w, i, j, t): return over_threads(_symplectic_euler, w, i, j, t)
 @world_kernel
-def _implicit_euler(w, i, j): return advance(implicit_euler, w, i, j)
+def _implicit_euler(p, m, s, f, b, u, i, j):
+    return advance(implicit_euler, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _implicit_euler_threads(w, i, j, t): return over_threads(_implicit_euler, w, i, j, t)
 @world_kernel
-def _leapfrog(w, i, j): return advance(leapfrog, w, i, j)
+def _leapfrog(p, m, s, f, b, u, i, j):
+    return advance(leapfrog, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _leapfrog_threads(w, i, j, t): return over_threads(_leapfrog, w, i, j, t)
 @world_kernel
-def _midpoint(w, i, j): return advance(midpoint, w, i, j)
+def _midpoint(p, m, s, f, b, u, i, j):
+    return advance(midpoint, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _midpoint_threads(w, i, j, t): return over_threads(_midpoint, w, i, j, t)
 @world_kernel
-def _rk4(w, i, j): return advance(rk4, w, i, j)
+def _rk4(p, m, s, f, b, u, i, j):
+    return advance(rk4, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _rk4_threads(w, i, j, t): return over_threads(_rk4, w, i, j, t)
 @world_kernel
-def _implicit_gyro(w, i, j): return advance(implicit_gyro, w, i, j)
+def _implicit_gyro(p, m, s, f, b, u, i, j):
+    return advance(implicit_gyro, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _implicit_gyro_threads(w, i, j, t): return over_threads(_implicit_gyro, w, i, j, t)
 @world_kernel
-def _splitting(w, i, j): return advance(splitting, w, i, j)
+def _splitting(p, m, s, f, b, u, i, j):
+    return advance(splitting, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _splitting_threads(w, i, j, t): return over_threads(_splitting, w, i, j, t)
 @world_kernel
-def _yoshida4(w, i, j): return advance(yoshida4, w, i, j)
+def _yoshida4(p, m, s, f, b, u, i, j):
+    return advance(yoshida4, (p, m, s, f, b, u), i, j)
 @threads_kernel
 def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4, w, i, j, t)
 # fmt: on
@@ -606,8 +615,9 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None (as the
             world steps) for an array integrator.
-        world_step: the compiled world step ``(world, start, stop) -> code`` (:func:`advance`).
-        world_step_threads: the same over Numba's threads (:func:`over_threads`).
+        world_step: the compiled world step ``(*world, start, stop) -> code`` (:func:`advance`).
+        world_step_threads: the same over Numba's threads, ``(world, start, stop, threads)``
+            (:func:`over_threads`).
         stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;
             a world warns once when a body goes beyond it.
     """

@@ -141,6 +141,7 @@ class World:
         cols = self._cols
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((6, self._n))
+        self._copy_before_step = (on_error == "raise" and self._n > 1) or self.substeps > 1
         self._state.q[:, 0] = 1.0
         if state is not None:
             self._state.assign(state)
@@ -212,9 +213,9 @@ class World:
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
         self._model_rows = model.rows()
-        self._model_cols = np.ascontiguousarray(
-            np.broadcast_to(self._model_rows, (self._n, K.MODEL_WIDTH)).T
-        )
+        self._model_cols = np.array(np.broadcast_to(self._model_rows, (self._n, K.MODEL_WIDTH)).T)
+        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        """The compiled step's arrays but the command (whose place is last)."""
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -264,17 +265,20 @@ class World:
         float64 (N, action_dim) or (1, action_dim) array (environments that shape their
         actions call this). A NaN or inf in it raises ``ValueError``, nothing stepped."""
         u = self._no_command if command is None else command
-        if np.may_share_memory(u, self._cols):  # the compiled step's arrays must not overlap
+        if u.base is self._cols:  # a view of the state: the compiled step's arrays must not overlap
             u = u.copy()
         # A failed body is left at its state before the step: by the kernel itself for one
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
-        raise_batch = self.on_error == "raise" and self._n > 1
-        backup = self._cols.copy() if raise_batch or self.substeps > 1 else None
-        if self.integrator.world_step is None:
+        backup = self._cols.copy() if self._copy_before_step else None
+        step = self.integrator.world_step
+        if step is None:
             code = self._step_arrays(u)
+        elif self._n < THREAD_MIN_BODIES or THREADS == 1:
+            code = step(*self._arrays, u, 0, self._n)
         else:
-            code = self._step_compiled(u)
+            step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
+            code = call_threaded(lambda t: step(arrays, 0, self._n, t))
         if code < 0:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
         if code & 1 and not self._warned:
@@ -296,14 +300,6 @@ class World:
         self._status[bad] = 1
         self.step_count += 1
         return bad
-
-    def _step_compiled(self, u: FloatArray) -> int:
-        """The compiled world step, over the cores for a large batch."""
-        arrays = (self.params, self._model_cols, self._cols, u, self._status, self._wrenches)
-        if not threaded(self._n):
-            return self.integrator.world_step(arrays, 0, self._n)
-        step = self.integrator.world_step_threads
-        return call_threaded(lambda t: step(arrays, 0, self._n, t))
 
     def _step_arrays(self, u: FloatArray) -> int:
         """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
