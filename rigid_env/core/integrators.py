@@ -434,15 +434,16 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance(step, world, start, stop):
+def advance(step, p, model, state, status, wrenches, command, start, stop):
     """One world step of the bodies ``start <= i < stop``, in passes whose loops the compiler
     vectorises (struct-of-arrays columns; no call, inner loop or branch in the body, only
     selects): the actuators' wrench of each body's command (:func:`wrench`), if any, then
     ``SUBSTEPS`` passes of ``step`` in place, each with its guard (:func:`_substep_of`).
 
+    The world's arrays must not overlap (:data:`rigid_env.core.kernels.world_kernel` compiles
+    on that promise); they come one by one, as a tuple they would cost atomic reference counts.
+
     Args:
-        world: the world's arrays ``(p, model, state, status, wrenches, command)``, which must
-            not overlap (:data:`rigid_env.core.kernels.world_kernel` compiles on that promise):
         p: the world's parameters (the passes read their :func:`header`).
         model: (MODEL_WIDTH, N) model columns.
         state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
@@ -459,7 +460,6 @@ def advance(step, world, start, stop):
         beyond the stable ``h |w|`` (``STABLE_SPEED``); -1 (nothing stepped) if the command has
         a NaN or inf.
     """
-    p, model, state, status, wrenches, command = world
     for r in range(command.shape[0]):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
@@ -538,58 +538,86 @@ def derivatives(p, model, state, command, out):
         out[i, 3], out[i, 4], out[i, 5] = alpha
 
 
-# One compiled entry per integrator, arguments and result as advance's (``_threads``: over
-# over_threads, compiled on first use). Numba resolves the per-body function at compile time
-# and caches the loop on disk; a function object from Python would cost a slow type lookup per
-# call, and a closure would not be cached.
+# Three compiled entries per integrator, arguments and result as advance's: all bodies (the
+# serial step: two arguments fewer to dispatch), a range of them, and the range split over
+# Numba's threads (over_threads); the last two compile on first use. Numba resolves the
+# per-body function at compile time and caches the loop on disk; a function object from Python
+# would cost a slow type lookup per call, and a closure would not be cached.
 
 
 # fmt: off
 @world_kernel
-def _explicit_euler(p, m, s, f, b, u, i, j):
-    return advance(explicit_euler, (p, m, s, f, b, u), i, j)
-@threads_kernel
-def _explicit_euler_threads(w, i, j, t): return over_threads(_explicit_euler, w, i, j, t)
+def _explicit_euler(p, m, s, f, b, u):
+    return advance(explicit_euler, p, m, s, f, b, u, 0, s.shape[1])
 @world_kernel
-def _symplectic_euler(p, m, s, f, b, u, i, j):
-    return advance(symplectic_euler, (p, m, s, f, b, u), i, j)
+def _explicit_euler_range(p, m, s, f, b, u, i, j):
+    return advance(explicit_euler, p, m, s, f, b, u, i, j)
 @threads_kernel
-def _symplectic_euler_threads(w, i, j, t): return over_threads(_symplectic_euler, w, i, j, t)
+def _explicit_euler_threads(w, i, j, t): return over_threads(_explicit_euler_range, w, i, j, t)
 @world_kernel
-def _implicit_euler(p, m, s, f, b, u, i, j):
-    return advance(implicit_euler, (p, m, s, f, b, u), i, j)
-@threads_kernel
-def _implicit_euler_threads(w, i, j, t): return over_threads(_implicit_euler, w, i, j, t)
+def _symplectic_euler(p, m, s, f, b, u):
+    return advance(symplectic_euler, p, m, s, f, b, u, 0, s.shape[1])
 @world_kernel
-def _leapfrog(p, m, s, f, b, u, i, j):
-    return advance(leapfrog, (p, m, s, f, b, u), i, j)
+def _symplectic_euler_range(p, m, s, f, b, u, i, j):
+    return advance(symplectic_euler, p, m, s, f, b, u, i, j)
 @threads_kernel
-def _leapfrog_threads(w, i, j, t): return over_threads(_leapfrog, w, i, j, t)
+def _symplectic_euler_threads(w, i, j, t): return over_threads(_symplectic_euler_range, w, i, j, t)
 @world_kernel
-def _midpoint(p, m, s, f, b, u, i, j):
-    return advance(midpoint, (p, m, s, f, b, u), i, j)
-@threads_kernel
-def _midpoint_threads(w, i, j, t): return over_threads(_midpoint, w, i, j, t)
+def _implicit_euler(p, m, s, f, b, u):
+    return advance(implicit_euler, p, m, s, f, b, u, 0, s.shape[1])
 @world_kernel
-def _rk4(p, m, s, f, b, u, i, j):
-    return advance(rk4, (p, m, s, f, b, u), i, j)
+def _implicit_euler_range(p, m, s, f, b, u, i, j):
+    return advance(implicit_euler, p, m, s, f, b, u, i, j)
 @threads_kernel
-def _rk4_threads(w, i, j, t): return over_threads(_rk4, w, i, j, t)
+def _implicit_euler_threads(w, i, j, t): return over_threads(_implicit_euler_range, w, i, j, t)
 @world_kernel
-def _implicit_gyro(p, m, s, f, b, u, i, j):
-    return advance(implicit_gyro, (p, m, s, f, b, u), i, j)
-@threads_kernel
-def _implicit_gyro_threads(w, i, j, t): return over_threads(_implicit_gyro, w, i, j, t)
+def _leapfrog(p, m, s, f, b, u):
+    return advance(leapfrog, p, m, s, f, b, u, 0, s.shape[1])
 @world_kernel
-def _splitting(p, m, s, f, b, u, i, j):
-    return advance(splitting, (p, m, s, f, b, u), i, j)
+def _leapfrog_range(p, m, s, f, b, u, i, j):
+    return advance(leapfrog, p, m, s, f, b, u, i, j)
 @threads_kernel
-def _splitting_threads(w, i, j, t): return over_threads(_splitting, w, i, j, t)
+def _leapfrog_threads(w, i, j, t): return over_threads(_leapfrog_range, w, i, j, t)
 @world_kernel
-def _yoshida4(p, m, s, f, b, u, i, j):
-    return advance(yoshida4, (p, m, s, f, b, u), i, j)
+def _midpoint(p, m, s, f, b, u):
+    return advance(midpoint, p, m, s, f, b, u, 0, s.shape[1])
+@world_kernel
+def _midpoint_range(p, m, s, f, b, u, i, j):
+    return advance(midpoint, p, m, s, f, b, u, i, j)
 @threads_kernel
-def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4, w, i, j, t)
+def _midpoint_threads(w, i, j, t): return over_threads(_midpoint_range, w, i, j, t)
+@world_kernel
+def _rk4(p, m, s, f, b, u):
+    return advance(rk4, p, m, s, f, b, u, 0, s.shape[1])
+@world_kernel
+def _rk4_range(p, m, s, f, b, u, i, j):
+    return advance(rk4, p, m, s, f, b, u, i, j)
+@threads_kernel
+def _rk4_threads(w, i, j, t): return over_threads(_rk4_range, w, i, j, t)
+@world_kernel
+def _implicit_gyro(p, m, s, f, b, u):
+    return advance(implicit_gyro, p, m, s, f, b, u, 0, s.shape[1])
+@world_kernel
+def _implicit_gyro_range(p, m, s, f, b, u, i, j):
+    return advance(implicit_gyro, p, m, s, f, b, u, i, j)
+@threads_kernel
+def _implicit_gyro_threads(w, i, j, t): return over_threads(_implicit_gyro_range, w, i, j, t)
+@world_kernel
+def _splitting(p, m, s, f, b, u):
+    return advance(splitting, p, m, s, f, b, u, 0, s.shape[1])
+@world_kernel
+def _splitting_range(p, m, s, f, b, u, i, j):
+    return advance(splitting, p, m, s, f, b, u, i, j)
+@threads_kernel
+def _splitting_threads(w, i, j, t): return over_threads(_splitting_range, w, i, j, t)
+@world_kernel
+def _yoshida4(p, m, s, f, b, u):
+    return advance(yoshida4, p, m, s, f, b, u, 0, s.shape[1])
+@world_kernel
+def _yoshida4_range(p, m, s, f, b, u, i, j):
+    return advance(yoshida4, p, m, s, f, b, u, i, j)
+@threads_kernel
+def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4_range, w, i, j, t)
 # fmt: on
 
 
@@ -615,7 +643,7 @@ class IntegratorInfo:
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None (as the
             world steps) for an array integrator.
-        world_step: the compiled world step ``(*world, start, stop) -> code`` (:func:`advance`).
+        world_step: the compiled world step of all bodies, ``(*world) -> code`` (:func:`advance`).
         world_step_threads: the same over Numba's threads, ``(world, start, stop, threads)``
             (:func:`over_threads`).
         stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;

@@ -264,18 +264,19 @@ class World:
         """:meth:`step` with a command of the right shape already: None, or a C-contiguous
         float64 (N, action_dim) or (1, action_dim) array (environments that shape their
         actions call this). A NaN or inf in it raises ``ValueError``, nothing stepped."""
-        u = self._no_command if command is None else command
-        if u.base is self._cols:  # a view of the state: the compiled step's arrays must not overlap
-            u = u.copy()
+        if command is None:
+            u = self._no_command
+        else:  # a view of the state: copied, as the compiled step's arrays must not overlap
+            u = command.copy() if command.base is self._cols else command
         # A failed body is left at its state before the step: by the kernel itself for one
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
         backup = self._cols.copy() if self._copy_before_step else None
-        step = self.integrator.world_step
-        if step is None:
+        if self._n < THREAD_MIN_BODIES or THREADS == 1:
+            step = self.integrator.world_step
+            code = self._step_arrays(u) if step is None else step(*self._arrays, u)
+        elif self.integrator.world_step is None:
             code = self._step_arrays(u)
-        elif self._n < THREAD_MIN_BODIES or THREADS == 1:
-            code = step(*self._arrays, u, 0, self._n)
         else:
             step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
             code = call_threaded(lambda t: step(arrays, 0, self._n, t))
