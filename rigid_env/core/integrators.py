@@ -3,8 +3,8 @@
 An integrator advances one body's ``(x, v, q, w)`` (x, v world frame; q body -> world
 ``(w, x, y, z)``; w body frame) by one step ``h`` under the active effects,
 ``step(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``, with ``(fb, tb)`` the actuators'
-body-frame wrench (constant over a world step), ``m`` the body's model row and ``p`` the world's
-parameters (:mod:`rigid_env.core.kernels`). A world step is :func:`advance`, one compiled loop
+body-frame wrench (constant over a world step), ``m`` the body's model and ``p`` the world's
+parameters (:mod:`rigid_env.core.kernels`). A world step is :func:`advance`, compiled passes
 over the bodies; ``exact_free`` is the one NumPy array integrator (:mod:`rigid_env.core.exact`).
 
 Orientation moves by ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``) except in ``rk4``,

@@ -1,8 +1,9 @@
 """Per-body maths of the compiled step, written once for one body and compiled with Numba.
 
 Functions take and return plain numbers and small tuples (3-vectors ``(x, y, z)``, quaternions
-``(w, x, y, z)``) that Numba keeps in registers; a world's step is one compiled loop over its
-bodies (:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs them as plain Python.
+``(w, x, y, z)``) that Numba keeps in registers; a world's step is compiled loops over its
+bodies, which LLVM vectorises (:mod:`rigid_env.core.integrators`). ``NUMBA_DISABLE_JIT=1`` runs
+them as plain Python.
 
 Two small float64 arrays carry everything an integrator reads besides the state:
 

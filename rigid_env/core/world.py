@@ -1,9 +1,11 @@
 """World: a batch of bodies, the active effects, an integrator and a time step.
 
 ``World.step`` reads as its stages: check the command -> the compiled world step of the
-integrator (per body: actuator wrench -> ``substeps`` integrator steps, each evaluating only
-the active effects -> per-step maps -> guard and freeze) -> counters and reports. A body whose
-state turns NaN or inf is never handed back silently (``on_error``, :class:`World`).
+integrator over the (13, N) state columns (a pass of actuator wrenches -> ``substeps`` passes of
+the integrator, each evaluating only the active effects and ending in the guard, the per-step
+maps after the last; over the cores from :data:`THREAD_MIN_BODIES` bodies on) -> counters and
+reports. A body whose state turns NaN or inf is never handed back silently (``on_error``,
+:class:`World`).
 """
 
 from __future__ import annotations

@@ -1,9 +1,10 @@
 """The task layer's per-env maths, compiled with Numba like the physics.
 
-After the world's compiled step, one compiled pass over the ``N`` envs (:func:`task_pass`)
-accounts each env's fuel, evaluates its task (reward, termination, success) with the task's
-per-env ``evaluate`` function, writes its float32 observation row and its info numbers. A
-single env is ``N = 1`` of the very same pass, so it equals a vector env's row bit for bit.
+After the world's compiled step, one compiled pass over the ``N`` envs (:func:`task_pass`;
+over the cores from 1,024 envs on, :func:`task_pass_threads`) accounts each env's fuel,
+evaluates its task (reward, termination, success) with the task's per-env ``evaluate``
+function, writes its float32 observation row and its info numbers. A single env is ``N = 1``
+of the very same pass, so it equals a vector env's row bit for bit.
 
 A task's numbers travel in one float64 array ``tp`` of task parameters: the common header
 below, the task's own numbers from :data:`TASK` on, and each actuator's force at ``|u| = 1``
