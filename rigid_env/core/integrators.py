@@ -54,6 +54,7 @@ from rigid_env.core.kernels import (
     sincos,
     solve3,
     spin,
+    split_range,
     store,
     threads_kernel,
     world_kernel,
@@ -397,14 +398,6 @@ def _finite(x, v, q, w):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _wrench_of(p, command, wrenches, i):
-    """Body ``i``'s actuator wrench (:func:`wrench`) into column ``i`` of ``wrenches`` (6, N)."""
-    fb, tb = wrench(p, command, i)
-    wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
-    wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _substep_of(step, c, model, wrenches, state, status, last, i):
     """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
     speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
@@ -466,8 +459,10 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
                 return -1
     c = header(p)
     if command.shape[1] > 0:
-        for i in range(start, stop):
-            _wrench_of(p, command, wrenches, i)
+        for i in range(start, stop):  # each body's wrench into its column of wrenches
+            fb, tb = wrench(p, command, i)
+            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
+            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
     failures = over = 0
     substeps = int(c[SUBSTEPS])
     for k in range(substeps):
@@ -489,11 +484,9 @@ def over_threads(entry, world, start, stop, threads):
     (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
     called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
     Python): called in here it would keep the function from being cached."""
-    n = stop - start
     codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
     for t in prange(threads):
-        k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
-        codes[t] = entry(*world, start + n * k // threads, start + n * (k + 1) // threads)
+        codes[t] = entry(*world, *split_range(start, stop, t, threads))
     failures = over = 0
     for t in range(threads):
         if codes[t] < 0:

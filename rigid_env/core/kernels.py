@@ -323,6 +323,14 @@ def header(p):
 
 
 @kernel
+def split_range(start, stop, t, threads):
+    """Range ``t`` (an unsigned ``prange`` index) of ``start <= i < stop`` cut in ``threads``,
+    as int64 bounds (so that a range entry reuses its compiled code)."""
+    n, k = stop - start, np.int64(t)
+    return start + n * k // threads, start + n * (k + 1) // threads
+
+
+@kernel
 def body_model(model, i):
     """Body ``i``'s model numbers from the model columns (MODEL_WIDTH, N) as a tuple."""
     return (

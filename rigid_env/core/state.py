@@ -68,6 +68,11 @@ class BodyModel:
         cols = (mass, self.inertia, 1.0 / mass, 1.0 / self.inertia, iso.astype(np.float64))
         return np.hstack([np.broadcast_to(c, (self.n, c.shape[1])) for c in cols])
 
+    def columns(self, n: int) -> FloatArray:
+        """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated)."""
+        rows = self.rows()
+        return np.array(np.broadcast_to(rows, (n, rows.shape[1])).T)
+
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
         """One body's mass [kg] and principal moments (3,) [kg m^2], shared by the whole batch."""

@@ -139,8 +139,7 @@ class World:
             check_state(state)
             n = state.n
         self._n = int(n)
-        self._cols = np.zeros((13, self._n))
-        cols = self._cols
+        self._cols = cols = np.zeros((13, self._n))
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((6, self._n))
         self._copy_before_step = (on_error == "raise" and self._n > 1) or self.substeps > 1
@@ -202,7 +201,7 @@ class World:
     @property
     def model_rows(self) -> FloatArray:
         """(N | 1, MODEL_WIDTH) the model rows (:meth:`BodyModel.rows`)."""
-        return self._model_rows
+        return self.model.rows()
 
     @property
     def model_columns(self) -> FloatArray:
@@ -214,10 +213,9 @@ class World:
         if model.n not in (1, self._n):
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
-        self._model_rows = model.rows()
-        self._model_cols = np.array(np.broadcast_to(self._model_rows, (self._n, K.MODEL_WIDTH)).T)
+        self._model_cols = model.columns(self._n)
+        # the compiled step's arrays but the command (whose place is last)
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
-        """The compiled step's arrays but the command (whose place is last)."""
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -274,11 +272,11 @@ class World:
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
         backup = self._cols.copy() if self._copy_before_step else None
-        if self._n < THREAD_MIN_BODIES or THREADS == 1:
-            step = self.integrator.world_step
-            code = self._step_arrays(u) if step is None else step(*self._arrays, u)
-        elif self.integrator.world_step is None:
+        step = self.integrator.world_step
+        if step is None:
             code = self._step_arrays(u)
+        elif not threaded(self._n):
+            code = step(*self._arrays, u)
         else:
             step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
             code = call_threaded(lambda t: step(arrays, 0, self._n, t))
@@ -399,9 +397,7 @@ class World:
         world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A):
         the right-hand side ``v' = F / m``, ``I w' = tau - w x I w`` of the compiled step."""
         cols = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]).T)
-        model = np.ascontiguousarray(
-            np.broadcast_to(self._model_rows, (cols.shape[1], K.MODEL_WIDTH)).T
-        )
+        model = self.model.columns(cols.shape[1])
         u = self._check_action(action)
         out = np.empty((cols.shape[1], 6))
         derivatives(self.params, model, cols, self._no_command if u is None else u, out)

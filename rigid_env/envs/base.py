@@ -194,6 +194,8 @@ class TaskBatch:
     task_obs_bound: ClassVar[float] = 1.0
     target_dim: ClassVar[int] = 0
     task_pass: ClassVar[Callable[..., None]]
+    task_pass_threads: ClassVar[Callable[..., None] | None] = None
+    """The pass over Numba's threads from 1,024 envs on (optional: None runs ``task_pass``)."""
     version: int = 0
     """The task's version (the ``-vK`` of its id); a task with several takes ``version=``."""
 
@@ -375,7 +377,7 @@ class TaskBatch:
         changes no number)."""
         args = (self.tp, cols, model, command, target, noise, stepped, record, obs, 0)
         n = cols.shape[1]
-        threads = getattr(self, "task_pass_threads", None)
+        threads = self.task_pass_threads
         if threads is None or not core_world.threaded(n):
             self.task_pass(*args, n)
         else:

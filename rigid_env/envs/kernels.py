@@ -15,10 +15,9 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit, prange
 
-from rigid_env.core.kernels import body_model, kernel, kinetic_energy, rotate
+from rigid_env.core.kernels import body_model, kernel, kinetic_energy, rotate, split_range
 
 # ---- task parameters: the common header ------------------------------------------------------
 DT = 0  # control step [s]
@@ -56,10 +55,11 @@ def canonical(q):
 
 
 @kernel
-def soft_sign(x):
+def tanh(x):
     """``tanh(x)`` by ``expm1``: ``e = expm1(-2 |x|)``, ``tanh |x| = -e / (2 + e)``, in float64
-    (within a few ulp, far finer than the float32 observation it goes into; the sign put
-    back), one libm call where ``math.tanh`` of a float32 costs more."""
+    (within 8 eps of libm's, tests/envs/test_task_kernels.py; far finer than the float32
+    observation it goes into), the sign put back: one libm call, cheaper than ``math.tanh`` of
+    a float32."""
     e = math.expm1(-2.0 * abs(x))
     t = -e / (2.0 + e)
     return t if x >= 0.0 else -t
@@ -94,7 +94,7 @@ def observe_body(tp, s, noise, obs, i):
     for k in range(3):
         wk = s[10 + k] + noise[k]
         obs[i, r + k] = _clip(wk / scale, 5.0)
-        obs[i, r + 3 + k] = soft_sign(wk / 0.1)
+        obs[i, r + 3 + k] = tanh(wk / 0.1)
     return r + 6
 
 
@@ -181,10 +181,8 @@ def task_pass_threads(entry, tp, state, model, command, target, noise, stepped, 
     """A task's pass ``entry`` (its compiled :func:`task_pass`) of ``start <= i < stop`` split
     into ``threads`` contiguous ranges over Numba's threads (``prange``; each env is computed
     alone, so the split changes no number); ``entry`` is called, not inlined again."""
-    n = stop - start
     for t in prange(threads):
-        k = np.int64(t)  # prange's index is unsigned: int64 ranges reuse entry's compiled code
-        lo, hi = start + n * k // threads, start + n * (k + 1) // threads
+        lo, hi = split_range(start, stop, t, threads)
         entry(tp, state, model, command, target, noise, stepped, rec, obs, lo, hi)
 
 
