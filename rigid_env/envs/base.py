@@ -254,17 +254,22 @@ class TaskBatch:
         self.steps = np.zeros(n, dtype=np.int64)
         self.target = np.zeros((n, T.TARGET_WIDTH))
         """(N, 4) each env's target (its first ``target_dim`` numbers used)."""
-        self.thrust_scale = np.ones((1, a))
-        """(1 | N, A) strength of each actuator relative to the scene's (thrust randomisation)."""
+        self.thrust_scale: FloatArray | None = None
+        """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
+        (None before: every actuator as in the scene)."""
         self.last_action = np.zeros((n, a))
         """(N, A) the last command each env was sent, clipped (before thrust randomisation)."""
-        self.command = np.zeros((n, a))
-        """(N, A) the last command the bodies got (thrust randomisation included)."""
-        self.record = np.zeros((n, T.RECORD))
-        """(N, RECORD) each env's reward, flags, info numbers, fuel and task memory (columns
-        named in :mod:`rigid_env.envs.kernels`), written by the compiled pass."""
+        self.command = self.last_action
+        """(N, A) the last command the bodies got: :attr:`last_action` itself until thrust is
+        randomised, then ``last_action * thrust_scale``."""
+        self.record = np.zeros((T.RECORD, n))
+        """(RECORD, N) each env's reward, flags, info numbers, fuel and task memory (a column
+        per env, the rows named in :mod:`rigid_env.envs.kernels`), written by the compiled
+        pass."""
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
-        """(N, obs_dim) the latest observations (overwritten by every step and reset)."""
+        """(N, obs_dim) the latest observations (overwritten by every step and reset, unless
+        :meth:`observe` gave them away: then a new buffer is written)."""
+        self._obs_given = False
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
 
@@ -302,16 +307,16 @@ class TaskBatch:
     @property
     def fuel(self) -> FloatArray:
         """(N,) impulse spent in the episode so far [N s] (a view of :attr:`record`)."""
-        return self.record[:, T.FUEL]
+        return self.record[T.FUEL]
 
     @property
     def success(self) -> NDArray[np.bool_]:
         """(N,) whether each env's task counts as solved at the current step."""
-        return self.record[:, T.SUCCESS] != 0.0
+        return self.record[T.SUCCESS] != 0.0
 
     def angular_speed(self) -> FloatArray:
         """(N,) ``|w|`` [rad/s] of the current state (finite for a frozen, diverged body)."""
-        return self.record[:, T.SPEED].copy()
+        return self.record[T.SPEED].copy()
 
     def check_action(self, action: ArrayLike) -> FloatArray:
         """Validate and clip a command to (N, A) in [-1, 1] (into :attr:`last_action`; the
@@ -334,8 +339,10 @@ class TaskBatch:
                     f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
                     f"got {act.shape}"
                 )
-        if T.clip_commands(act, self.thrust_scale, self.last_action, self.command) < 0:
+        if T.clip_commands(np.ascontiguousarray(act), self.last_action) < 0:
             raise ValueError(_NON_FINITE_ACTION)
+        if self.thrust_scale is not None:
+            np.multiply(self.last_action, self.thrust_scale, out=self.command)
         return self.last_action
 
     def step(
@@ -355,21 +362,23 @@ class TaskBatch:
         """
         failed = self.world.advance(self.command)
         self.steps += 1
+        self._own_obs(keep=False)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
         self._pass(self.world.columns, self.world.model_columns, self.command, self.target, noise,
                    True, self.record, self.obs)  # fmt: skip
         r = self.record
-        return r[:, T.REWARD], r[:, T.TERMINATED] != 0.0, failed
+        return r[T.REWARD], r[T.TERMINATED] != 0.0, failed
 
     def step_one(self, rng: np.random.Generator) -> tuple[list[float], bool]:
         """:meth:`step` of a task of one env: its record (:data:`rigid_env.envs.kernels`
         columns) as floats, and whether its body failed."""
         failed = self.world.advance(self.command)
         self.steps[0] += 1
+        self._own_obs(keep=False)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
         self._pass(self.world.columns, self.world.model_columns, self.command, self.target, noise,
                    True, self.record, self.obs)  # fmt: skip
-        return self.record[0].tolist(), failed is not self.world.no_failures
+        return self.record[:, 0].tolist(), failed is not self.world.no_failures
 
     def _pass(self, cols, model, command, target, noise, stepped, record, obs) -> None:
         """The task's compiled pass over the envs of the state and model columns ``cols``,
@@ -382,6 +391,14 @@ class TaskBatch:
             self.task_pass(*args, n)
         else:
             core_world.call_threaded(lambda t: threads(*args, n, t))
+
+    def _own_obs(self, keep: bool) -> None:
+        """If :meth:`observe` gave :attr:`obs` away, write into a new buffer from now on (with
+        the same rows if ``keep``, for a reset of some envs): what a caller got stays as it
+        was, with no copy per step."""
+        if self._obs_given:
+            self.obs = self.obs.copy() if keep else np.empty_like(self.obs)
+            self._obs_given = False
 
     def _noise(
         self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
@@ -417,18 +434,19 @@ class TaskBatch:
             if self.target_dim:
                 self.target[idx, : self.target_dim] = target
         self.steps[idx] = 0
-        self.record[idx] = 0.0
+        self.record[:, idx] = 0.0
+        self._own_obs(keep=True)
         self.last_action[idx] = 0.0
         self.command[idx] = 0.0
         self.world.failed[idx] = False
         if idx.size == 0:
             return
-        record, obs = self.record[idx], self.obs[idx]
+        record, obs = np.ascontiguousarray(self.record[:, idx]), self.obs[idx]
         cols = np.ascontiguousarray(self.world.columns[:, idx])
         model = np.ascontiguousarray(self.world.model_columns[:, idx])
         noise = self._noise(rngs)
         self._pass(cols, model, self.command[idx], self.target[idx], noise, False, record, obs)
-        self.record[idx], self.obs[idx] = record, obs
+        self.record[:, idx], self.obs[idx] = record, obs
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
         r = self.randomization
@@ -456,32 +474,39 @@ class TaskBatch:
             model.inertia[i] = inertia
             self.world.set_model(BodyModel(model.mass, model.inertia))
         if r.thrust > 0.0:
-            if self.thrust_scale.shape[0] == 1:
+            if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
                 self.thrust_scale = np.ones((self.n, self.action_dim))
+                self.command = self.last_action * self.thrust_scale
             self.thrust_scale[i] = rng.uniform(1.0 - r.thrust, 1.0 + r.thrust, size=self.action_dim)
 
     def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
-        """A copy of the latest observations: (N, obs_dim), or the rows ``idx``."""
-        return self.obs.copy() if idx is None else self.obs[idx]
+        """The latest observations, the caller's to keep: (N, obs_dim) (the buffer itself,
+        which no later step or reset writes into), or a copy of the rows ``idx``."""
+        if idx is not None:
+            return self.obs[idx]
+        self._obs_given = True
+        return self.obs
 
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure."""
         r = self.record
-        success = r[:, T.SUCCESS] != 0.0
+        success = r[T.SUCCESS] != 0.0
         return {
-            "angular_speed": r[:, T.SPEED].copy(),
-            "energy": r[:, T.ENERGY].copy(),
-            "fuel": r[:, T.FUEL].copy(),
+            "angular_speed": r[T.SPEED].copy(),
+            "energy": r[T.ENERGY].copy(),
+            "fuel": r[T.FUEL].copy(),
             "success": success,
             "is_success": success.copy(),  # SB3 EvalCallback logs this key
             "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": r[:, T.W_WORLD : T.W_WORLD + 3].copy(),
+            # (N, 3) in the record's order (each component contiguous): a plain copy, ~8x
+            # cheaper than a transposing one at 4,096 envs
+            "angular_velocity_world": r[T.W_WORLD : T.W_WORLD + 3].T.copy(order="K"),
         }
 
     def info_one(self, r: list[float] | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
         record as floats (read here if not given)."""
-        r = self.record[0].tolist() if r is None else r
+        r = self.record[:, 0].tolist() if r is None else r
         success = r[T.SUCCESS] != 0.0
         return {
             "angular_speed": r[T.SPEED],

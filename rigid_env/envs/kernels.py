@@ -98,7 +98,7 @@ def observe_body(tp, s, noise, obs, i):
     return r + 6
 
 
-# ---- columns of an env's record (N, RECORD) -----------------------------------------------
+# ---- rows of the envs' record (RECORD, N): one column per env ---------------------------
 REWARD, TERMINATED, SUCCESS, SPEED, ENERGY, W_WORLD, FUEL = 0, 1, 2, 3, 4, 5, 8
 MEMORY = 9  # one number of task memory (e.g. a success streak)
 RECORD = 10
@@ -126,29 +126,29 @@ def _env_of(evaluate, tp, state, model, command, target, noise, stepped, rec, ob
             magnitude += a
             thrust += a * tp[FMAX + k]
         effort = magnitude / actions
-        rec[i, FUEL] += thrust * tp[DT]
+        rec[FUEL, i] += thrust * tp[DT]
     j = 0 if noise.shape[0] == 1 else i
     start = observe_body(tp, s, (noise[j, 0], noise[j, 1], noise[j, 2]), obs, i)
     goal = (target[i, 0], target[i, 1], target[i, 2], target[i, 3])
-    reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[i, MEMORY], tp, stepped)
+    reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[MEMORY, i], tp, stepped)
     if stepped:
-        rec[i, MEMORY] = memory
+        rec[MEMORY, i] = memory
     bound = tp[EXTRA_BOUND]
     for k in range(obs.shape[1] - start):
         obs[i, start + k] = min(bound, max(-bound, extra[k]))
-    rec[i, REWARD] = reward
-    rec[i, TERMINATED] = 1.0 if done else 0.0
-    rec[i, SUCCESS] = 1.0 if ok else 0.0
+    rec[REWARD, i] = reward
+    rec[TERMINATED, i] = 1.0 if done else 0.0
+    rec[SUCCESS, i] = 1.0 if ok else 0.0
     # Info numbers: a body on its way to a numerical failure may have a finite state whose
     # energy or world w overflows; its record then keeps the last finite values.
     w = (s[10], s[11], s[12])
-    rec[i, SPEED] = safe_norm(w)
+    rec[SPEED, i] = safe_norm(w)
     energy = kinetic_energy((s[3], s[4], s[5]), w, body_model(model, i))
     if math.isfinite(energy):
-        rec[i, ENERGY] = energy
+        rec[ENERGY, i] = energy
     ww = rotate((s[6], s[7], s[8], s[9]), w)
     if math.isfinite(ww[0] + ww[1] + ww[2]):
-        rec[i, W_WORLD], rec[i, W_WORLD + 1], rec[i, W_WORLD + 2] = ww
+        rec[W_WORLD, i], rec[W_WORLD + 1, i], rec[W_WORLD + 2, i] = ww
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -166,8 +166,9 @@ def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, 
         tp: task parameters. state: (13, N) state columns. model: (MODEL_WIDTH, N) model
             columns. command: (N, A) the commands the bodies got. target: (N, TARGET_WIDTH)
             targets. noise: (N | 1, 3) sensor noise on the observed ``w`` [rad/s].
-        rec: (N, RECORD) each env's record: reward, terminated, success, ``|w|``, kinetic
-            energy, world ``w`` (written), fuel spent [N s] (increased) and the task memory.
+        rec: (RECORD, N) the envs' record, a column each: reward, terminated, success,
+            ``|w|``, kinetic energy, world ``w`` (written), fuel spent [N s] (increased) and
+            the task memory.
         obs: (N, D) float32 observations (written).
         start, stop: the envs to treat (threads treat disjoint ranges at once).
     """
@@ -192,17 +193,21 @@ a task without one runs its pass on one thread."""
 
 
 @kernel
-def clip_commands(action, scale, clipped, command):
-    """Clip ``action`` (N, A) into [-1, 1] (a saturated thruster) into ``clipped``, and the
-    command the bodies get, ``clipped * scale`` (thrust randomisation, (N | 1, A)), into
-    ``command``; returns -1 (nothing written further) at the first NaN or inf, else 0."""
-    for i in range(action.shape[0]):
-        f = scale[0] if scale.shape[0] == 1 else scale[i]
-        for k in range(action.shape[1]):
-            a = float(action[i, k])
-            if not math.isfinite(a):
-                return -1
-            c = min(1.0, max(-1.0, a))
-            clipped[i, k] = c
-            command[i, k] = c * f[k]
+def clip_commands(action, clipped):
+    """Clip ``action`` (C-contiguous (N, A), any real dtype) into [-1, 1] (a saturated thruster)
+    into ``clipped`` (float64 (N, A)); returns -1, nothing written, if a number is NaN or inf,
+    else 0. Two flat loops without branches (a count of non-finite numbers, then the clip),
+    which LLVM vectorises."""
+    a = action.reshape(action.size)
+    c = clipped.reshape(clipped.size)
+    bad = 0
+    for e in range(a.size):
+        x = float(a[e])
+        bad += (x - x) != 0.0  # NaN for NaN and +-inf
+    if bad:
+        return -1
+    for e in range(a.size):
+        x = float(a[e])
+        x = x if x < 1.0 else 1.0
+        c[e] = x if x > -1.0 else -1.0
     return 0
