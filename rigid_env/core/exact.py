@@ -1,7 +1,6 @@
 """The exact torque-free flow of a rigid body, written once for the ``exact_free`` integrator,
 the accuracy benchmark's reference and the stability cases: Numba has no elliptic functions, so
-it stays a NumPy array function, vectorised over bodies with SciPy's elliptic ufuncs.
-"""
+it stays a NumPy array function, vectorised over bodies with SciPy's elliptic ufuncs."""
 
 from __future__ import annotations
 

@@ -251,8 +251,7 @@ def cylinder(mass: float, radius: float, height: float) -> MassProperties:
 def ellipsoid(mass: float, semi_axes: ArrayLike) -> MassProperties:
     """Solid uniform ellipsoid of ``mass`` > 0, centred, semi-axes ``(a, b, c)`` > 0 along x, y,
     z: ``x = a u`` maps the unit ball (where ``u^2`` averages 1/5) onto it with constant
-    Jacobian, so ``integral x^2 dm = m a^2 / 5`` and ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``.
-    """
+    Jacobian, so ``integral x^2 dm = m a^2 / 5``, ``I = m/5 (b^2 + c^2, a^2 + c^2, a^2 + b^2)``."""
     mass = _scalar("ellipsoid", "mass", mass)
     a2, b2, c2 = checked_floats("ellipsoid: semi_axes", semi_axes, (3,), positive=True) ** 2
     return _diagonal(mass, mass / 5.0 * np.array([b2 + c2, a2 + c2, a2 + b2]))

@@ -358,9 +358,8 @@ def skew(v: ArrayLike) -> FloatArray:
 
 
 def rodrigues(rotvec: ArrayLike) -> FloatArray:
-    """Rotation matrix of a rotation vector by Rodrigues' formula
-    ``R = 1 + sin(a) K + (1 - cos(a)) K^2`` with ``K = skew(axis)`` (independent of the
-    quaternion path; used to cross-check it)."""
+    """Rotation matrix of a rotation vector by Rodrigues' formula ``R = 1 + sin(a) K +
+    (1 - cos(a)) K^2``, ``K = skew(axis)`` (independent of the quaternion path, to check it)."""
     rotvec = _as_float(rotvec)
     a = np.sqrt(np.sum(rotvec * rotvec, axis=-1))
     small = a < _SMALL_ANGLE

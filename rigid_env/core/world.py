@@ -33,6 +33,7 @@ BoolArray = NDArray[np.bool_]
 
 THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
 """Cores this process may use."""
+_FLOAT64 = np.dtype(np.float64)
 THREAD_MIN_BODIES = 1024
 """Smallest batch split over Numba's threads (below it one thread beats the hand-over)."""
 _threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
@@ -62,10 +63,8 @@ class NumericalInstabilityError(FloatingPointError):
         shown = ", ".join(str(b) for b in self.bodies[:5])
         if len(self.bodies) > 5:
             shown += f" ... ({len(self.bodies)} bodies)"
-        fix = cause or (
-            "use a smaller dt or more substeps, or a stable integrator ('implicit_gyro' or "
-            "'splitting')"
-        )
+        stable = "a stable integrator ('implicit_gyro' or 'splitting')"
+        fix = cause or f"use a smaller dt or more substeps, or {stable}"
         super().__init__(
             f"state of body {shown} became non-finite at step {step} (integrator "
             f"{integrator!r}, dt {dt:g} s); {fix}"
@@ -148,11 +147,15 @@ class World:
             self._state.assign(state)
         self._status = np.zeros(self._n, dtype=np.uint8)
         self._no_command = np.zeros((1, self.action_dim))
+        self._one_command = (self.action_dim,)  # and the shapes of a command as it is used:
+        self._shapes = ((1, self.action_dim), (self._n, self.action_dim)) if self.action_dim else ()
         self._none_failed = np.zeros(self._n, dtype=bool)
         self._none_failed.flags.writeable = False
         self._warned = False
         self.step_count = 0
         self.set_model(model)
+        serial = self.integrator.world_step is not None and not threaded(self._n)
+        self._direct = serial and not self._copy_before_step  # step() calls the kernel itself
 
     # ---------------------------------------------------------------------------------------
     @property
@@ -197,11 +200,6 @@ class World:
     def time(self) -> float:
         """Simulated time since the last :meth:`reset` [s]."""
         return self.step_count * self.dt
-
-    @property
-    def model_rows(self) -> FloatArray:
-        """(N | 1, MODEL_WIDTH) the model rows (:meth:`BodyModel.rows`)."""
-        return self.model.rows()
 
     @property
     def model_columns(self) -> FloatArray:
@@ -258,6 +256,15 @@ class World:
             ValueError: if ``action`` has the wrong shape or a non-finite entry.
             NumericalInstabilityError: if a state turns non-finite with ``on_error="raise"``.
         """
+        a = action  # first the common case: a float64 command array, used as it is
+        if self._direct and type(a) is np.ndarray and a.dtype is _FLOAT64:
+            u = a[None] if a.shape == self._one_command else a if a.shape in self._shapes else None
+            if u is not None and u.flags.c_contiguous and a.base is not self._cols:
+                code = self.integrator.world_step(*self._arrays, u)
+                if code == 0:
+                    self.step_count += 1
+                    return self._none_failed
+                return self._outcome(code, None)
         return self.advance(self._check_action(action))
 
     def advance(self, command: FloatArray | None) -> BoolArray:
@@ -280,11 +287,15 @@ class World:
         else:
             step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
             code = call_threaded(lambda t: step(arrays, 0, self._n, t))
+        return self._outcome(code, backup)
+
+    def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
+        """The step's result from the compiled step's ``code`` (:func:`integrators.advance`)."""
         if code < 0:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
         if code & 1 and not self._warned:
             self._warn_speed()
-        if code < 2:
+        if code < 2:  # nothing failed
             self.step_count += 1
             return self._none_failed
         bad = self._status == 2
@@ -341,18 +352,9 @@ class World:
             clamp_bodies(self._cols, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
-        if type(action) is np.ndarray and action.dtype == np.float64 and self.action_dim:
-            # The common case: a float64 command of the right shape, used as it is.
-            shape = action.shape
-            if shape == (self.action_dim,) and action.flags.c_contiguous:
-                return action[None]
-            if len(shape) == 2 and shape[1] == self.action_dim and shape[0] in (1, self._n):
-                return np.ascontiguousarray(action)
         if action is None or self.action_dim == 0:
             if action is not None and np.size(action) != 0:
-                raise ValueError(
-                    f"action: this world has no actuators, got {np.size(action)} numbers"
-                )
+                raise ValueError(f"action: the world has no actuators, got {np.size(action)}")
             return None
         act = np.ascontiguousarray(action, dtype=np.float64)
         if act.ndim == 1:

@@ -218,7 +218,7 @@ def test_per_body_function_is_the_world_step(name: str) -> None:
     r = world.rows[0].tolist()
     out = INTEGRATORS[name].body(
         tuple(r[0:3]), tuple(r[3:6]), tuple(r[6:10]), tuple(r[10:13]),
-        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), world.model_rows[0], world.params, world.h,
+        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), world.model.rows()[0], world.params, world.h,
     )  # fmt: skip
     world.step()
     assert [c for part in out for c in part] == world.rows[0].tolist()
