@@ -1,6 +1,6 @@
 """A/B of the speed numbers between two trees, one process each, alternated (README, Speed).
 
-    git worktree add /tmp/old 43abfe9
+    git worktree add /tmp/old 7e52ffa^    # the lane tree before the compiled core (or 43abfe9)
     for i in 1 2 3; do
         .venv/bin/python docs/speed_ab.py new
         PYTHONPATH=/tmp/old .venv/bin/python docs/speed_ab.py old
@@ -21,9 +21,17 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
-from rigid_env.bench.speed import detumble_thrusters, spinning_state
+from rigid_env.bench.speed import spinning_state
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import World
+from rigid_env.envs.base import default_scene_path
+from rigid_env.scene import load_scene
+
+
+def detumble_thrusters() -> object:
+    """Detumble's six thrusters, read from its scene as every tree since the lanes can."""
+    effects = load_scene(default_scene_path("detumble")).effects()
+    return next(e for e in effects if type(e).__name__ == "Thrusters")
 
 
 def best_rate(call: Callable[[], object], work: float, calls: int, rounds: int = 9) -> float:

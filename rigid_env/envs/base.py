@@ -168,7 +168,9 @@ def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray
     """Orientation uniform on SO(3) and body angular velocity (3,) of magnitude uniform on
     [0, ``max_spin``] about a uniform direction; drawn in that order."""
     q = random_quaternion(rng)
-    return q, rng.uniform(0.0, max_spin) * random_unit_vectors(rng)
+    # max_spin * random() is rng.uniform(0, max_spin) bit for bit (0 + range * u), without
+    # its argument handling: resets of thousands of envs draw this in a Python loop
+    return q, (max_spin * rng.random()) * random_unit_vectors(rng)
 
 
 class TaskBatch:
@@ -425,9 +427,11 @@ class TaskBatch:
         idx = np.asarray(idx, dtype=np.int64)
         s = self.world.state
         draws = []
+        randomized = self.randomization.physical or self.randomization.thrust > 0.0
         for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
-            self._randomize(i, rngs[k])
+            if randomized:
+                self._randomize(i, rngs[k])
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w

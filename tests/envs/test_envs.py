@@ -466,6 +466,34 @@ def test_reset_mask_equals_sync_vector_env(env_id):
             assert np.array_equal(x, y)
 
 
+def test_returned_observations_are_never_written_again():
+    """The vector env hands out its observation buffer (no copy per step), so every later step,
+    autoreset and masked reset must write a new one: each array a caller kept still equals the
+    copy taken when it was returned, shares no memory with a later one, and a masked reset's
+    other rows are the ones last returned."""
+    n = 4
+    venv = gym.make_vec(
+        "RigidEnv/Detumble-v0", num_envs=n, vectorization_mode="vector_entry_point",
+        max_episode_steps=3,
+    )  # fmt: skip
+    kept = [venv.reset(seed=0)[0]]
+    copies = [kept[0].copy()]
+    rng = np.random.default_rng(0)
+    for t in range(8):  # autoresets at steps 4 and 8 (time limit 3), a masked reset at 5
+        if t == 5:
+            mask = np.array([True, False, True, False])
+            obs = venv.reset(options={"reset_mask": mask})[0]
+            assert np.array_equal(obs[~mask], kept[-1][~mask])
+        else:
+            obs = venv.step(rng.uniform(-1.0, 1.0, size=(n, 6)).astype(np.float32))[0]
+        assert not any(np.shares_memory(obs, k) for k in kept)
+        kept.append(obs)
+        copies.append(obs.copy())
+    venv.step(np.zeros((n, 6), dtype=np.float32))
+    venv.reset(seed=1)
+    assert all(np.array_equal(k, c) for k, c in zip(kept, copies, strict=True))
+
+
 @pytest.mark.parametrize(
     ("mask", "error"),
     [
