@@ -8,8 +8,9 @@
 
 Prints, best of several rounds each: core body-steps/s at N = 4096 (symplectic_euler, rk4,
 splitting; torque-free), one body's World.step with rk4 and the Detumble thrusters, a Detumble
-env.step, and vector Detumble env-steps/s at N = 4096. On a shared machine only the same
-round's pairs compare.
+env.step, and vector Detumble env-steps/s at N = 4096. With ``--all`` (``docs/speed_ab.py new
+--all``) it prints instead every integrator's body-steps/s at N = 1, 256 and 4096 (the README's
+table against the lane). On a shared machine only the same round's pairs compare.
 """
 
 import sys
@@ -46,6 +47,26 @@ def best_rate(call: Callable[[], object], work: float, calls: int, rounds: int =
     return work / best
 
 
+def all_integrators(label: str) -> None:
+    """Every integrator's M body-steps/s at N = 1 / 256 / 4096, torque-free."""
+    from rigid_env.core.integrators import INTEGRATORS
+
+    warnings.simplefilter("ignore")
+    model = BodyModel.single(1.0, (1.0, 2.0, 3.0))
+    rows = []
+    for name in INTEGRATORS:
+        rates = []
+        for n in (1, 256, 4096):
+            world = World(model, integrator=name, dt=0.01, state=spinning_state(n))
+            world.step()  # compiled or loaded here; then one timed call sets a ~20 ms block
+            t = time.perf_counter()
+            world.step()
+            calls = max(2, int(0.02 / (time.perf_counter() - t)))
+            rates.append(best_rate(world.step, n, calls, rounds=5) / 1e6)
+        rows.append(f"{name}: " + " / ".join(f"{r:.3g}" for r in rates))
+    print(label, "M body-steps/s at N = 1 / 256 / 4096 |", " | ".join(rows), flush=True)
+
+
 def main(label: str) -> None:
     warnings.simplefilter("ignore")
     model = BodyModel.single(1.0, (1.0, 2.0, 3.0))
@@ -79,4 +100,5 @@ def main(label: str) -> None:
 
 
 if __name__ == "__main__":
-    main(sys.argv[1] if len(sys.argv) > 1 else "this tree")
+    run = all_integrators if "--all" in sys.argv[2:] else main
+    run(sys.argv[1] if len(sys.argv) > 1 else "this tree")
