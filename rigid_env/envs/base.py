@@ -439,12 +439,12 @@ class TaskBatch:
                 self.target[idx, : self.target_dim] = target
         self.steps[idx] = 0
         self.record[:, idx] = 0.0
-        self._own_obs(keep=True)
         self.last_action[idx] = 0.0
         self.command[idx] = 0.0
         self.world.failed[idx] = False
         if idx.size == 0:
             return
+        self._own_obs(keep=True)  # rows idx are written below, the others kept
         record, obs = np.ascontiguousarray(self.record[:, idx]), self.obs[idx]
         cols = np.ascontiguousarray(self.world.columns[:, idx])
         model = np.ascontiguousarray(self.world.model_columns[:, idx])
