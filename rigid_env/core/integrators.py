@@ -19,46 +19,34 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 from numpy.typing import NDArray
 
+from rigid_env.core.jit import kernel, pass_kernel, threads_kernel, world_kernel
 from rigid_env.core.kernels import (
-    ANGULAR_ALPHA,
-    ANGULAR_DAMPING,
-    ANY_FORCE,
-    DRAG,
-    I0,
-    I1,
-    I2,
-    INV_I0,
-    INV_I1,
-    INV_I2,
-    ISOTROPIC,
-    LINEAR_ALPHA,
-    LINEAR_DAMPING,
-    MAX_SPEED,
-    MAX_SPEED_VALUE,
-    STABLE_SPEED,
-    SUBSTEPS,
-    H,
     accelerations,
     axpy,
-    body_model,
     gyro_jacobian,
     gyroscopic,
-    header,
-    kernel,
-    load,
     normalize,
     qdot,
     sincos,
     solve3,
     spin,
     split_range,
-    store,
-    threads_kernel,
-    world_kernel,
     wrench,
+)
+from rigid_env.core.layout import (
+    BAD_COMMAND,
+    FAILED,
+    HEALTHY,
+    beyond_of,
+    body_model,
+    failures_of,
+    load,
+    step_code,
+    store,
+    unpack,
 )
 
 FloatArray = NDArray[np.float64]
@@ -111,16 +99,16 @@ def implicit_euler(x, v, q, w, fb, tb, m, p, h):
         q1 = spin(q, w1, h)
         a, alpha = accelerations(v1, q1, w1, fb, tb, m, p, False)
         v_new = axpy(v, h, a)
-        if m[ISOTROPIC] == 0.0:
+        if m.isotropic == 0.0:
             # Residual r(w1) = w1 - w - h I^-1 (tau - w1 x I w1); Newton: J dw = -r.
             g = gyroscopic(w1, m)
             r = (
-                w1[0] - w[0] + h * (g[0] * m[INV_I0] - alpha[0]),
-                w1[1] - w[1] + h * (g[1] * m[INV_I1] - alpha[1]),
-                w1[2] - w[2] + h * (g[2] * m[INV_I2] - alpha[2]),
+                w1[0] - w[0] + h * (g[0] * m.inv_inertia_x - alpha[0]),
+                w1[1] - w[1] + h * (g[1] * m.inv_inertia_y - alpha[1]),
+                w1[2] - w[2] + h * (g[2] * m.inv_inertia_z - alpha[2]),
             )
             j = gyro_jacobian(w1, m)
-            s0, s1, s2 = h * m[INV_I0], h * m[INV_I1], h * m[INV_I2]
+            s0, s1, s2 = h * m.inv_inertia_x, h * m.inv_inertia_y, h * m.inv_inertia_z
             jac = (
                 1.0 + s0 * j[0], s0 * j[1], s0 * j[2],
                 s1 * j[3], 1.0 + s1 * j[4], s1 * j[5],
@@ -149,7 +137,7 @@ def leapfrog(x, v, q, w, fb, tb, m, p, h):
     gyroscopic term, drag)."""
     q_h = spin(q, w, 0.5 * h)
     a, alpha = accelerations(v, q_h, w, fb, tb, m, p, True)
-    if p[DRAG] != 0.0 or m[ISOTROPIC] == 0.0:
+    if p.velocity_dependent != 0.0 or m.isotropic == 0.0:
         a, alpha = accelerations(
             axpy(v, 0.5 * h, a), q_h, axpy(w, 0.5 * h, alpha), fb, tb, m, p, True
         )
@@ -218,7 +206,7 @@ def rk4(x, v, q, w, fb, tb, m, p, h):
 @kernel
 def _energy2(w, m):
     """``2 E = w . I w`` [J]."""
-    return m[I0] * w[0] * w[0] + m[I1] * w[1] * w[1] + m[I2] * w[2] * w[2]
+    return m.inertia_x * w[0] * w[0] + m.inertia_y * w[1] * w[1] + m.inertia_z * w[2] * w[2]
 
 
 @kernel
@@ -239,12 +227,12 @@ def implicit_gyro(x, v, q, w, fb, tb, m, p, h):
     a, alpha = accelerations(v, q, w, fb, tb, m, p, False)
     v1 = axpy(v, h, a)
     w1 = w_e = axpy(w, h, alpha)
-    if m[ISOTROPIC] == 0.0:
+    if m.isotropic == 0.0:
         j = gyro_jacobian(w_e, m)
         jac = (
-            m[I0] + h * j[0], h * j[1], h * j[2],
-            h * j[3], m[I1] + h * j[4], h * j[5],
-            h * j[6], h * j[7], m[I2] + h * j[8],
+            m.inertia_x + h * j[0], h * j[1], h * j[2],
+            h * j[3], m.inertia_y + h * j[4], h * j[5],
+            h * j[6], h * j[7], m.inertia_z + h * j[8],
         )  # fmt: skip
         g = gyroscopic(w_e, m)
         w1 = axpy(w_e, -1.0, solve3(jac, (h * g[0], h * g[1], h * g[2])))
@@ -284,17 +272,17 @@ def free_rotation(q, w, m, h):
 
     Each ``Rk`` rotates ``L`` and the body, so ``|L|`` and the world ``L`` are kept to round-off
     for any ``h``; an isotropic body takes the exact ``q exp(h w / 2)``. Returns ``(q, w)``."""
-    if m[ISOTROPIC] != 0.0:
+    if m.isotropic != 0.0:
         return spin(q, w, h), w
     qw, qx, qy, qz = q
-    lx, ly, lz = w[0] * m[I0], w[1] * m[I1], w[2] * m[I2]
-    hx, hy, hz = 0.25 * h * m[INV_I0], 0.25 * h * m[INV_I1], 0.5 * h * m[INV_I2]
+    lx, ly, lz = w[0] * m.inertia_x, w[1] * m.inertia_y, w[2] * m.inertia_z
+    hx, hy, hz = 0.25 * h * m.inv_inertia_x, 0.25 * h * m.inv_inertia_y, 0.5 * h * m.inv_inertia_z
     qw, qx, qy, qz, ly, lz = _turn(qw, qx, qy, qz, ly, lz, hx * lx)
     qw, qy, qz, qx, lz, lx = _turn(qw, qy, qz, qx, lz, lx, hy * ly)
     qw, qz, qx, qy, lx, ly = _turn(qw, qz, qx, qy, lx, ly, hz * lz)
     qw, qy, qz, qx, lz, lx = _turn(qw, qy, qz, qx, lz, lx, hy * ly)
     qw, qx, qy, qz, ly, lz = _turn(qw, qx, qy, qz, ly, lz, hx * lx)
-    return (qw, qx, qy, qz), (lx * m[INV_I0], ly * m[INV_I1], lz * m[INV_I2])
+    return (qw, qx, qy, qz), (lx * m.inv_inertia_x, ly * m.inv_inertia_y, lz * m.inv_inertia_z)
 
 
 @kernel
@@ -303,7 +291,7 @@ def kick(v, q, w, fb, tb, m, p, h):
     excluded): exact in one evaluation when no force depends on velocity (a constant
     acceleration), else the explicit midpoint rule, second order."""
     a, alpha = accelerations(v, q, w, fb, tb, m, p, False)
-    if p[DRAG] != 0.0:
+    if p.velocity_dependent != 0.0:
         a, alpha = accelerations(
             axpy(v, 0.5 * h, a), q, axpy(w, 0.5 * h, alpha), fb, tb, m, p, False
         )
@@ -315,11 +303,11 @@ def splitting(x, v, q, w, fb, tb, m, p, h):
     """Strang splitting ``kick(h/2) -> [x += h v ; free rotation] -> kick(h/2)``: torque-free it
     keeps ``|L|`` and the world ``L`` to round-off and the energy up to a bounded oscillation
     (symplectic); with forces it is second order."""
-    if p[ANY_FORCE] != 0.0:
+    if p.any_force != 0.0:
         v, w = kick(v, q, w, fb, tb, m, p, 0.5 * h)
     x1 = axpy(x, h, v)
     q1, w = free_rotation(q, w, m, h)
-    if p[ANY_FORCE] != 0.0:
+    if p.any_force != 0.0:
         v, w = kick(v, q1, w, fb, tb, m, p, 0.5 * h)
     return x1, v, normalize(q1), w
 
@@ -337,7 +325,7 @@ def kick_rk4(v, q, w, fb, tb, m, p, h):
     """The kick of :func:`kick` to a local error of ``O(h^5)``: exact in one evaluation when no
     force depends on velocity, otherwise classical RK4 on ``(v, w)`` (the midpoint kick's
     ``O(h^3)`` error would leave the triple jump at order 3 with drag)."""
-    if p[DRAG] == 0.0:
+    if p.velocity_dependent == 0.0:
         return kick(v, q, w, fb, tb, m, p, h)
     a1, b1 = accelerations(v, q, w, fb, tb, m, p, False)
     a2, b2 = accelerations(axpy(v, 0.5 * h, a1), q, axpy(w, 0.5 * h, b1), fb, tb, m, p, False)
@@ -358,7 +346,7 @@ def yoshida4(x, v, q, w, fb, tb, m, p, h):
     (neighbouring half-kicks act at the same ``x, q`` and merge: 4 kicks, 15 exact axis
     rotations per step). Torque-free it keeps ``|L|`` and the world ``L`` to round-off; with
     drag the kicks are taken by RK4 (:func:`kick_rk4`) to stay fourth order."""
-    forces = p[ANY_FORCE] != 0.0
+    forces = p.any_force != 0.0
     if forces:
         v, w = kick_rk4(v, q, w, fb, tb, m, p, 0.5 * YOSHIDA_C1 * h)
     x = axpy(x, YOSHIDA_C1 * h, v)
@@ -397,7 +385,7 @@ def _finite(x, v, q, w):
     return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@pass_kernel
 def _substep_of(step, c, model, wrenches, state, status, last, i):
     """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
     speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
@@ -405,28 +393,28 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
     else keeps its column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns
     ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
     x0, v0, q0, w0 = load(state, i)
-    w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
+    w = _clamp(w0, c.max_speed_value) if c.max_speed != 0.0 else w0
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c[H])
+    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c.h)
     if last:
-        if c[MAX_SPEED] != 0.0:
-            w = _clamp(w, c[MAX_SPEED_VALUE])
-        if c[LINEAR_DAMPING] != 0.0:
-            a = c[LINEAR_ALPHA]
+        if c.max_speed != 0.0:
+            w = _clamp(w, c.max_speed_value)
+        if c.linear_damping != 0.0:
+            a = c.linear_alpha
             v = (v[0] * a, v[1] * a, v[2] * a)
-        if c[ANGULAR_DAMPING] != 0.0:
-            a = c[ANGULAR_ALPHA]
+        if c.angular_damping != 0.0:
+            a = c.angular_alpha
             w = (w[0] * a, w[1] * a, w[2] * a)
-    healthy = status[i] == 0
+    healthy = status[i] == HEALTHY
     ok = healthy & _finite(x, v, q, w)
-    status[i] = 2 if healthy & ~ok else status[i]
+    status[i] = FAILED if healthy & ~ok else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
-    fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c[STABLE_SPEED] * c[STABLE_SPEED]
-    return (1 if healthy & ~ok else 0), (1 if ok & last & fast & (c[STABLE_SPEED] != 0.0) else 0)
+    fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c.stable_speed * c.stable_speed
+    return (1 if healthy & ~ok else 0), (1 if ok & last & fast & (c.stable_speed != 0.0) else 0)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@pass_kernel
 def advance(step, p, model, state, status, wrenches, command, start, stop):
     """One world step of the bodies ``start <= i < stop``, in passes whose loops the compiler
     vectorises (struct-of-arrays columns; no call, inner loop or branch in the body, only
@@ -437,7 +425,7 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
     on that promise); they come one by one, as a tuple they would cost atomic reference counts.
 
     Args:
-        p: the world's parameters (the passes read their :func:`header`).
+        p: the world's parameters (read by name: :func:`rigid_env.core.layout.unpack`).
         model: (MODEL_WIDTH, N) model columns.
         state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
         status: (N,) uint8: 0 healthy, 1 frozen by an earlier failure (left alone); set to 2
@@ -456,15 +444,15 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
     for r in range(command.shape[0]):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
-                return -1
-    c = header(p)
+                return BAD_COMMAND
+    c = unpack(p)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench into its column of wrenches
             fb, tb = wrench(p, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
     failures = over = 0
-    substeps = int(c[SUBSTEPS])
+    substeps = int(c.substeps)
     for k in range(substeps):
         last = k == substeps - 1
         for i in range(start, stop):
@@ -474,10 +462,10 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
             failed, beyond = _substep_of(step, c, model, wrenches, state, status, last, j)
             failures += failed
             over += beyond
-    return 2 * failures + min(over, 1)
+    return step_code(failures, min(over, 1))
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+@pass_kernel
 def over_threads(entry, world, start, stop, threads):
     """A world step ``entry(*world, start, stop)`` (one integrator's compiled :func:`advance`)
     of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
@@ -489,11 +477,11 @@ def over_threads(entry, world, start, stop, threads):
         codes[t] = entry(*world, *split_range(start, stop, t, threads))
     failures = over = 0
     for t in range(threads):
-        if codes[t] < 0:
-            return -1  # every range checks the command before it steps: nothing stepped
-        failures += codes[t] >> 1
-        over = max(over, codes[t] & 1)
-    return 2 * failures + over
+        if codes[t] == BAD_COMMAND:
+            return BAD_COMMAND  # every range checks the command before it steps: nothing stepped
+        failures += failures_of(codes[t])
+        over = max(over, beyond_of(codes[t]))
+    return step_code(failures, over)
 
 
 @kernel
@@ -509,7 +497,7 @@ def clamp_bodies(state, limit):
 def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
     (13, N): the force half-steps of ``exact_free``."""
-    c = header(p)
+    c = unpack(p)
     for i in range(state.shape[1]):
         fb, tb = wrench(p, command, i)
         x, v, q, w = load(state, i)
@@ -522,7 +510,7 @@ def derivatives(p, model, state, command, out):
     """``(v', w')`` of every body's state column (13, N) into ``out`` (N, 6): the linear (world)
     and angular (body, Euler's equations included) accelerations of
     :func:`rigid_env.core.kernels.accelerations`, the right-hand side a reference solver needs."""
-    c = header(p)
+    c = unpack(p)
     for i in range(state.shape[1]):
         fb, tb = wrench(p, command, i)
         _, v, q, w = load(state, i)

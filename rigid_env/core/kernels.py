@@ -23,58 +23,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
-from numba.core.compiler import Compiler
 
-kernel = njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
-"""The decorator of every compiled function: cached on disk, the GIL released, IEEE
-arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception), and
-inlined into its caller, so that a world step is one loop with no calls but the maths library's."""
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import MAPS, body_model, load, store
 
-
-class NoAliasCompiler(Compiler):
-    """Numba's compiler with its ``noalias`` flag set: the arrays a function gets do not
-    overlap (the flag Numba sets itself for the body of a ``prange`` loop). Without the
-    promise LLVM cannot vectorise a loop that reads one array and writes another."""
-
-    def define_pipelines(self):
-        self.state.flags.noalias = True
-        return super().define_pipelines()
-
-
-world_kernel = njit(cache=True, nogil=True, error_model="numpy", pipeline_class=NoAliasCompiler)
-"""The decorator of a world step (:func:`rigid_env.core.integrators.advance` of one
-integrator): cached, the GIL released, and arrays that must not overlap."""
-threads_kernel = njit(
-    cache=True, nogil=True, error_model="numpy", parallel=True, pipeline_class=NoAliasCompiler
-)
-"""The same for a world step over Numba's threads (``prange``)."""
-
-# ---- a body's model --------------------------------------------------------------------------
-MASS, I0, I1, I2, INV_MASS, INV_I0, INV_I1, INV_I2, ISOTROPIC = range(9)
-MODEL_WIDTH = 9
-
-# ---- the world's parameters ------------------------------------------------------------------
-H = 0  # integrator step dt / substeps [s]
-SUBSTEPS = 1
-GRAVITY = 2  # flag, then g (3,) world [m/s^2]
-G = 3
-DRAG = 6  # flag, then k = rho cd A / 2 [kg/m], offset flag, centre of pressure (3,) body [m]
-DRAG_K = 7
-DRAG_OFFSET = 8
-COP = 9
-LINEAR_DAMPING = 12  # flag, then alpha
-LINEAR_ALPHA = 13
-ANGULAR_DAMPING = 14  # flag, then alpha
-ANGULAR_ALPHA = 15
-MAX_SPEED = 16  # flag, then the limit on |w| [rad/s]
-MAX_SPEED_VALUE = 17
-ACTUATOR_FORCE = 18  # flag: some actuator pushes the centre of mass (not only couples)
-ANY_FORCE = 19  # flag: some effect or actuator acts (else the kicks of a splitting are skipped)
-STABLE_SPEED = 20  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
-ACTIONS = 21  # number A of command components
-MAPS = 22  # then A rows of (force (3,), torque (3,)) body frame at |u| = 1
-HEADER = 22  # the numbers before the maps, all of them in :func:`header`
+__all__ = ["body_model", "kernel", "load", "store"]  # still imported from here by envs/
 
 
 # ---- vectors and quaternions -----------------------------------------------------------------
@@ -205,16 +158,16 @@ def qdot(q, w):
 def gyroscopic(w, m):
     """``w x (I w)`` [N m] for the principal moments of the body model ``m``."""
     return (
-        w[1] * w[2] * (m[I2] - m[I1]),
-        w[2] * w[0] * (m[I0] - m[I2]),
-        w[0] * w[1] * (m[I1] - m[I0]),
+        w[1] * w[2] * (m.inertia_z - m.inertia_y),
+        w[2] * w[0] * (m.inertia_x - m.inertia_z),
+        w[0] * w[1] * (m.inertia_y - m.inertia_x),
     )
 
 
 @kernel
 def gyro_jacobian(w, m):
     """``d(w x I w)/dw = skew(w) I - skew(I w)``, row-major 9-tuple."""
-    i0, i1, i2 = m[I0], m[I1], m[I2]
+    i0, i1, i2 = m.inertia_x, m.inertia_y, m.inertia_z
     l0, l1, l2 = i0 * w[0], i1 * w[1], i2 * w[2]
     return (
         0.0,
@@ -280,46 +233,36 @@ def accelerations(v, q, w, fb, tb, m, p, gyro):
       term vanishes).
     """
     fx = fy = fz = 0.0
-    if p[ACTUATOR_FORCE] != 0.0:
+    if p.actuator_force != 0.0:
         fx, fy, fz = rotate(q, fb)
     tx, ty, tz = tb
-    if p[GRAVITY] != 0.0:
-        fx += m[MASS] * p[G]
-        fy += m[MASS] * p[G + 1]
-        fz += m[MASS] * p[G + 2]
-    if p[DRAG] != 0.0:
+    if p.gravity != 0.0:
+        fx += m.mass * p.gravity_x
+        fy += m.mass * p.gravity_y
+        fz += m.mass * p.gravity_z
+    if p.drag != 0.0:
         vp = v
-        cop = (p[COP], p[COP + 1], p[COP + 2])
-        if p[DRAG_OFFSET] != 0.0:
+        cop = (p.cop_x, p.cop_y, p.cop_z)
+        if p.drag_offset != 0.0:
             vp = axpy(v, 1.0, rotate(q, cross(w, cop)))
-        ks = -p[DRAG_K] * norm(vp)
+        ks = -p.drag_k * norm(vp)
         drag = (ks * vp[0], ks * vp[1], ks * vp[2])
         fx += drag[0]
         fy += drag[1]
         fz += drag[2]
-        if p[DRAG_OFFSET] != 0.0:
+        if p.drag_offset != 0.0:
             tau = cross(cop, rotate_inv(q, drag))
             tx += tau[0]
             ty += tau[1]
             tz += tau[2]
-    if gyro and m[ISOTROPIC] == 0.0:
+    if gyro and m.isotropic == 0.0:
         g = gyroscopic(w, m)
         tx -= g[0]
         ty -= g[1]
         tz -= g[2]
-    inv_m = m[INV_MASS]
-    return (fx * inv_m, fy * inv_m, fz * inv_m), (tx * m[INV_I0], ty * m[INV_I1], tz * m[INV_I2])
-
-
-@kernel
-def header(p):
-    """The world's parameters before the actuator maps (:data:`HEADER` numbers) as a tuple, what
-    the per-body steps read: numbers in registers, where an array would cost two atomic
-    reference counts per call."""
-    return (
-        p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10],
-        p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21],
-    )  # fmt: skip
+    inv_m = m.inv_mass
+    alpha = (tx * m.inv_inertia_x, ty * m.inv_inertia_y, tz * m.inv_inertia_z)
+    return (fx * inv_m, fy * inv_m, fz * inv_m), alpha
 
 
 @kernel
@@ -331,37 +274,8 @@ def split_range(start, stop, t, threads):
 
 
 @kernel
-def body_model(model, i):
-    """Body ``i``'s model numbers from the model columns (MODEL_WIDTH, N) as a tuple."""
-    return (
-        model[0, i], model[1, i], model[2, i], model[3, i], model[4, i],
-        model[5, i], model[6, i], model[7, i], model[8, i],
-    )  # fmt: skip
-
-
-@kernel
-def load(state, i):
-    """Body ``i``'s ``(x, v, q, w)`` from the state columns (13, N), as tuples."""
-    return (
-        (state[0, i], state[1, i], state[2, i]),
-        (state[3, i], state[4, i], state[5, i]),
-        (state[6, i], state[7, i], state[8, i], state[9, i]),
-        (state[10, i], state[11, i], state[12, i]),
-    )
-
-
-@kernel
-def store(state, i, x, v, q, w):
-    """Write ``(x, v, q, w)`` into column ``i`` of the state columns (13, N)."""
-    state[0, i], state[1, i], state[2, i] = x
-    state[3, i], state[4, i], state[5, i] = v
-    state[6, i], state[7, i], state[8, i], state[9, i] = q
-    state[10, i], state[11, i], state[12, i] = w
-
-
-@kernel
 def kinetic_energy(v, w, m):
     """``1/2 (m |v|^2 + sum_k I_k w_k^2)`` [J]."""
     trans = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-    rot = m[I0] * w[0] * w[0] + m[I1] * w[1] * w[1] + m[I2] * w[2] * w[2]
-    return 0.5 * (m[MASS] * trans + rot)
+    rot = m.inertia_x * w[0] * w[0] + m.inertia_y * w[1] * w[1] + m.inertia_z * w[2] * w[2]
+    return 0.5 * (m.mass * trans + rot)

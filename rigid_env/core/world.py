@@ -20,10 +20,19 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import kernels as K
 from rigid_env.core.effects import ForceEffect, StepMap, pack
 from rigid_env.core.exact import free_rotation_exact
 from rigid_env.core.integrators import clamp_bodies, derivatives, get_integrator, kicks
+from rigid_env.core.layout import (
+    BAD_COMMAND,
+    FAILED,
+    FROZEN,
+    HEALTHY,
+    Params,
+    decode,
+    step_code,
+    unpack,
+)
 from rigid_env.core.rotation import quat_normalize, quat_rotate
 from rigid_env.core.state import BodyModel, State
 
@@ -132,7 +141,7 @@ class World:
             self.integrator.stability,
         )  # fmt: skip
         """The world's parameters for the compiled step (:mod:`rigid_env.core.kernels`)."""
-        self.action_dim = int(self.params[K.ACTIONS])
+        self.action_dim = int(self.parameters.actions)
         """Length of the command vector (all actuators, in scene order)."""
         if state is not None:
             check_state(state)
@@ -190,6 +199,11 @@ class World:
     def failed(self) -> BoolArray:
         """(N,) bodies frozen by a failure (``on_error="freeze"``); writable, to clear them."""
         return self._status.view(np.bool_)
+
+    @property
+    def parameters(self) -> Params:
+        """The world's parameters by name (the head of :attr:`params`)."""
+        return unpack(self.params)
 
     @property
     def n(self) -> int:
@@ -291,25 +305,26 @@ class World:
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the compiled step's ``code`` (:func:`integrators.advance`)."""
-        if code < 0:
+        bad_command, failures, beyond = decode(code)
+        if bad_command:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
-        if code & 1 and not self._warned:
+        if beyond and not self._warned:
             self._warn_speed()
-        if code < 2:  # nothing failed
+        if not failures:
             self.step_count += 1
             return self._none_failed
-        bad = self._status == 2
+        bad = self._status == FAILED
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
         if self.on_error == "raise":
-            self._status[bad] = 0
+            self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
             raise NumericalInstabilityError(
                 np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name,
                 self.dt, self._likely_cause(),
             )  # fmt: skip
-        self._status[bad] = 1
+        self._status[bad] = FROZEN
         self.step_count += 1
         return bad
 
@@ -318,34 +333,34 @@ class World:
         compiled force kicks and the exact torque-free flow (:mod:`rigid_env.core.exact`),
         then the same per-step maps, speed limit and guard as the compiled step."""
         if not np.all(np.isfinite(u)):
-            return -1
-        cols, p, h = self._cols, self.params, self.h
+            return BAD_COMMAND
+        cols, p, h = self._cols, self.parameters, self.h
         before = cols.copy()
-        forces = p[K.ANY_FORCE] != 0.0
+        forces = p.any_force != 0.0
         inertia = np.broadcast_to(self.model.inertia, (self._n, 3))
         s = self._state
         with np.errstate(all="ignore"):
             for _ in range(self.substeps):
                 self._clamp()
                 if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
+                    kicks(self.params, self._model_cols, cols, u, 0.5 * h)
                 s.x[:] += h * s.v
                 s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
                 if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
+                    kicks(self.params, self._model_cols, cols, u, 0.5 * h)
                 s.q[:] = quat_normalize(s.q)
             self._clamp()
-            if p[K.LINEAR_DAMPING] != 0.0:
-                s.v[:] *= p[K.LINEAR_ALPHA]
-            if p[K.ANGULAR_DAMPING] != 0.0:
-                s.w[:] *= p[K.ANGULAR_ALPHA]
-            frozen = self._status != 0
+            if p.linear_damping != 0.0:
+                s.v[:] *= p.linear_alpha
+            if p.angular_damping != 0.0:
+                s.w[:] *= p.angular_alpha
+            frozen = self._status != HEALTHY
             cols[:, frozen] = before[:, frozen]
             bad = ~np.isfinite(cols).all(axis=0) & ~frozen
             cols[:, bad] = before[:, bad]
-            self._status[bad] = 2
-            over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
-        return 2 * int(bad.sum()) + over
+            self._status[bad] = FAILED
+            over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p.stable_speed**2 > 0.0)
+        return int(step_code(int(bad.sum()), int(over)))
 
     def _clamp(self) -> None:
         if self.max_angular_speed is not None:

@@ -23,7 +23,6 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core import kernels as K
 
 from roundoff import U
 
@@ -268,11 +267,11 @@ def test_unlisted_effect_has_no_flag_and_listed_one_does() -> None:
     not list gravity or drag carries zero flags for them (the line-by-line proof that the
     kernel never evaluates them is ``test_unlisted_effects_never_run_without_jit``)."""
     bare = World(BodyModel(MASS, INERTIA), (LinearDamping(0.99),), "rk4", 0.01, state=STATE0)
-    for flag in (K.GRAVITY, K.DRAG, K.ANGULAR_DAMPING, K.MAX_SPEED, K.ANY_FORCE):
-        assert bare.params[flag] == 0.0
-    assert bare.params[K.LINEAR_DAMPING] == 1.0
+    for flag in ("gravity", "drag", "angular_damping", "max_speed", "any_force"):
+        assert getattr(bare.parameters, flag) == 0.0
+    assert bare.parameters.linear_damping == 1.0
     listed = World(BodyModel(MASS, INERTIA), (Gravity(), QuadraticDrag()), "rk4", 0.01, n=N)
-    assert listed.params[K.GRAVITY] == listed.params[K.DRAG] == listed.params[K.ANY_FORCE] == 1.0
+    assert listed.parameters.gravity == listed.parameters.drag == listed.parameters.any_force == 1.0
 
 
 UNLISTED_PROBE = """
@@ -297,7 +296,7 @@ bare, full = run(()), run((Gravity(), QuadraticDrag(center_of_pressure=[0.0, 0.0
 import inspect
 source, first = inspect.getsourcelines(kernels.accelerations)
 effect = {k + first - code.co_firstlineno for k, text in enumerate(source)
-          if "* p[G" in text or "DRAG_K" in text or "drag[" in text}
+          if "* p.gravity_" in text or "p.drag_k" in text or "drag[" in text}
 print((sorted(effect), sorted(bare), sorted(full)))
 """
 
