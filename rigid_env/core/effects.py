@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from rigid_env.core.inertia import checked_floats
 from rigid_env.core.layout import Params
 from rigid_env.core.rotation import cross
-from rigid_env.core.state import BodyModel
+from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
 
@@ -44,8 +44,9 @@ class ForceEffect:
         """This term's flag and numbers by their names in :class:`Params`."""
         raise NotImplementedError
 
-    def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray | None:
-        """(N,) potential energy [J] if the term is conservative, else None."""
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray | None:
+        """(N,) potential energy [J] of the bodies' ``state`` if the term is conservative,
+        else None."""
         return None
 
 
@@ -79,9 +80,9 @@ class Gravity(ForceEffect):
         gx, gy, gz = self.g.tolist()
         return {"gravity": 1.0, "gravity_x": gx, "gravity_y": gy, "gravity_z": gz}
 
-    def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray:
         """``U = -m g . x`` [J]."""
-        g = self.g
+        g, x = self.g, state.x
         return -model.mass * (x[:, 0] * g[0] + x[:, 1] * g[1] + x[:, 2] * g[2])
 
 
@@ -106,10 +107,14 @@ class QuadraticDrag(ForceEffect):
     velocity_dependent: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
+        # > 0 as in a scene file: a drag that vanishes is left out, not evaluated as zero.
         for name in ("rho", "cd", "area"):
             val = float(getattr(self, name))
-            if not np.isfinite(val) or val < 0.0:
-                raise ValueError(f"quadratic_drag.{name}: must be finite and >= 0, got {val}")
+            if not (np.isfinite(val) and val > 0.0):
+                raise ValueError(
+                    f"quadratic_drag.{name}: must be finite and > 0, got {val} (for no drag, "
+                    "leave the effect out)"
+                )
         cop = checked_floats("quadratic_drag.center_of_pressure", self.center_of_pressure, (3,))
         object.__setattr__(self, "center_of_pressure", cop)
 

@@ -263,7 +263,7 @@ def test_gravity_has_no_torque_and_its_potential() -> None:
     force, torque = wrench(model, (Gravity(G),), s)
     assert np.abs(torque).max() < ONE_EVAL_TOL * 10  # Euler's equations undone: round-off
     assert np.abs(force - model.mass[:, None] * G).max() < ONE_EVAL_TOL * 10
-    u = Gravity(G).potential_energy(model, s.x)
+    u = Gravity(G).potential_energy(model, s)
     assert np.abs(u - model.mass * 9.81 * s.x[:, 2]).max() < ONE_EVAL_TOL * 100
 
 

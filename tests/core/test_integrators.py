@@ -12,8 +12,7 @@ import pytest
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
-from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator
-from rigid_env.core import layout
+from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator, layout
 from rigid_env.core.layout import Body
 from rigid_env.core.rotation import quat_angle_between, quat_mul, quat_rotate
 
@@ -219,7 +218,7 @@ def test_per_body_function_is_the_world_step(name: str) -> None:
     r = world.rows[0].tolist()
     out = INTEGRATORS[name].body(
         tuple(r[0:3]), tuple(r[3:6]), tuple(r[6:10]), tuple(r[10:13]),
-        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), Body(*world.model.rows()[0]), world.parameters, world.h,
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), Body(*world.model.rows()[0]), world.parameters, world.h,
     )  # fmt: skip
     world.step()
     assert [c for part in out for c in part] == world.rows[0].tolist()

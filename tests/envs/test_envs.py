@@ -385,7 +385,7 @@ def test_vector_env_split_over_threads_equals_one_thread(monkeypatch):
     """A vector env of at least ``THREAD_MIN_BODIES`` envs runs its world step and task pass
     in row slices on several threads: the same observations, rewards and flags as one thread,
     bit for bit (with randomisation and sensor noise)."""
-    from rigid_env.core import world as world_module
+    from rigid_env.core import threads as world_module
 
     n = world_module.THREAD_MIN_BODIES + 33
     rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.2, "sensor_noise": 0.01}
