@@ -158,6 +158,7 @@ class Scene(Spec):
     @model_validator(mode="after")
     def _derive(self) -> Scene:
         _ = self._frame  # the mass properties are computed (and checked) when loading
+        self.effects_spec.check(self)
         return self
 
     # ---- derived ---------------------------------------------------------------------------

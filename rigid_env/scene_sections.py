@@ -322,6 +322,10 @@ class EffectSpec(Spec):
         """The core effect, its points in body coordinates (``to_body``)."""
         raise NotImplementedError
 
+    def check(self, scene: Any) -> None:
+        """Rules that involve other sections of the :class:`rigid_env.scene.Scene` (its body,
+        its initial state); raise :class:`FieldError` naming ``effects.<section>.<field>``."""
+
 
 class GravitySpec(EffectSpec):
     """Uniform gravity at the centre of mass."""
@@ -391,6 +395,12 @@ class EffectsSpec(Spec):
     """``v <- alpha v`` each step."""
     angular_damping: Annotated[AngularDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``w <- alpha w`` each step."""
+
+    def check(self, scene: Any) -> None:
+        """Each listed section's :meth:`EffectSpec.check` against the whole scene."""
+        for _, section in self:
+            if isinstance(section, EffectSpec):
+                section.check(scene)
 
     def effects(self, to_body: ToBody) -> tuple[list[ForceEffect], list[StepMap]]:
         """The listed sections' core effects, ``(force effects, step maps)`` in file order."""
