@@ -2,7 +2,7 @@
 
 A world composes only those: each spec names its flag and numbers among the world's parameters
 (:class:`rigid_env.core.layout.Params`, filled by :func:`pack`), which the compiled kernels
-(:func:`rigid_env.core.kernels.accelerations`) evaluate: :class:`ForceEffect` terms of the
+(:func:`rigid_env.core.dynamics.accelerations`) evaluate: :class:`ForceEffect` terms of the
 differential equation (actuators among them) and :class:`StepMap` maps applied once per world
 step, outside it.
 
