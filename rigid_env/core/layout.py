@@ -64,6 +64,11 @@ class Params(NamedTuple):
     cop_x: float  # centre of pressure, body frame [m]
     cop_y: float
     cop_z: float
+    gravity_gradient: float  # flag
+    gradient_mu: float  # mu = G M of the attracting body [m^3/s^2]
+    gradient_center_x: float  # its centre, world frame [m]
+    gradient_center_y: float
+    gradient_center_z: float
     linear_damping: float  # flag
     linear_alpha: float  # v <- alpha v each world step
     angular_damping: float  # flag
