@@ -26,7 +26,7 @@ from typing import NamedTuple
 
 import numpy as np
 from numba.cpython.unsafe.tuple import tuple_setitem
-from numba.extending import overload
+from numba.extending import overload, register_jitable
 from numpy.typing import NDArray
 
 from rigid_env.core.jit import kernel
@@ -99,20 +99,22 @@ BAD_COMMAND = -1
 """The code of a world step that stepped nothing: the command has a NaN or inf."""
 
 
-@kernel
+# Plain Python where Python calls them (no dispatch to compiled code), compiled where compiled
+# code does (Numba's register_jitable): one definition of the code for both.
+@register_jitable
 def step_code(failures, beyond):
     """The code of a world step: ``2 failures + beyond``, ``beyond`` 1 if a body ended the step
     past the integrator's stable ``h |w|``, else 0."""
     return 2 * failures + beyond
 
 
-@kernel
+@register_jitable
 def failures_of(code):
     """Bodies that failed, from a world step's code (>= 0)."""
     return code >> 1
 
 
-@kernel
+@register_jitable
 def beyond_of(code):
     """1 if a body ended past the stable ``h |w|``, from a world step's code (>= 0)."""
     return code & 1
