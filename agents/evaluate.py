@@ -41,6 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer
 from .controllers import CONTROLLERS
@@ -197,9 +198,10 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             trained on another env or on observations of another shape.
     """
     if not model_path.exists():
+        shipped = find_data("agents/pretrained")  # where this install keeps them
+        use = f" or use a shipped policy, {shipped}/*.zip" if shipped is not None else ""
         raise EvaluationError(
-            f"{model_path}: model file not found; train one with "
-            "`python -m agents.train` or use agents/pretrained/*.zip"
+            f"{model_path}: model file not found; train one with `python -m agents.train`{use}"
         )
     meta = read_sidecar(model_path)
     staged = model_path.parent / str((meta or {}).get("staged", ""))
