@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError
+from rigid_env.envs import ENV_IDS, TASKS
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import SceneError, load_scene
 from rigid_env.trajectory import simulate
@@ -212,21 +213,21 @@ def build_parser() -> argparse.ArgumentParser:
     demo = sub.add_parser(
         "demo",
         help="the main job: pretrained PPO beside the PD controller (table + GIF)",
-        description="Evaluate the pretrained policies (agents/pretrained) beside the PD "
+        description="Evaluate the pretrained policies shipped with the package beside the PD "
         "controller on fixed seeds never used in training (20261201 + k), print the table, and "
         "write results.md, results.csv, episodes.csv and a side-by-side GIF per task to --out.",
     )
     demo.add_argument(
         "--task",
         metavar="T",
-        help="one task: Detumble, SpinStabilize, Reorient, TumblingFall or its id "
-        "RigidEnv/<Task>-v0 (default: all four)",
+        help=f"one task: {', '.join(TASKS)}, or the id its pretrained policy plays: "
+        f"{', '.join(ENV_IDS)} (default: all four)",
     )
     demo.add_argument(
         "--episodes",
         type=_int_at_least(1),
         metavar="K",
-        help="episodes per task and policy (default: 10)",
+        help="episodes per task and policy, 1 to 1000 (default: 10)",
     )
     demo.add_argument(
         "--out",
@@ -267,6 +268,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args_in = _join_action_value(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     try:
+        _refuse_empty_paths(args_in)
         args, extra = parser.parse_known_args(args_in)
         if extra and not getattr(args, "takes_extra", False):
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
@@ -293,6 +295,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+
+
+def _refuse_empty_paths(argv: list[str]) -> None:
+    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder."""
+    for i, arg in enumerate(argv):
+        flag, eq, value = arg.partition("=")
+        if flag == "--out" and (
+            (eq and not value.strip()) or (not eq and i + 1 < len(argv) and not argv[i + 1].strip())
+        ):
+            raise UsageError("--out: empty path; give a file or folder name (an unset variable?)")
 
 
 def _fail(exc: BaseException, status: int) -> int:
