@@ -69,6 +69,7 @@ from rigid_env.core.rotation import (
 )
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import World
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene_sections import (
     ActuatorsSpec,
     BodySpec,
@@ -429,5 +430,5 @@ def load_scene(
     except ConfigFileError as exc:
         fix = exc.fix
         if exc.problem == "file not found":
-            fix = "check the path (example scenes are in configs/scenes/)"
+            fix = f"check the path (example scenes are in {SCENE_DIR})"
         raise SceneError(exc.source, exc.path, exc.problem, fix) from None
