@@ -234,6 +234,11 @@ class LinearActuator(ForceEffect):
     force_map: FloatArray
     torque_map: FloatArray
 
+    @property
+    def action_dim(self) -> int:
+        """Number of command components."""
+        return self.force_map.shape[0]
+
     def parameters(self) -> dict[str, float]:
         """None by name: :func:`pack` puts every actuator's rows into one table of maps."""
         return {}

@@ -13,8 +13,8 @@
 
 Numba compiles a named tuple of floats as it compiles a plain tuple: numbers in registers, where
 an array would cost two atomic reference counts per call. :func:`unpack` and :func:`body_model`
-read one from an array by the declaration's order (a loop over the fields that the compiler
-unrolls); as plain Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
+read one from an array in the declaration's order, one load per field (:func:`_read`); as plain
+Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
 
 Frames: forces on the centre of mass are world frame, torques and angular velocities body frame
 (principal axes), so the inertia is the constant diagonal ``I``.
@@ -25,8 +25,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba.cpython.unsafe.tuple import tuple_setitem
-from numba.extending import overload, register_jitable
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload, register_jitable
 from numpy.typing import NDArray
 
 from rigid_env.core.jit import kernel
@@ -138,26 +139,36 @@ def body_model(model: FloatArray, i: int) -> Body:
     return Body(*model[:, i].tolist())
 
 
-@overload(unpack, inline="always")
-def _unpack(p):
-    def impl(p):
-        out = _PARAMS0
-        for k in range(MAPS):
-            out = tuple_setitem(out, k, p[k])
+@intrinsic
+def _read(typingctx, array, i, like):
+    """The named tuple of ``like``'s type read from ``array``: field ``k`` from ``array[k, i]``
+    (a column of a 2-D array) or ``array[i + k]`` (1-D), one load each, no copies."""
+
+    def codegen(context, builder, sig, args):
+        array_type, index_type, tuple_type = sig.args
+        ary = context.make_array(array_type)(context, builder, args[0])
+        col = context.cast(builder, args[1], index_type, types.intp)
+        out = context.get_constant_undef(tuple_type)
+        for k in range(tuple_type.count):
+            row = context.get_constant(types.intp, k)
+            at = [row, col] if array_type.ndim == 2 else [builder.add(row, col)]
+            ptr = cgutils.get_item_pointer(
+                context, builder, array_type, ary, at, wraparound=False, boundscheck=False
+            )
+            out = builder.insert_value(out, builder.load(ptr), k)
         return out
 
-    return impl
+    return like(array, i, like), codegen
+
+
+@overload(unpack, inline="always")
+def _unpack(p):
+    return lambda p: _read(p, 0, _PARAMS0)
 
 
 @overload(body_model, inline="always")
 def _body_model(model, i):
-    def impl(model, i):
-        out = _BODY0
-        for k in range(MODEL_WIDTH):
-            out = tuple_setitem(out, k, model[k, i])
-        return out
-
-    return impl
+    return lambda model, i: _read(model, i, _BODY0)
 
 
 @kernel
