@@ -310,7 +310,10 @@ class World:
         return self._outcome(code, backup)
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
-        """The step's result from the compiled step's ``code`` (:func:`integrators.advance`)."""
+        """The step's result from the world step's ``code`` (:mod:`rigid_env.core.stepping`)."""
+        if code == 0:  # the common case: nothing failed, no body past the stable range
+            self.step_count += 1
+            return self._none_failed
         bad_command, failures, beyond = decode(code)
         if bad_command:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
