@@ -43,7 +43,7 @@ import numpy as np
 import rigid_env  # noqa: F401  (registers the ids)
 from rigid_env.resources import find_data
 
-from ._cli import OneLineParser, integer
+from ._cli import OneLineParser, integer, path
 from .controllers import CONTROLLERS
 from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
@@ -420,7 +420,7 @@ def main(argv: list[str] | None = None) -> int:
         "--seed", type=integer, default=12345, help="episode k uses seed + k (>= 0)"
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--video", type=Path, help="record one episode (.gif or .mp4)")
+    parser.add_argument("--video", type=path, help="record one episode (.gif or .mp4)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing --video")
     parser.add_argument("--only", help="comma-separated subset of: model,pd,zero,random")
     args = parser.parse_args(argv)

@@ -21,7 +21,6 @@ anything but ``total_timesteps`` and ``device`` is refused.
 from __future__ import annotations
 
 import json
-import os
 import re
 import sys
 from collections.abc import Sequence
@@ -33,7 +32,7 @@ import yaml
 
 from rigid_env.config_files import load_model, read_yaml
 
-from ._cli import OneLineParser, integer
+from ._cli import OneLineParser, folder_problem, integer, path
 from .callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
@@ -320,24 +319,14 @@ def check_runs_dir(runs_dir: Path, run_dir: Path) -> None:
         ConfigError: it, or the nearest existing folder above it, is not a folder or not
             writable.
     """
-    for path in (run_dir, runs_dir, *runs_dir.resolve().parents):
-        if not path.exists():
-            continue
-        if not path.is_dir():
-            raise ConfigError(
-                str(runs_dir),
-                "--runs-dir",
-                f"{path} is a file, not a folder",
-                "give a folder for the runs (it is created if missing)",
-            )
-        if not os.access(path, os.W_OK | os.X_OK):
-            raise ConfigError(
-                str(runs_dir),
-                "--runs-dir",
-                f"{path} is not writable",
-                "give a folder you can write to",
-            )
-        return
+    problem = folder_problem(run_dir)
+    if problem is not None:
+        raise ConfigError(
+            str(runs_dir),
+            "--runs-dir",
+            problem,
+            "give a folder you can write to (created if missing)",
+        )
 
 
 def train(
@@ -458,7 +447,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--total-timesteps", type=integer, help="override total_timesteps")
     parser.add_argument("--n-envs", type=integer, help="override n_envs")
     parser.add_argument(
-        "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
+        "--runs-dir", type=path, default=Path("runs"), help="where runs go (default runs/)"
     )
     how = parser.add_mutually_exclusive_group()
     how.add_argument(
@@ -513,6 +502,13 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print(
+            "agents.train: error: out of memory; give fewer --n-envs (or a smaller "
+            "buffer_size / n_steps), then continue with --resume if the run had started",
+            file=sys.stderr,
+        )
+        return 1
     except OSError as exc:  # the disk filled up, a folder was removed under the run, ...
         where = f"{exc.filename}: " if exc.filename else ""
         print(
