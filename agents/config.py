@@ -76,8 +76,9 @@ class TrainConfig(BaseModel):
     """The algorithm (tqc needs sb3-contrib)."""
     total_timesteps: PositiveInt
     """Environment steps to train for (summed over envs), >= 1."""
-    seed: NonNegativeInt = 0
-    """Seed of the policy, the algorithm and the training envs, >= 0."""
+    seed: Annotated[NonNegativeInt, Field(le=2**32 - 1)] = 0
+    """Seed of the policy, the algorithm and the training envs, 0 .. 2**32 - 1 (SB3 seeds
+    NumPy's global generator with it, which takes no more)."""
     n_envs: Annotated[PositiveInt, Field(le=MAX_ENVS)] = 8
     """Parallel environments in the native SB3 adapter, 1 .. 65536 (the batch the core is
     built and measured for)."""

@@ -188,3 +188,11 @@ def test_keys_the_algorithm_does_not_take_are_all_counted():
     # policy_kwargs comes before hyperparams in the file's field order.
     assert "policy_kwargs.ortho_init: not taken by SAC's policy" in message
     assert message.endswith("(and 2 more)"), message
+
+
+@pytest.mark.parametrize("seed", [2**32, 10**30])
+def test_a_seed_numpy_cannot_take_is_named_as_the_seed(seed):
+    """Was "hyperparams: PPO refuses them (Seed must be between 0 and 2**32 - 1)", after the
+    envs were built; now the seed field, its bound written in full, before any work."""
+    message = _config_error(seed=seed)
+    assert f"seed: must be less than or equal to 4294967295, got {seed};" in message, message
