@@ -352,6 +352,8 @@ def check_video_path(path: Path, force: bool) -> None:
         raise EvaluationError(f"--video: {path}: give a .gif or .mp4 file name")
     if path.is_dir():
         raise EvaluationError(f"--video: {path} is a folder; give a file name such as out.gif")
+    if path.is_symlink() or (path.exists() and not path.is_file()):  # renamed over, not into
+        raise EvaluationError(f"--video: {path} is a link, device or pipe; give a file name")
     if path.exists() and not force:
         raise EvaluationError(f"--video: {path} exists; pass --force to overwrite it")
     try:
