@@ -129,8 +129,8 @@ class Scene(Spec):
     dt: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("s")] = 0.01
     """Time per world step in seconds [s], > 0."""
     substeps: Annotated[int, number(), Field(ge=1, le=MAX_SUBSTEPS)] = 1
-    """Integrator steps per world step, an integer from 1 to 1000000 (more is a units mistake:
-    give a smaller dt instead)."""
+    """Integrator steps per world step, an integer >= 1 and at most 1000000 (more is a units
+    mistake: give a smaller dt instead)."""
     integrator: str = "rk4"
     """A name from rigid_env.core.integrators.INTEGRATORS."""
     max_angular_speed: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("rad/s")] | (
