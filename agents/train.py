@@ -1,21 +1,25 @@
 """Train an SB3 agent on a RigidEnv task from a YAML config.
 
     python -m agents.train configs/agents/ppo_detumble.yaml [--seed S] [--total-timesteps N]
-                           [--n-envs K] [--runs-dir runs] [--resume] [--no-progress]
+                           [--n-envs K] [--runs-dir runs] [--resume | --resume-or-start]
+                           [--no-progress]
 
 A run goes to ``runs/<task>__<algo>__<seed>/``: ``config.yaml`` (the full resolved config, as
 it runs), ``tb/`` (TensorBoard), ``checkpoints/`` (model, ``VecNormalize`` statistics and replay
 buffer every ``checkpoint_freq`` steps), ``eval/`` (evaluation history ``evaluations.npz`` and
 the best model) and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``replay_buffer.pkl``).
-Every model comes with a JSON sidecar naming its statistics and environment, for
-``agents.evaluate``; each set of files is written whole or not at all (see
-:mod:`agents.callbacks`).
+Every model comes with a JSON sidecar naming its statistics, its environment and the resolved
+config it was trained with, for ``agents.evaluate`` and ``--resume``; each set of files is
+written whole or not at all (see :mod:`agents.callbacks`).
 
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
-count, statistics and replay buffer; a checkpoint that does not load is skipped with a warning.
-The evaluation history and the best model are kept. A finished run is left alone unless
-``--total-timesteps`` asks for more. A config that differs from the run's ``config.yaml`` in
-anything but ``total_timesteps`` and ``device`` is refused.
+count, statistics and replay buffer; one that lacks a file its sidecar names (or statistics the
+config needs) or does not load is skipped with a warning, and with none left the resume is
+refused. The evaluation history and the best model are kept. A finished run is left alone
+unless ``--total-timesteps`` asks for more. A config that differs from the one the run was
+trained with (its newest sidecar's; ``config.yaml`` for older runs) in anything but
+``total_timesteps`` and ``device`` is refused. ``--resume`` of a run that does not exist is
+refused; ``--resume-or-start`` starts it.
 """
 
 from __future__ import annotations
