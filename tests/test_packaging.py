@@ -100,6 +100,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return target
 
 
+@pytest.mark.slow
 def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> None:
     top_level = {p.name for p in installed.iterdir() if not p.name.endswith(".dist-info")}
     assert top_level - {"bin"} == {"rigid_env"}  # no top-level `agents`, `configs`, ...
@@ -117,6 +118,7 @@ def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> No
     assert (installed / "rigid_env" / "py.typed").is_file()
 
 
+@pytest.mark.slow
 def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     installed: Path, tmp_path: Path
 ) -> None:
@@ -142,6 +144,7 @@ def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     assert len(out["configs"]) == len(list(ROOT.glob("configs/agents/*.yaml")))
 
 
+@pytest.mark.slow
 def test_installed_commands_find_the_shipped_data(installed: Path, tmp_path: Path) -> None:
     """``python -m rigid_env.cli scenes`` lists the wheel's scenes; ``python -m
     rigid_env.agents.evaluate`` runs a shipped policy."""

@@ -168,6 +168,7 @@ def _run(args: list[str], timeout: float = 240) -> subprocess.CompletedProcess:
     )
 
 
+@pytest.mark.slow
 def test_train_cli_bad_config_is_one_line(tmp_path):
     p = tmp_path / "bad.yaml"
     p.write_text("env_id: RigidEnv/Detumble-v0\nalgo: ppo\ntotal_timesteps: 10\nfoo: 1\n")
@@ -178,6 +179,7 @@ def test_train_cli_bad_config_is_one_line(tmp_path):
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+@pytest.mark.slow
 def test_training_smoke_run(algo, tmp_path):
     cfg = ROOT / f"configs/agents/{algo}_detumble.yaml"
     extra = ["--n-envs", "2"]
@@ -211,6 +213,7 @@ def test_evaluate_cli_errors(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("task", list(rigid_env.envs.TASKS))
+@pytest.mark.slow
 def test_pretrained_policy_reaches_its_bar(task):
     """Each shipped policy, on 20 fixed seeds nobody trained on, succeeds on at least 19 (the
     issue's 95 %) and spends at most 1.5x the PD controller's fuel on the same episodes."""
