@@ -12,7 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import rigid_env
 from rigid_env.core import kernels as K
-from rigid_env.envs.base import RigidBodyVectorEnv
+from rigid_env.envs.environments import RigidBodyVectorEnv
 
 from roundoff import gamma
 
@@ -301,7 +301,7 @@ def test_overrides_and_options():
 
 
 def test_scene_override_as_dict():
-    base = rigid_env.scene.load_scene(rigid_env.envs.base.default_scene_path("detumble")).to_dict()
+    base = rigid_env.scene.load_scene(rigid_env.resources.scene_path("detumble")).to_dict()
     base["body"]["mass"] = 4.0
     env = gym.make("RigidEnv/Detumble-v0", scene=base)
     assert env.unwrapped.task.world.model.mass[0] == 4.0
