@@ -262,16 +262,16 @@ class TaskBatch:
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
         return self.record["reward"], self.record["terminated"].copy(), failed
 
-    def step_one(self, rng: np.random.Generator) -> tuple[Any, bool]:
-        """:meth:`step` of a task of one env: its record (a :data:`~rigid_env.envs.kernels.
-        RECORD` element, a copy) and whether its body failed."""
+    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
+        """:meth:`step` of a task of one env: its record as Python values and whether its body
+        failed."""
         failed = self.world.advance(self.command)
         self.steps[0] += 1
         self._own_obs(keep=False)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
-        return self.record[0].copy(), failed is not self.world.no_failures
+        return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
@@ -382,19 +382,18 @@ class TaskBatch:
             "angular_velocity_world": r["w_world"].copy(),
         }
 
-    def info_one(self, r: Any = None) -> dict[str, Any]:
+    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
         record (read here if not given)."""
-        r = self.record[0] if r is None else r
-        success = bool(r["success"])
+        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
         return {
-            "angular_speed": float(r["speed"]),
-            "energy": float(r["energy"]),
-            "fuel": float(r["fuel"]),
-            "success": success,
-            "is_success": success,
+            "angular_speed": r.speed,
+            "energy": r.energy,
+            "fuel": r.fuel,
+            "success": r.success,
+            "is_success": r.success,
             "numerical_error": bool(self.world.failed[0]),
-            "angular_velocity_world": r["w_world"].copy(),
+            "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
         }
 
     # ---- what a renderer shows (rigid_env.render) ----------------------------------------

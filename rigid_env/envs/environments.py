@@ -116,7 +116,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         info = task.info_one(r)
         if self.render_mode == "human":
             self.render()
-        return task.obs[0].copy(), float(r["reward"]), bool(r["terminated"]), failed, info
+        return task.obs[0].copy(), r.reward, r.terminated, failed, info
 
     def render(self):
         """An RGB frame (H, W, 3) uint8 in ``"rgb_array"`` mode; draws a window in ``"human"``."""

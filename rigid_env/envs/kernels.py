@@ -26,6 +26,7 @@ The data the pass shares, each declared once by name:
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 from typing import NamedTuple
 
 import numpy as np
@@ -96,6 +97,10 @@ RECORD = np.dtype(
     ]
 )
 """One env's record, written by the pass (the fuel increased, the rest overwritten)."""
+
+EnvRecord = namedtuple("EnvRecord", RECORD.names)  # type: ignore[misc]
+"""One env's :data:`RECORD` as Python values, by the same names: ``EnvRecord._make(record.item(i))``
+(one call; reading the fields one by one costs several times more)."""
 
 
 class EnvArrays(NamedTuple):
