@@ -75,7 +75,7 @@ def test_custom_task_example_runs_and_its_vector_env_equals_the_single_env(tmp_p
 def test_custom_task_threaded_pass_equals_the_single_env(tmp_path, monkeypatch) -> None:
     """From ``THREAD_MIN_BODIES`` envs on the same one-line pass runs over Numba's threads: the
     last env of a threaded vector env equals its single env, bit for bit."""
-    from rigid_env.core import world as world_module
+    from rigid_env.core import threads as world_module
 
     load_example(tmp_path, "stop_z_threads")
     monkeypatch.setattr(world_module, "THREADS", 2)

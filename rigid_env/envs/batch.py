@@ -16,7 +16,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import world as core_world
+from rigid_env.core import threads
 from rigid_env.core.effects import LinearActuator
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as K
@@ -281,10 +281,10 @@ class TaskBatch:
         """The task's compiled pass over the envs of ``arrays`` (split over the cores when
         many; each env is computed alone, so the split changes no number)."""
         job = (self.numbers, arrays, stepped)
-        if not core_world.threaded(arrays[0].shape[1]):
+        if not threads.threaded(arrays[0].shape[1]):
             type(self).task_pass(job, 1)
         else:
-            core_world.call_threaded(lambda t: type(self).task_pass(job, t))
+            threads.call_threaded(lambda t: type(self).task_pass(job, t))
 
     def _own_obs(self, keep: bool) -> None:
         """If :meth:`observe` gave :attr:`obs` away, write into a new buffer from now on (with

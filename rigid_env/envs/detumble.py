@@ -4,10 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
-from rigid_env.envs.kernels import NO_EXTRA, Outcome, env_pass, task_kernel
+from rigid_env.envs.kernels import NO_EXTRA, Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
 from rigid_env.envs.rewards import LINEAR, tolerance_one

@@ -14,7 +14,7 @@ caches the result with the task's module)::
 
 The data the pass shares, each declared once by name:
 
-* :class:`Body`: one env's state, what ``evaluate`` reads (``body.w``, ``body.q``, ...);
+* :class:`BodyState`: one env's body state, what ``evaluate`` reads (``body.w``, ``body.q``, ...);
 * :class:`Outcome`: what ``evaluate`` returns;
 * :data:`RECORD`: the dtype of the envs' record (N,): reward, flags, info numbers, fuel, memory;
 * the numbers: a structured array of one element, the common fields :data:`COMMON_NUMBERS` and
@@ -33,7 +33,11 @@ import numpy as np
 from numba import njit, prange
 from numpy.typing import NDArray
 
-from rigid_env.core.kernels import body_model, kernel, kinetic_energy, load, rotate, split_range
+from rigid_env.core.dynamics import kinetic_energy
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import body_model, load
+from rigid_env.core.maths import rotate
+from rigid_env.core.threads import split_range
 from rigid_env.envs.maths import canonical, safe_norm, tanh
 
 task_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
@@ -53,8 +57,9 @@ speed the observed ``w`` is divided by [rad/s], whether the orientation is obser
 rotation (else a canonical quaternion), and the clip of the task's extra observations."""
 
 
-class Body(NamedTuple):
-    """One env's body, as ``evaluate`` reads it (tuples of floats)."""
+class BodyState(NamedTuple):
+    """One env's body state, as ``evaluate`` reads it (tuples of floats; the body's model is
+    :class:`rigid_env.core.layout.Body`)."""
 
     x: tuple[float, float, float]
     """Position of the centre of mass, world frame [m]."""
@@ -179,7 +184,7 @@ def fine_spin(c, state, noise, obs, start, stop):
 @kernel
 def _env(evaluate, c, a, stepped, i):
     """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
-    body = Body(*load(a.state, i))
+    body = BodyState(*load(a.state, i))
     rec = a.record[i]
     effort = 0.0
     if stepped:
@@ -235,7 +240,7 @@ def env_pass(evaluate, job, threads):
 
     Args:
         evaluate: the task's per-env function ``(body, effort, goal, memory, task, stepped) ->
-            Outcome`` of the env's :class:`Body`, its effort (mean ``|u|`` of the step), its
+            Outcome`` of the env's :class:`BodyState`, its effort (mean ``|u|`` of the step), its
             target (a :data:`TARGET_WIDTH`-tuple), its memory and the task's numbers by name.
         job: ``(numbers, arrays, stepped)``: (1,) the task's numbers (:data:`COMMON_NUMBERS`,
             then its parameters), the :class:`EnvArrays` as a plain tuple, and whether the

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel
+from rigid_env.core.jit import kernel
 
 
 @kernel

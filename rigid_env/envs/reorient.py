@@ -7,7 +7,8 @@ from dataclasses import replace
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel, quat_mul
+from rigid_env.core.jit import kernel
+from rigid_env.core.maths import quat_mul
 from rigid_env.core.rotation import canonical as canonical_quat
 from rigid_env.core.rotation import quat_angle_between
 from rigid_env.envs.batch import TaskBatch

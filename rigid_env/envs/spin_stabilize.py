@@ -7,7 +7,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel
+from rigid_env.core.jit import kernel
 from rigid_env.core.rotation import quat_from_axis_angle, quat_rotate
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv

@@ -9,7 +9,8 @@ import numpy as np
 from pydantic import field_validator
 
 from rigid_env.config_files import FieldError, vector
-from rigid_env.core.kernels import kernel, rotate_inv
+from rigid_env.core.jit import kernel
+from rigid_env.core.maths import rotate_inv
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import W_OBS_BOUND, Outcome, env_pass, task_kernel
