@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import difflib
 import os
-from typing import Annotated, Any, ClassVar, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -76,8 +76,6 @@ class TaskParams(BaseModel):
     docstring per field with its unit and range."""
 
     model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
-
-    reserved: ClassVar[tuple[str, ...]] = COMMON_NUMBERS
 
     @classmethod
     def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
