@@ -40,11 +40,16 @@ def as_num_envs(value: Any) -> int:
     return int(value)
 
 
+_COMPILED_DTYPES = frozenset(map(np.dtype, (np.float64, np.float32)))  # read as they are
+
+
 def as_actions(action: ArrayLike) -> NDArray[Any]:
     """``action`` as an array of a real dtype the compiled clip reads (float64, float32, or
     integers as they are; float16, long double and byte-swapped floats converted to float64,
     which holds them exactly or, for long double, as NumPy casts), or a one-line ValueError."""
     act = action if isinstance(action, np.ndarray) else np.asarray(action)
+    if act.dtype in _COMPILED_DTYPES:
+        return act
     kind = act.dtype.kind
     if kind not in "fiu" or (act.dtype.itemsize > 8 and kind != "f"):
         raise ValueError(
