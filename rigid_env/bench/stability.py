@@ -38,7 +38,6 @@ from rigid_env.bench.stability_cases import (
     THIN_BODIES,
     THIN_KINDS,
     THIN_RATIOS,
-    THIN_ROUNDOFF,
     UNIT_Q_TOL,
     SeparatrixResult,
     ThinRun,
@@ -311,7 +310,7 @@ def thin_rows(run: ThinRun) -> list[Row]:
         rows.append(
             Row(
                 f"{kind.capitalize()}s {ratios}, {run.integrator}: worst max |w - w_exact| "
-                "[rad/s] (bound: 2 x ratio 1e-2's + 1e-11)",
+                "[rad/s] (bound: 2 x ratio 1e-2's + round-off)",
                 float(np.max(run.errors(kind))),
                 run.growth_bound(kind),
             )
@@ -321,7 +320,7 @@ def thin_rows(run: ThinRun) -> list[Row]:
             Row(
                 f"Needles, {run.integrator}: exact for a symmetric body, max |w - w_exact| [rad/s]",
                 float(np.max(run.errors("needle"))),
-                THIN_ROUNDOFF,
+                run.roundoff,
             )
         )
     return rows

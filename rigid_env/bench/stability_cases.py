@@ -365,16 +365,18 @@ THIN_W0 = (0.3, 2.0, 0.1)
 THIN_DT = 0.01
 THIN_GROWTH = 2.0
 """Thinness does not cost accuracy: an integrator's largest ``|w - w_exact|`` over the ratios is
-at most twice its error on the thickest body (ratio 1e-2) of the same kind, plus
-:data:`THIN_ROUNDOFF`. A real body's Euler rates ``(I_j - I_k) / I_i w_j w_k`` stay below
-``|w|^2`` however thin it is (``|I_j - I_k| <= I_i``), so a method whose error follows those
-rates has the same error constant at every ratio (measured: equal to 3 digits); the
+at most twice its error on the thickest body (ratio 1e-2) of the same kind, plus round-off
+(:data:`THIN_ROUNDOFF_PER_STEP`). A real body's Euler rates ``(I_j - I_k) / I_i w_j w_k`` stay
+below ``|w|^2`` however thin it is (``|I_j - I_k| <= I_i``), so a method whose error follows
+those rates has the same error constant at every ratio (measured: equal to 2 or 3 digits); the
 three-axis splitting before the middle-moment reference grew like ``1 / I_min`` (3e6 rad/s at
-1e-12)."""
-THIN_ROUNDOFF = 1.0e-11
-"""[rad/s] Round-off of ``w`` over up to 2,000 steps: each step rounds ``|w| = 2`` by a few tens
-of ulps at most (4.4e-16 each), ~1e-14 a step, 2e-11 at worst if every step added up in one
-direction (measured: 3e-14 over 200 steps, 1e-13 over 2,000, for the exact methods)."""
+1e-12 in 200 steps)."""
+THIN_ROUNDOFF_PER_STEP = 200 * 2.0**-52 * float(np.linalg.norm(THIN_W0))
+"""[rad/s] Round-off allowed per step, 200 ulps of ``|w0|`` (9e-14): the splittings round ``w``
+by a few ulps a step (measured: 0.2 ulp a step on average over 2,000 steps, errors mostly
+cancel); ``exact_free`` evaluates ``ellipkinc``, ``ellipj`` and square roots each step, whose
+rounding moves the elliptic phase (measured: up to 23 ulps a step, 4.6e-11 rad/s after
+2,000)."""
 
 
 def thin_inertia(kind: str, ratio: float) -> tuple[float, float, float]:
@@ -393,6 +395,7 @@ class ThinRun:
 
     integrator: str
     bodies: tuple[tuple[str, float], ...]
+    steps: int
     w_error: FloatArray
     """(B,) largest ``|w - w_exact|`` [rad/s] over the run, body frame (inf if it failed)."""
     wx_drift: FloatArray
@@ -407,10 +410,16 @@ class ThinRun:
             [e for (k, _), e in zip(self.bodies, self.w_error, strict=True) if k == kind]
         )
 
+    @property
+    def roundoff(self) -> float:
+        """[rad/s] The round-off allowed over the run: ``steps`` x
+        :data:`THIN_ROUNDOFF_PER_STEP`."""
+        return self.steps * THIN_ROUNDOFF_PER_STEP
+
     def growth_bound(self, kind: str) -> float:
         """The bound of :data:`THIN_GROWTH` for ``kind``: twice the error at ratio 1e-2 plus
-        :data:`THIN_ROUNDOFF`."""
-        return THIN_GROWTH * float(self.errors(kind)[0]) + THIN_ROUNDOFF
+        :attr:`roundoff`."""
+        return THIN_GROWTH * float(self.errors(kind)[0]) + self.roundoff
 
 
 def thin_bodies(integrator: str, steps: int) -> ThinRun:
@@ -436,7 +445,7 @@ def thin_bodies(integrator: str, steps: int) -> ThinRun:
         speed_drift = np.max(np.abs(speed - speed[0]), axis=0)
     failed = (run.first_failure >= 0) | (run.steps < steps)
     w_error = np.where(failed, np.inf, w_error)
-    return ThinRun(integrator, bodies, w_error, wx_drift, speed_drift, run.all_finite)
+    return ThinRun(integrator, bodies, steps, w_error, wx_drift, speed_drift, run.all_finite)
 
 
 # --------------------------------------------------------------------------------------------

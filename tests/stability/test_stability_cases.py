@@ -237,7 +237,8 @@ def thin_runs() -> dict[str, st.ThinRun]:
 def test_thinness_costs_no_accuracy(thin_runs, integrator, kind):
     """A real body's Euler rates (I_j - I_k) / I_i w_j w_k stay below |w|^2 however thin it is,
     so no integrator may lose accuracy as r falls: THIN_GROWTH = 2, the worst |w - w_exact| over
-    the ratios within twice that at r = 1e-2 (+ THIN_ROUNDOFF = 1e-11 rad/s of round-off).
+    the ratios within twice that at r = 1e-2 (+ round-off: THIN_ROUNDOFF_PER_STEP = 9e-14
+    rad/s a step, 200 ulps of |w0|).
     The three-axis splitting failed this by 8 orders of magnitude at r = 1e-12 (its error
     grew like 1 / I_min: 3e6 rad/s there, 1e95 at 1e-100, from a 7.5e-3 at 1e-2)."""
     run = thin_runs[integrator]
@@ -250,12 +251,12 @@ def test_thinness_costs_no_accuracy(thin_runs, integrator, kind):
 def test_needles_are_exact_under_the_splittings(thin_runs, integrator):
     """A needle is a symmetric body: the middle-moment splitting leaves one axis flow, which
     commutes with the flow of |L|^2 / (2 I_s), so its step is the exact flow (as exact_free's
-    is). w_x stays w_x0 and |w| stays |w0|, to THIN_ROUNDOFF = 1e-11 rad/s (round-off)."""
+    is). w_x stays w_x0 and |w| stays |w0|, to round-off (THIN_ROUNDOFF_PER_STEP a step)."""
     run = thin_runs[integrator]
     needles = [i for i, (kind, _) in enumerate(run.bodies) if kind == "needle"]
-    assert np.max(run.w_error[needles]) <= st.THIN_ROUNDOFF
-    assert np.max(run.wx_drift[needles]) <= st.THIN_ROUNDOFF
-    assert np.max(run.speed_drift[needles]) <= st.THIN_ROUNDOFF
+    assert np.max(run.w_error[needles]) <= run.roundoff
+    assert np.max(run.wx_drift[needles]) <= run.roundoff
+    assert np.max(run.speed_drift[needles]) <= run.roundoff
 
 
 def test_thin_reference_matches_an_independent_integration():
