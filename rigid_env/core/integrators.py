@@ -33,13 +33,16 @@ from rigid_env.core.kernels import (
     INV_I0,
     INV_I1,
     INV_I2,
+    INV_MASS,
     ISOTROPIC,
     LINEAR_ALPHA,
     LINEAR_DAMPING,
+    MASS,
     MAX_SPEED,
     MAX_SPEED_VALUE,
     STABLE_SPEED,
     SUBSTEPS,
+    G,
     H,
     accelerations,
     axpy,
@@ -48,7 +51,9 @@ from rigid_env.core.kernels import (
     gyroscopic,
     header,
     kernel,
+    kinetic_energy,
     load,
+    norm,
     normalize,
     qdot,
     sincos,
@@ -437,18 +442,47 @@ def _finite(x, v, q, w):
     return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
+EXPLOSION_FACTOR = 10.0
+"""How far beyond the reach of the applied forces ``sqrt(E)`` may get in one step before the
+guard fails the body (its kinetic energy ``100 x`` beyond). Reach: with power ``P = F . v + tau
+. w`` (drag only dissipates, ``F . v_p <= 0``) and ``|v| <= sqrt(2 E / m)``, ``|w| <= sqrt(2 E /
+I_min)``, ``d sqrt(E) / dt = P / (2 sqrt(E)) <= B = (|F| / sqrt(m) + |tau| / sqrt(I_min)) /
+sqrt(2)`` with ``F`` the actuators' force and gravity's ``m g``: the exact flow ends with
+``sqrt(E1) <= sqrt(E0) + h B``. A method adds its own one-step error; the largest inside the
+stable ranges is forward Euler's, torque-free ``E1 = E0 + h^2 / 2 f . I f`` with Euler's rates
+``I_i f_i^2 = (I_j - I_k)^2 w_j^2 w_k^2 / I_i <= max(I_j, I_k) w_j^2 w_k^2 <= 2 E |w|^2`` for a
+real body (``|I_j - I_k| <= I_i``), so ``E1 / E0 <= 1 + 3 (h |w|)^2``: 13 (a factor 3.6 in
+``sqrt(E)``) at ``h |w| = 2``, the widest stated range (``splitting``). A factor 10 leaves room
+for that and trips only where the state explodes: the three-axis splitting's ``|w|`` 2.4 ->
+5e95 in one step of a needle of moment 1e-100, forward Euler past ``h |w| = 5.7``."""
+
+
+@kernel
+def _reachable_energy(e0, fb, tb, m, c, h):
+    """The largest kinetic energy [J] a body may end a step of ``h`` with, from ``e0``
+    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(e0) + h B))^2``, ``B`` the forces' reach."""
+    gravity = m[MASS] * math.sqrt(c[G] * c[G] + c[G + 1] * c[G + 1] + c[G + 2] * c[G + 2])
+    inv_i = max(m[INV_I0], m[INV_I1], m[INV_I2])
+    reach = (norm(fb) + gravity) * math.sqrt(m[INV_MASS]) + norm(tb) * math.sqrt(inv_i)
+    root = math.sqrt(e0) + h * reach * math.sqrt(0.5)
+    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _substep_of(step, c, model, wrenches, state, status, last, i):
     """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
     speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
-    maps. Then the guard, by selects: a healthy body (``status[i]`` 0) takes a finite new state,
-    else keeps its column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns
-    ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
+    maps. Then the guard, by selects: a healthy body (``status[i]`` 0) takes a finite new state
+    whose kinetic energy the forces can explain (:data:`EXPLOSION_FACTOR`), else keeps its
+    column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns ``(failed,
+    beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
     x0, v0, q0, w0 = load(state, i)
     w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c[H])
+    m = body_model(model, i)
+    reachable = _reachable_energy(kinetic_energy(v0, w, m), fb, tb, m, c, c[H])
+    x, v, q, w = step(x0, v0, q0, w, fb, tb, m, c, c[H])
     if last:
         if c[MAX_SPEED] != 0.0:
             w = _clamp(w, c[MAX_SPEED_VALUE])
@@ -459,7 +493,7 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
             a = c[ANGULAR_ALPHA]
             w = (w[0] * a, w[1] * a, w[2] * a)
     healthy = status[i] == 0
-    ok = healthy & _finite(x, v, q, w)
+    ok = healthy & _finite(x, v, q, w) & (kinetic_energy(v, w, m) <= reachable)
     status[i] = 2 if healthy & ~ok else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
     fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c[STABLE_SPEED] * c[STABLE_SPEED]
@@ -555,6 +589,18 @@ def kicks(p, model, state, command, h):
         x, v, q, w = load(state, i)
         v, w = kick(v, q, w, fb, tb, body_model(model, i), c, h)
         store(state, i, x, v, q, w)
+
+
+@kernel
+def reachable_energies(p, model, state, command, h, out):
+    """:func:`_reachable_energy` of every body's state column (13, N) for a step of ``h`` into
+    ``out`` (N,): the explosion guard of ``exact_free``."""
+    c = header(p)
+    for i in range(state.shape[1]):
+        fb, tb = wrench(p, command, i)
+        _, v, _, w = load(state, i)
+        m = body_model(model, i)
+        out[i] = _reachable_energy(kinetic_energy(v, w, m), fb, tb, m, c, h)
 
 
 @kernel
