@@ -330,22 +330,26 @@ def thin_rows(run: ThinRun) -> list[Row]:
 def thin_table(runs: Sequence[ThinRun], steps: int) -> Section:
     """Every integrator's ``max |w - w_exact|`` [rad/s] on the needle / plate of each ratio."""
     shown = (1.0e-2, 1.0e-4, 1.0e-6, 1.0e-8, 1.0e-10, 1.0e-12, 1.0e-100)
-    rows = []
+    rows, drift = [], []
     for run in runs:
-        cells = [run.integrator]
+        cells, needle = [run.integrator], [run.integrator]
         for r in shown:
             k = THIN_RATIOS.index(r)
             cells.append(f"{_fmt(run.errors('needle')[k])} / {_fmt(run.errors('plate')[k])}")
+            b = run.bodies.index(("needle", r))
+            needle.append(f"{_fmt(run.wx_drift[b])} / {_fmt(run.speed_drift[b])}")
         rows.append(cells)
+        drift.append(needle)
     head = ["integrator", *(f"{r:.0e}" for r in shown)]
     return Section(
         "Needles and plates",
         [
             f"Torque-free needles (r, 1, 1) / plates (r, 1, 1 + r), w0 = (0.3, 2, 0.1) body, "
             f"dt 0.01, {steps} steps: largest |w - w_exact| [rad/s] (body frame; exact: "
-            "Jacobi elliptic functions) for each ratio r."
+            "Jacobi elliptic functions) for each ratio r; then the needles' largest "
+            "|w_x - w_x0| / | |w| - |w0| | [rad/s], both 0 for the exact motion."
         ],
-        [Table(head, rows, "l" * len(head))],
+        [Table(head, rows, "l" * len(head)), Table(head, drift, "l" * len(head))],
     )
 
 

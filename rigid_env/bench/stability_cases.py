@@ -53,7 +53,7 @@ ENERGY_GAIN_RTOL = 1.0e-14
 rounding of ``E = 1/2 sum I w^2`` itself (a real gain of one Newton step at ``h|w| = 2``
 is 3e-7)."""
 SPLITTING_ENERGY_BELOW_LIMIT = 1.0e-5
-"""Fast spin at ``h|w| = 1.5`` (below splitting's linear stability limit ~1.95 for spin about
+"""Fast spin at ``h|w| = 1.5`` (below splitting's linear stability limit 2.195 for spin about
 the major axis of (1, 2, 3)): ``splitting``'s relative energy error stays below 1e-5."""
 SEPARATRIX_W_TOL = 2.0e-3
 """Separatrix: ``rk4`` at 60 Hz stays within 2e-3 rad/s of the exact ``w(t)`` over 10 s."""
