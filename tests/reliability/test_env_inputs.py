@@ -69,7 +69,7 @@ def test_render_fps_stays_positive_at_large_dt() -> None:
 
 
 def test_integrator_beyond_its_stable_step_warns_once() -> None:
-    """``splitting`` is stable to h |w| = 1.95 about the major axis: a world stepped at
+    """``splitting`` is stable to h |w| = 2 about a principal axis: a world stepped at
     h |w| = 3 warns once (a RuntimeWarning naming the integrator and the fix), and one inside
     the range never does."""
     model = BodyModel.single(1.0, [1.0, 2.0, 3.0])
