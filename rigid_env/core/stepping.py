@@ -29,7 +29,7 @@ from rigid_env.core.layout import (
     store,
     unpack,
 )
-from rigid_env.core.maths import norm
+from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
 
 
@@ -90,15 +90,26 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 
 @kernel
-def reachable_energy(v, w, act, m, c, h):
-    """The largest kinetic energy [J] a body at ``(v, w)`` may end a step of ``h`` with under
-    the wrench ``act`` and the world's gravity (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h
-    B))^2``, ``B`` the forces' reach."""
+def reachable_energy(old, act, m, c, h):
+    """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
+    with under the wrench ``act``, the world's gravity and its gravity gradient
+    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
+    and ``dV`` the most kinetic energy the gravity-gradient torque can give: it is conservative,
+    with the potential ``V = mu / (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation
+    spans ``dV = 3 mu (I_max - I_min) / (2 |r|^3)`` (``|r|`` at the step's start)."""
+    x, v, _, w = old
     fb, tb = act
     g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
     inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
     reach = (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
     root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
+    if c.gravity_gradient != 0.0:
+        center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
+        r = norm(axpy(x, -1.0, center))
+        spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(
+            m.inertia_x, m.inertia_y, m.inertia_z
+        )
+        root += math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
     return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
 
 
@@ -136,7 +147,7 @@ def substep(step, c, model, wrenches, state, status, last, i):
     act = (fb, tb)
     m = body_model(model, i)
     w = limit_speed(w0, c)
-    reachable = reachable_energy(v0, w, act, m, c, c.h)
+    reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
     x, v, q, w = step(x0, v0, q0, w, act, m, c, c.h)
     if last:
         v, w = step_maps(v, w, c)
@@ -240,7 +251,7 @@ def finish_pass(p, model, state, before, status, command):
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
         old = load(before, i)
-        reachable = reachable_energy(old[1], old[3], wrench(p, command, i), m, c, c.h * c.substeps)
+        reachable = reachable_energy(old, wrench(p, command, i), m, c, c.h * c.substeps)
         ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
