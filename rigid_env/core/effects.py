@@ -270,11 +270,13 @@ def pack(
     substeps: int,
     max_angular_speed: float | None = None,
     stable_angle: float | None = None,
+    control: tuple[float, float, int, bool] | None = None,
 ) -> FloatArray:
     """The world's parameters (:mod:`rigid_env.core.kernels`): the step ``h`` and ``substeps``,
     each effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad]
-    (None: no limit) and the actuators' maps, one row ``(force (3,), torque (3,))`` per command
-    component in scene order."""
+    (None: no limit), an error-controlled integrator's ``(rtol, atol, max_substeps, adaptive)``
+    (None: a fixed-step integrator) and the actuators' maps, one row ``(force (3,), torque
+    (3,))`` per command component in scene order."""
     actuators = [e for e in effects if isinstance(e, LinearActuator)]
     rows = [np.hstack([a.force_map, a.torque_map]) for a in actuators]
     maps = np.vstack(rows) if rows else np.zeros((0, 6))
@@ -288,6 +290,8 @@ def pack(
         p[K.MAX_SPEED_VALUE] = max_angular_speed
     if stable_angle is not None:
         p[K.STABLE_SPEED] = stable_angle / h
+    if control is not None:
+        p[K.RTOL], p[K.ATOL], p[K.MAX_SUBSTEPS], p[K.ADAPTIVE] = control
     p[K.ACTIONS] = maps.shape[0]
     p[K.MAPS :] = maps.ravel()
     p[K.ACTUATOR_FORCE] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0

@@ -19,9 +19,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.extending import overload
 from numpy.typing import NDArray
 
+from rigid_env.core.dop853 import dop853
 from rigid_env.core.kernels import (
     ANGULAR_ALPHA,
     ANGULAR_DAMPING,
@@ -397,18 +399,68 @@ def _finite(x, v, q, w):
     return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
+def _integrate(step, x, v, q, w, fb, tb, m, c, counts, i):
+    """``step`` of body ``i`` over ``c[H]``. ``counts`` None: a fixed-step integrator, whose step
+    returns ``(x, v, q, w)``; else an (N,) int64 array: an error-controlled one, whose step
+    also returns the substeps it took, added to ``counts[i]``. (Chosen by the type of
+    ``counts`` when compiling: the overload below.)"""
+    if counts is None:
+        return step(x, v, q, w, fb, tb, m, c, c[H])
+    x, v, q, w, n = step(x, v, q, w, fb, tb, m, c, c[H])
+    counts[i] += n
+    return x, v, q, w
+
+
+def _clear(counts, start, stop):
+    """``counts[start:stop] = 0`` (nothing for None)."""
+    if counts is not None:
+        counts[start:stop] = 0
+
+
+def _no_counts(counts):
+    return isinstance(counts, types.NoneType | types.Omitted)
+
+
+@overload(_integrate, inline="always")
+def _integrate_compiled(step, x, v, q, w, fb, tb, m, c, counts, i):
+    if _no_counts(counts):
+        return lambda step, x, v, q, w, fb, tb, m, c, counts, i: step(
+            x, v, q, w, fb, tb, m, c, c[H]
+        )
+
+    def counted(step, x, v, q, w, fb, tb, m, c, counts, i):
+        x1, v1, q1, w1, n = step(x, v, q, w, fb, tb, m, c, c[H])
+        counts[i] += n
+        return x1, v1, q1, w1
+
+    return counted
+
+
+@overload(_clear, inline="always")
+def _clear_compiled(counts, start, stop):
+    if _no_counts(counts):
+        return lambda counts, start, stop: None
+
+    def clear(counts, start, stop):
+        for i in range(start, stop):
+            counts[i] = 0
+
+    return clear
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _substep_of(step, c, model, wrenches, state, status, last, i):
+def _substep_of(step, c, model, wrenches, state, status, last, i, counts):
     """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
     speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
     maps. Then the guard, by selects: a healthy body (``status[i]`` 0) takes a finite new state,
     else keeps its column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns
-    ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
+    ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``.
+    ``counts``: None, or the substeps each body took (:func:`_integrate`)."""
     x0, v0, q0, w0 = load(state, i)
     w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c[H])
+    x, v, q, w = _integrate(step, x0, v0, q0, w, fb, tb, body_model(model, i), c, counts, i)
     if last:
         if c[MAX_SPEED] != 0.0:
             w = _clamp(w, c[MAX_SPEED_VALUE])
@@ -427,7 +479,7 @@ def _substep_of(step, c, model, wrenches, state, status, last, i):
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance(step, p, model, state, status, wrenches, command, start, stop):
+def advance(step, p, model, state, status, wrenches, command, start, stop, counts=None):
     """One world step of the bodies ``start <= i < stop``, in passes whose loops the compiler
     vectorises (struct-of-arrays columns; no call, inner loop or branch in the body, only
     selects): the actuators' wrench of each body's command (:func:`wrench`), if any, then
@@ -447,6 +499,8 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
         wrenches: (6, N) scratch for the wrenches (zero without actuators).
         command: (N | 1, A) actuator commands.
         start, stop: the bodies to step (threads step disjoint ranges of one world).
+        counts: None for a fixed-step integrator; for an error-controlled one (N,) int64, set
+            to the substeps each body took (summed over ``SUBSTEPS`` passes).
 
     Returns:
         ``2 f + o``: ``f`` the number of bodies that failed, ``o`` 1 if a body ended the step
@@ -463,6 +517,7 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
             fb, tb = wrench(p, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+    _clear(counts, start, stop)
     failures = over = 0
     substeps = int(c[SUBSTEPS])
     for k in range(substeps):
@@ -471,7 +526,7 @@ def advance(step, p, model, state, status, wrenches, command, start, stop):
             # An unsigned index: no wraparound of negative indices to compute, which would
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
-            failed, beyond = _substep_of(step, c, model, wrenches, state, status, last, j)
+            failed, beyond = _substep_of(step, c, model, wrenches, state, status, last, j, counts)
             failures += failed
             over += beyond
     return 2 * failures + min(over, 1)
@@ -611,6 +666,15 @@ def _yoshida4_range(p, m, s, f, b, u, i, j):
     return advance(yoshida4, p, m, s, f, b, u, i, j)
 @threads_kernel
 def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4_range, w, i, j, t)
+# An error-controlled integrator's entries take the (N,) substep counts after the wrenches.
+@world_kernel
+def _dop853(p, m, s, f, b, n, u):
+    return advance(dop853, p, m, s, f, b, u, 0, s.shape[1], n)
+@world_kernel
+def _dop853_range(p, m, s, f, b, n, u, i, j):
+    return advance(dop853, p, m, s, f, b, u, i, j, n)
+@threads_kernel
+def _dop853_threads(w, i, j, t): return over_threads(_dop853_range, w, i, j, t)
 # fmt: on
 
 
@@ -634,13 +698,17 @@ class IntegratorInfo:
         name: registry key.
         order: global order of accuracy on smooth problems.
         note: one line for tables and ``--help``.
-        body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None (as the
-            world steps) for an array integrator.
-        world_step: the compiled world step of all bodies, ``(*world) -> code`` (:func:`advance`).
+        body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)`` (an
+            error-controlled one also returns the substeps it took); None (as the world steps)
+            for an array integrator.
+        world_step: the compiled world step of all bodies, ``(*world) -> code`` (:func:`advance`;
+            an error-controlled integrator's takes the (N,) substep counts before the command).
         world_step_threads: the same over Numba's threads, ``(world, start, stop, threads)``
             (:func:`over_threads`).
         stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;
             a world warns once when a body goes beyond it.
+        error_control: whether the step controls its error to the world's ``rtol`` and
+            ``atol`` by substeps of its own (``dop853``).
     """
 
     name: str
@@ -650,6 +718,7 @@ class IntegratorInfo:
     world_step: Callable | None
     world_step_threads: Callable | None
     stability: float | None = None
+    error_control: bool = False
 
 
 _REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
@@ -671,9 +740,15 @@ _REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
     ("exact_free", 2,
      "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
      None, None, EXACT_PHASE_LIMIT),
+    ("dop853", 8, "Dormand-Prince 8(5,3), substeps to the world's rtol and atol inside each step",
+     dop853, _dop853, None),
 )  # fmt: skip
+ERROR_CONTROLLED = ("dop853",)
 INTEGRATORS: dict[str, IntegratorInfo] = {  # with the threaded world step of each, by its name
-    r[0]: IntegratorInfo(*r[:5], globals().get(f"_{r[0]}_threads"), r[5]) for r in _REGISTRY
+    r[0]: IntegratorInfo(
+        *r[:5], globals().get(f"_{r[0]}_threads"), r[5], error_control=r[0] in ERROR_CONTROLLED
+    )
+    for r in _REGISTRY
 }
 
 

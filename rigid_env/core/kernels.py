@@ -73,8 +73,12 @@ ACTUATOR_FORCE = 18  # flag: some actuator pushes the centre of mass (not only c
 ANY_FORCE = 19  # flag: some effect or actuator acts (else the kicks of a splitting are skipped)
 STABLE_SPEED = 20  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
 ACTIONS = 21  # number A of command components
-MAPS = 22  # then A rows of (force (3,), torque (3,)) body frame at |u| = 1
-HEADER = 22  # the numbers before the maps, all of them in :func:`header`
+RTOL = 22  # error-controlled integrators (dop853): relative tolerance of a substep's error
+ATOL = 23  # and its absolute tolerance
+MAX_SUBSTEPS = 24  # the most substeps an integrator step may take
+ADAPTIVE = 25  # flag: error control on (else one fixed step of H)
+MAPS = 26  # then A rows of (force (3,), torque (3,)) body frame at |u| = 1
+HEADER = 26  # the numbers before the maps, all of them in :func:`header`
 
 
 # ---- vectors and quaternions -----------------------------------------------------------------
@@ -319,6 +323,7 @@ def header(p):
     return (
         p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8], p[9], p[10],
         p[11], p[12], p[13], p[14], p[15], p[16], p[17], p[18], p[19], p[20], p[21],
+        p[22], p[23], p[24], p[25],
     )  # fmt: skip
 
 

@@ -37,6 +37,13 @@ _FLOAT64 = np.dtype(np.float64)
 THREAD_MIN_BODIES = 1024
 """Smallest batch split over Numba's threads (below it one thread beats the hand-over)."""
 _threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
+DEFAULT_RTOL = 1.0e-10
+"""Relative tolerance of an error-controlled integrator (``dop853``) when none is given."""
+DEFAULT_ATOL = 1.0e-10
+"""Absolute tolerance of an error-controlled integrator when none is given."""
+DEFAULT_MAX_SUBSTEPS = 1000
+"""The most substeps (accepted or rejected) an error-controlled integrator may take per
+integrator step before the body counts as failed (:class:`SubstepLimitError`)."""
 
 
 def threaded(n: int) -> bool:
@@ -71,6 +78,26 @@ class NumericalInstabilityError(FloatingPointError):
         )
 
 
+class SubstepLimitError(NumericalInstabilityError):
+    """An error-controlled integrator needed more substeps than allowed in one step."""
+
+    def __init__(
+        self, bodies: Sequence[int], step: int, integrator: str, dt: float, limit: str
+    ) -> None:
+        super().__init__(bodies, step, integrator, dt)
+        shown = ", ".join(str(b) for b in self.bodies[:5])
+        if len(self.bodies) > 5:
+            shown += f" ... ({len(self.bodies)} bodies)"
+        self.args = (
+            f"body {shown} needed more than {limit} in step {step} (integrator "
+            f"{integrator!r}, dt {dt:g} s); loosen rtol/atol, use a smaller dt, or allow more "
+            "with max_substeps",
+        )
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
 class World:
     """A batch of ``N`` free rigid bodies stepped together.
 
@@ -89,6 +116,14 @@ class World:
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
             non-finite; ``"freeze"`` keeps failed bodies at their last finite state, flagged in
             :attr:`failed`, the others going on bit for bit as without them (vector envs).
+        rtol, atol: an error-controlled integrator's (``dop853``) relative and absolute
+            tolerance of each substep's error, ``0 < rtol < 1`` and ``atol > 0`` (None:
+            :data:`DEFAULT_RTOL`, :data:`DEFAULT_ATOL`); refused for a fixed-step integrator.
+        max_substeps: the most substeps an error-controlled integrator may take per integrator
+            step (``dt / substeps``); a body that needs more fails as a non-finite one does
+            (:class:`SubstepLimitError` under ``"raise"``, frozen under ``"freeze"``).
+        adaptive: False turns an error-controlled integrator's control off: it then takes one
+            fixed step of ``dt / substeps`` per substep (to measure its order).
     """
 
     def __init__(
@@ -102,6 +137,10 @@ class World:
         n: int = 1,
         max_angular_speed: float | None = None,
         on_error: Literal["raise", "freeze"] = "raise",
+        rtol: float | None = None,
+        atol: float | None = None,
+        max_substeps: int = DEFAULT_MAX_SUBSTEPS,
+        adaptive: bool = True,
     ) -> None:
         if not (np.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt: must be a finite time step > 0 [s], got {dt}")
@@ -122,14 +161,17 @@ class World:
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
         self.integrator = get_integrator(integrator)
+        self.tolerances = check_tolerances(self.integrator.name, rtol, atol, max_substeps)
+        """``(rtol, atol, max_substeps)`` of an error-controlled integrator, else None."""
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.h = self.dt / self.substeps
         self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
         self.on_error = on_error
+        control = None if self.tolerances is None else (*self.tolerances, bool(adaptive))
         self.params = pack(
             self.effects, self.h, self.substeps, self.max_angular_speed,
-            self.integrator.stability,
+            self.integrator.stability, control,
         )  # fmt: skip
         """The world's parameters for the compiled step (:mod:`rigid_env.core.kernels`)."""
         self.action_dim = int(self.params[K.ACTIONS])
@@ -146,6 +188,7 @@ class World:
         if state is not None:
             self._state.assign(state)
         self._status = np.zeros(self._n, dtype=np.uint8)
+        self._counts = np.full(self._n, self.substeps, dtype=np.int64)
         self._no_command = np.zeros((1, self.action_dim))
         self._one_command = (self.action_dim,)  # and the shapes of a command as it is used:
         self._shapes = ((1, self.action_dim), (self._n, self.action_dim)) if self.action_dim else ()
@@ -192,6 +235,16 @@ class World:
         return self._status.view(np.bool_)
 
     @property
+    def substeps_taken(self) -> NDArray[np.int64]:
+        """(N,) the integrator steps each body took in the last :meth:`step`, read-only: for an
+        error-controlled integrator the substeps it tried (accepted or rejected; each costs 11
+        evaluations of the dynamics, plus one per accepted substep), over all ``substeps``
+        passes; for a fixed-step one ``substeps``."""
+        view = self._counts.view()
+        view.flags.writeable = False
+        return view
+
+    @property
     def n(self) -> int:
         """Number of bodies."""
         return self._n
@@ -212,8 +265,11 @@ class World:
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
         self._model_cols = model.columns(self._n)
-        # the compiled step's arrays but the command (whose place is last)
+        # the compiled step's arrays but the command (whose place is last); an error-controlled
+        # integrator also writes the substeps each body took
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        if self.integrator.error_control:
+            self._arrays += (self._counts,)
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -301,17 +357,37 @@ class World:
         bad = self._status == 2
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
+        limited = self._over_limit(bad)
         if self.on_error == "raise":
             self._status[bad] = 0
             if backup is not None:
                 self._cols[:] = backup
+            if limited is not None:
+                raise limited
             raise NumericalInstabilityError(
                 np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name,
                 self.dt, self._likely_cause(),
             )  # fmt: skip
+        if limited is not None:
+            warnings.warn(str(limited), RuntimeWarning, stacklevel=3)
         self._status[bad] = 1
         self.step_count += 1
         return bad
+
+    def _over_limit(self, bad: BoolArray) -> SubstepLimitError | None:
+        """The error for the failed bodies that ran out of substeps (None if none did): those
+        that took more than ``max_substeps`` in the step (exact for ``substeps = 1``; with more
+        passes a body that failed otherwise after that many substeps is counted here too)."""
+        if self.tolerances is None:
+            return None
+        rtol, atol, limit = self.tolerances
+        over = bad & (self._counts > limit)
+        if not over.any():
+            return None
+        return SubstepLimitError(
+            np.flatnonzero(over).tolist(), self.step_count + 1, self.integrator.name, self.dt,
+            f"max_substeps = {limit} substeps at rtol {rtol:g}, atol {atol:g}",
+        )  # fmt: skip
 
     def _step_arrays(self, u: FloatArray) -> int:
         """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
@@ -422,6 +498,34 @@ class World:
     def angular_momentum_world(self) -> FloatArray:
         """(N, 3) spin angular momentum about the COM, world frame, ``R (I w)`` [kg m^2/s]."""
         return quat_rotate(self.state.q, self.model.inertia * self.state.w)
+
+
+def check_tolerances(
+    integrator: str, rtol: float | None, atol: float | None, max_substeps: int
+) -> tuple[float, float, int] | None:
+    """``(rtol, atol, max_substeps)`` for an error-controlled integrator (defaults filled in),
+    None for a fixed-step one.
+
+    Raises:
+        ValueError: for a tolerance given to a fixed-step integrator, or one out of range.
+    """
+    if not get_integrator(integrator).error_control:
+        given = [k for k, v in (("rtol", rtol), ("atol", atol)) if v is not None]
+        if given:
+            raise ValueError(
+                f"{given[0]}: integrator {integrator!r} takes fixed steps; rtol and atol set the "
+                "error control of 'dop853' (leave them out, or choose integrator 'dop853')"
+            )
+        return None
+    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
+    atol = DEFAULT_ATOL if atol is None else float(atol)
+    if not 0.0 < rtol < 1.0:
+        raise ValueError(f"rtol: must be a relative tolerance with 0 < rtol < 1, got {rtol}")
+    if not (np.isfinite(atol) and atol > 0.0):
+        raise ValueError(f"atol: must be a finite absolute tolerance > 0, got {atol}")
+    if int(max_substeps) != max_substeps or max_substeps < 1:
+        raise ValueError(f"max_substeps: must be an integer >= 1, got {max_substeps}")
+    return rtol, atol, int(max_substeps)
 
 
 def check_state(state: State) -> None:

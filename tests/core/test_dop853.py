@@ -8,16 +8,15 @@ pressure) against an independent solution of equations of motion written here; i
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import numpy as np
 import pytest
-from numba import njit
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from rigid_env.bench.reference import torque_free_angular_velocity
-from rigid_env.core import kernels as K
-from rigid_env.core.dop853 import dop853
+from rigid_env.core import SubstepLimitError, World
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import Scene, load_scene
 
@@ -27,25 +26,6 @@ FORCED_SCENE = SCENE_DIR / "bench_thrust_gravity_drag.yaml"
 FORCED_ACTION = np.array([1.0, 1.0])  # both thrusters at full force
 
 
-@njit(cache=True)
-def _steps(p, model, y0, command, h, steps, rtol, atol, max_substeps, adaptive):
-    """One body from ``y0`` (13,) over ``steps`` steps of ``h``: the states (steps + 1, 13)
-    and the substeps of each step."""
-    c, m = K.header(p), K.body_model(model, 0)
-    fb, tb = K.wrench(p, command, 0)
-    x, v = (y0[0], y0[1], y0[2]), (y0[3], y0[4], y0[5])
-    q, w = (y0[6], y0[7], y0[8], y0[9]), (y0[10], y0[11], y0[12])
-    out = np.empty((steps + 1, 13))
-    out[0] = y0
-    tries = np.zeros(steps, np.int64)
-    for s in range(steps):
-        x, v, q, w, n = dop853(x, v, q, w, fb, tb, m, c, h, rtol, atol, max_substeps, adaptive)
-        tries[s] = n
-        out[s + 1, 0:3], out[s + 1, 3:6] = x, v
-        out[s + 1, 6:10], out[s + 1, 10:13] = q, w
-    return out, tries
-
-
 def run_dop853(
     scene: Scene,
     action: FloatArray | None,
@@ -53,17 +33,23 @@ def run_dop853(
     steps: int,
     rtol: float = 1.0e-10,
     atol: float = 1.0e-10,
-    max_substeps: int = 100_000,
-    adaptive: bool = True,
+    n: int = 1,
+    **world: Any,
 ) -> tuple[FloatArray, FloatArray]:
-    """``scene``'s body stepped by dop853: states (steps + 1, 13) and substeps per step."""
-    world = scene.build_world(1)
+    """``scene``'s bodies stepped by dop853: body 0's states (steps + 1, 13) and the substeps
+    each body took in each step (steps, n)."""
+    w = scene.build_world(n, integrator="dop853", dt=dt, rtol=rtol, atol=atol, **world)
+    rows, tries = [_row(w, 0)], []
+    for _ in range(steps):
+        w.step(action)
+        rows.append(_row(w, 0))
+        tries.append(w.substeps_taken.copy())
+    return np.array(rows), np.array(tries)
+
+
+def _row(world: World, i: int) -> FloatArray:
     s = world.state
-    y0 = np.concatenate([s.x[0], s.v[0], s.q[0], s.w[0]])
-    u = np.zeros((1, world.action_dim)) if action is None else np.asarray(action)[None]
-    return _steps(
-        world.params, world.model_columns, y0, u, dt, steps, rtol, atol, max_substeps, adaptive
-    )
+    return np.concatenate([s.x[i], s.v[i], s.q[i], s.w[i]])
 
 
 # --------------------------------------------------------------------------------------------
@@ -226,12 +212,49 @@ def test_forced_scene_within_tolerance(rtol: float, forced_truth: FloatArray) ->
 # --------------------------------------------------------------------------------------------
 
 
-def test_substep_limit_gives_nan_state_and_count() -> None:
-    """A step that would need more than max_substeps stops there (never a hang): a NaN state
-    for the world's guard and max_substeps + 1 as its count. rtol 1e-12 over dt = 1 s of the
-    forced scene takes ~20 substeps; 5 are allowed."""
+def test_substep_limit_is_a_clear_error() -> None:
+    """A step that needs more than max_substeps stops there (never a hang): under "raise" a
+    SubstepLimitError naming the body, the limit, the tolerances and the fixes, the world left
+    as it was; under "freeze" the body is frozen at its state before the step, flagged, and a
+    warning says the same. rtol 1e-12 over dt = 1 s of the forced scene takes ~20 substeps
+    (rk4's error constant and h^8: a fifth of that is far too few); 5 are allowed."""
     scene = load_scene(FORCED_SCENE)
-    states, tries = run_dop853(scene, FORCED_ACTION, 1.0, 1, 1.0e-12, 1.0e-12, max_substeps=5)
-    assert np.all(np.isnan(states[1])) and tries[0] == 6
-    states, tries = run_dop853(scene, FORCED_ACTION, 1.0, 1, 1.0e-12, 1.0e-12)
-    assert np.all(np.isfinite(states[1])) and 5 < tries[0] < 1000
+    world = scene.build_world(2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12)
+    world.step(FORCED_ACTION)
+    assert np.all(world.substeps_taken > 5) and np.all(world.substeps_taken < 1000)
+    world = scene.build_world(
+        2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12, max_substeps=5
+    )
+    before = world.columns.copy()
+    with pytest.raises(SubstepLimitError, match=r"body 0, 1 needed more than max_substeps = 5"):
+        world.step(FORCED_ACTION)
+    assert np.array_equal(world.columns, before) and world.step_count == 0
+    world = scene.build_world(
+        2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12, max_substeps=5, on_error="freeze"
+    )
+    with pytest.warns(RuntimeWarning, match="loosen rtol/atol"):
+        failed = world.step(FORCED_ACTION)
+    assert failed.all() and np.array_equal(world.columns, before)
+
+
+def test_batch_equals_single_bodies_bit_for_bit() -> None:
+    """Each body takes its own substeps: bodies with different spins (so different substep
+    counts) stepped together equal each stepped alone, bit for bit, and so does the threaded
+    step of 1,024 of them (the registry's range entry split over threads)."""
+    scene = load_scene(FORCED_SCENE)
+    n = 1024
+    rng = np.random.default_rng(7)
+    batch = scene.build_world(n, integrator="dop853", dt=0.05, rtol=1e-9, atol=1e-9)
+    batch.state.w[:] = rng.uniform(-20.0, 20.0, (n, 3))
+    command = rng.uniform(-1.0, 1.0, (n, 2))
+    start = batch.columns.copy()
+    for _ in range(5):
+        batch.step(command)
+    assert len(np.unique(batch.substeps_taken)) > 1
+    for i in (0, 1, 517, n - 1):
+        single = scene.build_world(1, integrator="dop853", dt=0.05, rtol=1e-9, atol=1e-9)
+        single.columns[:] = start[:, i : i + 1]
+        for _ in range(5):
+            single.step(command[i])
+        assert np.array_equal(single.columns[:, 0], batch.columns[:, i])
+        assert single.substeps_taken[0] == batch.substeps_taken[i]
