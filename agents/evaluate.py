@@ -41,6 +41,7 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer
 from .controllers import CONTROLLERS
@@ -197,9 +198,10 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             trained on another env or on observations of another shape.
     """
     if not model_path.exists():
+        shipped = find_data("agents/pretrained")  # where this install keeps them
+        use = f" or use a shipped policy, {shipped}/*.zip" if shipped is not None else ""
         raise EvaluationError(
-            f"{model_path}: model file not found; train one with "
-            "`python -m agents.train` or use agents/pretrained/*.zip"
+            f"{model_path}: model file not found; train one with `python -m agents.train`{use}"
         )
     meta = read_sidecar(model_path)
     staged = model_path.parent / str((meta or {}).get("staged", ""))
@@ -298,11 +300,20 @@ def evaluate(
             f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
         )
     kwargs = resolve_env_kwargs(model, env_kwargs)
+    if "render_mode" in kwargs:  # gym.make takes it; the evaluation's vector env would not
+        raise EvaluationError(
+            f"--env-kwargs: render_mode={kwargs['render_mode']}: an evaluation runs all episodes "
+            "at once and draws nothing; leave render_mode out, and record an episode with "
+            "--video FILE.gif"
+        )
     _probe(env_id, kwargs).close()
     results: dict[str, dict[str, Any]] = {}
-    probe = gym.make_vec(
-        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **kwargs
-    )
+    try:
+        probe = gym.make_vec(
+            env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **kwargs
+        )
+    except (TypeError, ValueError) as exc:  # a keyword the single env takes, the batch not
+        raise EvaluationError(f"--env-kwargs: {' '.join(str(exc).split())}") from None
     for name in names:
         if name == "model":
             if model is None:
@@ -429,6 +440,13 @@ def main(argv: list[str] | None = None) -> int:
         used = resolve_env_kwargs(model, env_kwargs)
     except EvaluationError as exc:
         print(f"agents.evaluate: error: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError:  # the episodes run at once, one row of every array each
+        print(
+            f"agents.evaluate: error: --episodes: {args.episodes} episodes at once do not fit "
+            "in memory; give fewer (1000 estimate a success rate to +-3 %)",
+            file=sys.stderr,
+        )
         return 2
     if args.json:
         shown = {name: {**r, "env_kwargs": used} for name, r in results.items()}

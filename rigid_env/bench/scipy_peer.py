@@ -2,7 +2,7 @@
 would otherwise reach for, timed in the accuracy benchmark beside it.
 
 The right-hand side is the world's own compiled dynamics
-(:func:`rigid_env.core.integrators.derivatives`, the accelerations of every body in one call)
+(:func:`rigid_env.core.stepping.derivatives`, the accelerations of every body in one call)
 with ``x' = v`` and ``q' = 1/2 q (x) (0, w)`` added in NumPy, into arrays allocated once: the
 cheapest a Python right-hand side gets, so what the comparison measures is SciPy's stepping
 itself. A batch is one system of ``13 N`` numbers (one solver, one error norm over all bodies:
@@ -17,8 +17,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
-from rigid_env.core.integrators import derivatives
 from rigid_env.core.rotation import quat_mul, quat_normalize
+from rigid_env.core.stepping import derivatives
 from rigid_env.core.world import World
 
 FloatArray = NDArray[np.float64]

@@ -29,7 +29,9 @@ import math
 
 from numba import njit
 
-from rigid_env.core.kernels import ADAPTIVE, ATOL, MAX_SUBSTEPS, RTOL, accelerations, kernel, qdot
+from rigid_env.core.dynamics import accelerations
+from rigid_env.core.jit import kernel
+from rigid_env.core.maths import qdot
 
 # ---- the tableau (Hairer, Norsett and Wanner, dop853.f) --------------------------------------
 # Stage i evaluates f at y + h sum_j a_ij k_j. Only the nonzero a_ij are kept: each row below
@@ -169,12 +171,13 @@ def unpack(y):
 
 
 @kernel
-def rhs(y, fb, tb, m, p):
+def rhs(y, act, m, p):
     """``y' = (v, F / m, 1/2 q (x) (0, w), I^-1 (tau - w x I w))``: the dynamics of
-    :func:`rigid_env.core.kernels.accelerations` with the body wrench ``(fb, tb)`` held
-    constant (the one place this method reads the effects)."""
-    v, q, w = (y[3], y[4], y[5]), (y[6], y[7], y[8], y[9]), (y[10], y[11], y[12])
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, True)
+    :func:`rigid_env.core.dynamics.accelerations` with the actuators' body wrench ``act``
+    held constant (the one place this method reads the effects)."""
+    x, v = (y[0], y[1], y[2]), (y[3], y[4], y[5])
+    q, w = (y[6], y[7], y[8], y[9]), (y[10], y[11], y[12])
+    a, alpha = accelerations(x, v, q, w, act, m, p, True)
     return v + a + qdot(q, w) + alpha
 
 
@@ -230,26 +233,26 @@ def _error(y0, y1, h, k, rtol, atol):
 
 
 @called
-def _stages(y, k1, h, fb, tb, m, p):
+def _stages(y, k1, h, act, m, p):
     """The 8th-order solution after ``h`` from ``y`` (``k1 = f(y)``) and the stages the error
     measure weighs, ``(k1, k6, .. k12)``: 11 evaluations of :func:`rhs`."""
-    k2 = rhs(_advanced(y, h, A2, (k1,)), fb, tb, m, p)
-    k3 = rhs(_advanced(y, h, A3, (k1, k2)), fb, tb, m, p)
-    k4 = rhs(_advanced(y, h, A4, (k1, k3)), fb, tb, m, p)
-    k5 = rhs(_advanced(y, h, A5, (k1, k3, k4)), fb, tb, m, p)
-    k6 = rhs(_advanced(y, h, A6, (k1, k4, k5)), fb, tb, m, p)
-    k7 = rhs(_advanced(y, h, A7, (k1, k4, k5, k6)), fb, tb, m, p)
-    k8 = rhs(_advanced(y, h, A8, (k1, k4, k5, k6, k7)), fb, tb, m, p)
-    k9 = rhs(_advanced(y, h, A9, (k1, k4, k5, k6, k7, k8)), fb, tb, m, p)
-    k10 = rhs(_advanced(y, h, A10, (k1, k4, k5, k6, k7, k8, k9)), fb, tb, m, p)
-    k11 = rhs(_advanced(y, h, A11, (k1, k4, k5, k6, k7, k8, k9, k10)), fb, tb, m, p)
-    k12 = rhs(_advanced(y, h, A12, (k1, k4, k5, k6, k7, k8, k9, k10, k11)), fb, tb, m, p)
+    k2 = rhs(_advanced(y, h, A2, (k1,)), act, m, p)
+    k3 = rhs(_advanced(y, h, A3, (k1, k2)), act, m, p)
+    k4 = rhs(_advanced(y, h, A4, (k1, k3)), act, m, p)
+    k5 = rhs(_advanced(y, h, A5, (k1, k3, k4)), act, m, p)
+    k6 = rhs(_advanced(y, h, A6, (k1, k4, k5)), act, m, p)
+    k7 = rhs(_advanced(y, h, A7, (k1, k4, k5, k6)), act, m, p)
+    k8 = rhs(_advanced(y, h, A8, (k1, k4, k5, k6, k7)), act, m, p)
+    k9 = rhs(_advanced(y, h, A9, (k1, k4, k5, k6, k7, k8)), act, m, p)
+    k10 = rhs(_advanced(y, h, A10, (k1, k4, k5, k6, k7, k8, k9)), act, m, p)
+    k11 = rhs(_advanced(y, h, A11, (k1, k4, k5, k6, k7, k8, k9, k10)), act, m, p)
+    k12 = rhs(_advanced(y, h, A12, (k1, k4, k5, k6, k7, k8, k9, k10, k11)), act, m, p)
     k = (k1, k6, k7, k8, k9, k10, k11, k12)
     return _advanced(y, h, B, k), k
 
 
 @kernel
-def _first_guess(y, k1, h, rtol, atol, fb, tb, m, p):
+def _first_guess(y, k1, h, rtol, atol, act, m, p):
     """dop853.f's initial step (``hinit``), at most ``h``: from the scaled sizes of ``y`` and
     ``f(y)`` a trial ``h0 = 0.01 |y| / |f|``, an Euler step over it for a second derivative
     ``|f(y + h0 f) - f| / h0``, then ``h1`` with ``h1^8 max(|f'|, |f|) = 0.01`` (one
@@ -261,7 +264,7 @@ def _first_guess(y, k1, h, rtol, atol, fb, tb, m, p):
         dnf += (k1[i] / sk) ** 2
     h0 = 1.0e-6 if dnf <= 1.0e-10 or dny <= 1.0e-10 else 0.01 * math.sqrt(dny / dnf)
     h0 = min(h0, h)
-    k2 = rhs(_advanced(y, h0, (1.0,), (k1,)), fb, tb, m, p)
+    k2 = rhs(_advanced(y, h0, (1.0,), (k1,)), act, m, p)
     der2 = 0.0
     for i in range(N):
         sk = atol + rtol * abs(y[i])
@@ -278,16 +281,17 @@ def _nan_state():
 
 
 @kernel
-def dop853(x, v, q, w, fb, tb, m, p, h):
+def dop853(x, v, q, w, act, m, p, h):
     """The registry's per-body step: :func:`dormand_prince` with the world's tolerances
-    (``p``: :mod:`rigid_env.core.kernels`). Returns ``(x, v, q, w, substeps)``."""
+    (``p``: the named parameters of :mod:`rigid_env.core.layout`). Returns
+    ``(x, v, q, w, substeps)``."""
     return dormand_prince(
-        x, v, q, w, fb, tb, m, p, h, p[RTOL], p[ATOL], int(p[MAX_SUBSTEPS]), p[ADAPTIVE] != 0.0
+        x, v, q, w, act, m, p, h, p.rtol, p.atol, int(p.max_substeps), p.adaptive != 0.0
     )
 
 
 @called
-def dormand_prince(x, v, q, w, fb, tb, m, p, h, rtol, atol, max_substeps, adaptive):
+def dormand_prince(x, v, q, w, act, m, p, h, rtol, atol, max_substeps, adaptive):
     """One body over a step ``h`` by Dormand-Prince 8(5,3).
 
     ``adaptive``: substeps until the step's end, each accepted when its error measure
@@ -301,8 +305,8 @@ def dormand_prince(x, v, q, w, fb, tb, m, p, h, rtol, atol, max_substeps, adapti
     Args:
         x, v, q, w: the body's state (x, v world frame [m, m/s]; q body -> world; w body
             frame [rad/s]).
-        fb, tb: the actuators' force and torque, body frame [N, N m], constant over ``h``.
-        m, p: the body's model and the world's parameters (:mod:`rigid_env.core.kernels`).
+        act: the actuators' force and torque, body frame [N, N m], constant over ``h``.
+        m, p: the body's model and the world's parameters, named (:mod:`rigid_env.core.layout`).
         h: the step [s].
         rtol, atol: relative and absolute tolerance of each substep's error.
         max_substeps: the most substeps (accepted or rejected) the step may take.
@@ -315,13 +319,13 @@ def dormand_prince(x, v, q, w, fb, tb, m, p, h, rtol, atol, max_substeps, adapti
         body at its last state) with ``substeps = max_substeps + 1`` or the substeps tried.
     """
     y = pack(x, v, q, w)
-    k1 = rhs(y, fb, tb, m, p)
+    k1 = rhs(y, act, m, p)
     if not adaptive:
-        y1, _ = _stages(y, k1, h, fb, tb, m, p)
+        y1, _ = _stages(y, k1, h, act, m, p)
         x1, v1, q1, w1 = unpack(y1)
         return x1, v1, q1, w1, 1
     t = 0.0
-    sub = _first_guess(y, k1, h, rtol, atol, fb, tb, m, p)
+    sub = _first_guess(y, k1, h, rtol, atol, act, m, p)
     tries = 0
     rejected = False
     while True:
@@ -331,7 +335,7 @@ def dormand_prince(x, v, q, w, fb, tb, m, p, h, rtol, atol, max_substeps, adapti
         last = t + STRETCH * sub >= h
         if last:
             sub = h - t
-        y1, k = _stages(y, k1, sub, fb, tb, m, p)
+        y1, k = _stages(y, k1, sub, act, m, p)
         err = _error(y, y1, sub, k, rtol, atol)
         tries += 1
         if not err <= 1.0:
@@ -346,7 +350,7 @@ def dormand_prince(x, v, q, w, fb, tb, m, p, h, rtol, atol, max_substeps, adapti
             return x1, v1, q1, w1, tries
         t += sub
         y = pack(x1, v1, q1, w1)
-        k1 = rhs(y, fb, tb, m, p)
+        k1 = rhs(y, act, m, p)
         grow = sub / max(1.0 / FAC_MAX, min(1.0 / FAC_MIN, err**EXPONENT / SAFETY))
         sub = min(grow, sub) if rejected else grow
         rejected = False

@@ -10,33 +10,33 @@ reports. A body whose state turns NaN or inf is never handed back silently (``on
 
 from __future__ import annotations
 
-import os
-import threading
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, Literal
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import kernels as K
 from rigid_env.core.effects import ForceEffect, StepMap, pack
-from rigid_env.core.exact import free_rotation_exact
-from rigid_env.core.integrators import clamp_bodies, derivatives, get_integrator, kicks
-from rigid_env.core.rotation import quat_normalize, quat_rotate
+from rigid_env.core.integrators import get_integrator
+from rigid_env.core.layout import FAILED, FROZEN, HEALTHY, Params, decode, unpack
+from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
+from rigid_env.core.stepping import derivatives
+from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
+
+__all__ = [
+    "THREAD_MIN_BODIES",
+    "NumericalInstabilityError",
+    "SubstepLimitError",
+    "World",
+    "call_threaded",
+    "threaded",
+]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
-
-
-THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-"""Cores this process may use."""
 _FLOAT64 = np.dtype(np.float64)
-THREAD_MIN_BODIES = 1024
-"""Smallest batch split over Numba's threads (below it one thread beats the hand-over)."""
-_threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
 DEFAULT_RTOL = 1.0e-10
 """Relative tolerance of an error-controlled integrator (``dop853``) when none is given."""
 DEFAULT_ATOL = 1.0e-10
@@ -44,17 +44,6 @@ DEFAULT_ATOL = 1.0e-10
 DEFAULT_MAX_SUBSTEPS = 1000
 """The most substeps (accepted or rejected) an error-controlled integrator may take per
 integrator step before the body counts as failed (:class:`SubstepLimitError`)."""
-
-
-def threaded(n: int) -> bool:
-    """Whether a compiled pass over ``n`` bodies or envs is split over the cores."""
-    return n >= THREAD_MIN_BODIES and THREADS > 1
-
-
-def call_threaded(call: Callable[[int], Any]) -> Any:
-    """``call(threads)``, a compiled pass over Numba's threads, one at a time in this process."""
-    with _threads_lock:
-        return call(numba.get_num_threads())
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -79,7 +68,8 @@ class NumericalInstabilityError(FloatingPointError):
 
 
 class SubstepLimitError(NumericalInstabilityError):
-    """An error-controlled integrator needed more substeps than allowed in one step."""
+    """An error-controlled integrator needed more substeps than allowed in one step; the message
+    names the bodies, the limit, the tolerances and the fixes."""
 
     def __init__(
         self, bodies: Sequence[int], step: int, integrator: str, dt: float, limit: str
@@ -121,7 +111,8 @@ class World:
             :data:`DEFAULT_RTOL`, :data:`DEFAULT_ATOL`); refused for a fixed-step integrator.
         max_substeps: the most substeps an error-controlled integrator may take per integrator
             step (``dt / substeps``); a body that needs more fails as a non-finite one does
-            (:class:`SubstepLimitError` under ``"raise"``, frozen under ``"freeze"``).
+            (:class:`SubstepLimitError` under ``"raise"``, frozen with a warning under
+            ``"freeze"``).
         adaptive: False turns an error-controlled integrator's control off: it then takes one
             fixed step of ``dt / substeps`` per substep (to measure its order).
     """
@@ -133,6 +124,7 @@ class World:
         integrator: str = "rk4",
         dt: float = 0.01,
         substeps: int = 1,
+        *,
         state: State | None = None,
         n: int = 1,
         max_angular_speed: float | None = None,
@@ -160,21 +152,24 @@ class World:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
-        self.integrator = get_integrator(integrator)
-        self.tolerances = check_tolerances(self.integrator.name, rtol, atol, max_substeps)
+        self._integrator = get_integrator(integrator)
+        self.tolerances = check_tolerances(integrator, rtol, atol, max_substeps)
         """``(rtol, atol, max_substeps)`` of an error-controlled integrator, else None."""
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.h = self.dt / self.substeps
+        self._adaptive = bool(adaptive)
+        self._dt = float(dt)
+        self._substeps = int(substeps)
+        self.h = self._dt / self._substeps
+        """The integrator's step ``dt / substeps`` [s]."""
         self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
         self.on_error = on_error
-        control = None if self.tolerances is None else (*self.tolerances, bool(adaptive))
+        stability = self._integrator.stability
+        control = None if self.tolerances is None else (*self.tolerances, self._adaptive)
         self.params = pack(
-            self.effects, self.h, self.substeps, self.max_angular_speed,
-            self.integrator.stability, control,
-        )  # fmt: skip
-        """The world's parameters for the compiled step (:mod:`rigid_env.core.kernels`)."""
-        self.action_dim = int(self.params[K.ACTIONS])
+            self.effects, self.h, self._substeps, self.max_angular_speed, stability, control
+        )
+        """The world's parameters for the compiled step: the named :class:`Params`
+        (:attr:`parameters`), then the actuators' maps (:mod:`rigid_env.core.layout`)."""
+        self.action_dim = int(self.parameters.actions)
         """Length of the command vector (all actuators, in scene order)."""
         if state is not None:
             check_state(state)
@@ -188,7 +183,7 @@ class World:
         if state is not None:
             self._state.assign(state)
         self._status = np.zeros(self._n, dtype=np.uint8)
-        self._counts = np.full(self._n, self.substeps, dtype=np.int64)
+        self._counts = np.full(self._n, self._substeps, dtype=np.int64)
         self._no_command = np.zeros((1, self.action_dim))
         self._one_command = (self.action_dim,)  # and the shapes of a command as it is used:
         self._shapes = ((1, self.action_dim), (self._n, self.action_dim)) if self.action_dim else ()
@@ -197,8 +192,57 @@ class World:
         self._warned = False
         self.step_count = 0
         self.set_model(model)
-        serial = self.integrator.world_step is not None and not threaded(self._n)
+        serial = self._integrator.world_step_threads is None or not threaded(self._n)
         self._direct = serial and not self._copy_before_step  # step() calls the kernel itself
+
+    # ---- settings, read-only: a new world for new ones --------------------------------------
+    def _read_only(name: str, doc: str) -> property:  # type: ignore[misc]
+        def get(self: World) -> Any:
+            return getattr(self, "_" + name)
+
+        def refuse(self: World, value: Any) -> None:
+            raise AttributeError(
+                f"World.{name} is read-only (the compiled step is set up for it); make a new "
+                f"world with it: world = world.with_settings({name}={value!r})"
+            )
+
+        return property(get, refuse, doc=doc)
+
+    dt = _read_only("dt", "Time per :meth:`step` [s] (read-only: :meth:`with_settings`).")
+    substeps = _read_only("substeps", "Integrator steps per :meth:`step` (read-only).")
+    integrator = _read_only("integrator", "The integrator's registry entry (read-only).")
+    del _read_only
+
+    def with_settings(
+        self,
+        *,
+        dt: float | None = None,
+        substeps: int | None = None,
+        integrator: str | None = None,
+        rtol: float | None = None,
+        atol: float | None = None,
+    ) -> World:
+        """A new world of this one's model, effects, bodies and state (copied) with another
+        ``dt``, ``substeps``, ``integrator``, ``rtol`` or ``atol`` (each left out: kept, the
+        tolerances only while the integrator controls its error), its step counter at 0."""
+        name = self._integrator.name if integrator is None else integrator
+        kept = self.tolerances if get_integrator(name).error_control else None
+        rtol = rtol if rtol is not None or kept is None else kept[0]
+        atol = atol if atol is not None or kept is None else kept[1]
+        return World(
+            self.model,
+            self.effects,
+            name,
+            self._dt if dt is None else dt,
+            self._substeps if substeps is None else substeps,
+            state=self._state.copy(),
+            max_angular_speed=self.max_angular_speed,
+            on_error=self.on_error,
+            rtol=rtol,
+            atol=atol,
+            max_substeps=DEFAULT_MAX_SUBSTEPS if kept is None else kept[2],
+            adaptive=self._adaptive,
+        )
 
     # ---------------------------------------------------------------------------------------
     @property
@@ -235,6 +279,11 @@ class World:
         return self._status.view(np.bool_)
 
     @property
+    def parameters(self) -> Params:
+        """The world's parameters by name (the head of :attr:`params`)."""
+        return unpack(self.params)
+
+    @property
     def substeps_taken(self) -> NDArray[np.int64]:
         """(N,) the integrator steps each body took in the last :meth:`step`, read-only: for an
         error-controlled integrator the substeps it tried (accepted or rejected; each costs 11
@@ -268,7 +317,7 @@ class World:
         # the compiled step's arrays but the command (whose place is last); an error-controlled
         # integrator also writes the substeps each body took
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
-        if self.integrator.error_control:
+        if self._integrator.error_control:
             self._arrays += (self._counts,)
 
     def reset(self, state: State) -> None:
@@ -287,12 +336,12 @@ class World:
     def __getstate__(self) -> dict[str, Any]:
         """Pickled with the integrator's name (its compiled step is looked up again)."""
         out = self.__dict__.copy()
-        out["integrator"] = self.integrator.name
+        out["_integrator"] = self._integrator.name
         return out
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        self.integrator = get_integrator(state["integrator"])
+        self._integrator = get_integrator(state["_integrator"])
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
 
@@ -316,7 +365,7 @@ class World:
         if self._direct and type(a) is np.ndarray and a.dtype is _FLOAT64:
             u = a[None] if a.shape == self._one_command else a if a.shape in self._shapes else None
             if u is not None and u.flags.c_contiguous and a.base is not self._cols:
-                code = self.integrator.world_step(*self._arrays, u)
+                code = self._integrator.world_step(*self._arrays, u)
                 if code == 0:
                     self.step_count += 1
                     return self._none_failed
@@ -335,42 +384,40 @@ class World:
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
         backup = self._cols.copy() if self._copy_before_step else None
-        step = self.integrator.world_step
-        if step is None:
-            code = self._step_arrays(u)
-        elif not threaded(self._n):
-            code = step(*self._arrays, u)
+        entry = self._integrator.world_step_threads
+        if entry is None or not threaded(self._n):
+            code = self._integrator.world_step(*self._arrays, u)
         else:
-            step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
-            code = call_threaded(lambda t: step(arrays, 0, self._n, t))
+            arrays = (*self._arrays, u)
+            code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
         return self._outcome(code, backup)
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the compiled step's ``code`` (:func:`integrators.advance`)."""
-        if code < 0:
+        bad_command, failures, beyond = decode(code)
+        if bad_command:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
-        if code & 1 and not self._warned:
+        if beyond and not self._warned:
             self._warn_speed()
-        if code < 2:  # nothing failed
+        if not failures:
             self.step_count += 1
             return self._none_failed
-        bad = self._status == 2
+        bad = self._status == FAILED
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
         limited = self._over_limit(bad)
         if self.on_error == "raise":
-            self._status[bad] = 0
+            self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
             if limited is not None:
                 raise limited
-            raise NumericalInstabilityError(
-                np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name,
-                self.dt, self._likely_cause(),
-            )  # fmt: skip
+            bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
+            cause = self._likely_cause()
+            raise NumericalInstabilityError(bodies, step, self._integrator.name, self._dt, cause)
         if limited is not None:
             warnings.warn(str(limited), RuntimeWarning, stacklevel=3)
-        self._status[bad] = 1
+        self._status[bad] = FROZEN
         self.step_count += 1
         return bad
 
@@ -385,47 +432,9 @@ class World:
         if not over.any():
             return None
         return SubstepLimitError(
-            np.flatnonzero(over).tolist(), self.step_count + 1, self.integrator.name, self.dt,
+            np.flatnonzero(over).tolist(), self.step_count + 1, self._integrator.name, self._dt,
             f"max_substeps = {limit} substeps at rtol {rtol:g}, atol {atol:g}",
         )  # fmt: skip
-
-    def _step_arrays(self, u: FloatArray) -> int:
-        """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
-        compiled force kicks and the exact torque-free flow (:mod:`rigid_env.core.exact`),
-        then the same per-step maps, speed limit and guard as the compiled step."""
-        if not np.all(np.isfinite(u)):
-            return -1
-        cols, p, h = self._cols, self.params, self.h
-        before = cols.copy()
-        forces = p[K.ANY_FORCE] != 0.0
-        inertia = np.broadcast_to(self.model.inertia, (self._n, 3))
-        s = self._state
-        with np.errstate(all="ignore"):
-            for _ in range(self.substeps):
-                self._clamp()
-                if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
-                s.x[:] += h * s.v
-                s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
-                if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
-                s.q[:] = quat_normalize(s.q)
-            self._clamp()
-            if p[K.LINEAR_DAMPING] != 0.0:
-                s.v[:] *= p[K.LINEAR_ALPHA]
-            if p[K.ANGULAR_DAMPING] != 0.0:
-                s.w[:] *= p[K.ANGULAR_ALPHA]
-            frozen = self._status != 0
-            cols[:, frozen] = before[:, frozen]
-            bad = ~np.isfinite(cols).all(axis=0) & ~frozen
-            cols[:, bad] = before[:, bad]
-            self._status[bad] = 2
-            over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
-        return 2 * int(bad.sum()) + over
-
-    def _clamp(self) -> None:
-        if self.max_angular_speed is not None:
-            clamp_bodies(self._cols, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if action is None or self.action_dim == 0:
@@ -490,7 +499,7 @@ class World:
         """(N,) total mechanical energy [J]: kinetic plus the potential of conservative effects."""
         e = self.kinetic_energy()
         for eff in self.force_effects:
-            u = eff.potential_energy(self.model, self.state.x)
+            u = eff.potential_energy(self.model, self.state)
             if u is not None:
                 e = e + u
         return e

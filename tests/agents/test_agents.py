@@ -230,12 +230,14 @@ def test_model_for_another_env_is_refused(capsys):
 def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
     """A kill between SB3's write of a model and of its VecNormalize statistics leaves a newer
     model alone: --resume must take the newest checkpoint that has all its files."""
-    from agents.train import _latest_checkpoint
+    from agents.train import _snapshots
 
+    ckpt = tmp_path / "checkpoints"
+    ckpt.mkdir()
     for steps in (512, 1024):
-        (tmp_path / f"model_{steps}_steps.zip").write_bytes(b"z")
-    (tmp_path / "model_vecnormalize_512_steps.pkl").write_bytes(b"p")
-    assert _latest_checkpoint(tmp_path) == (tmp_path / "model_512_steps.zip", 512)
-    (tmp_path / "model_vecnormalize_1024_steps.pkl").write_bytes(b"p")
-    assert _latest_checkpoint(tmp_path)[1] == 1024
-    assert _latest_checkpoint(tmp_path / "missing") is None
+        (ckpt / f"model_{steps}_steps.zip").write_bytes(b"z")
+    (ckpt / "model_vecnormalize_512_steps.pkl").write_bytes(b"p")
+    assert [s.steps for s in _snapshots(tmp_path, norm_required=True)] == [512]
+    (ckpt / "model_vecnormalize_1024_steps.pkl").write_bytes(b"p")
+    assert [s.steps for s in _snapshots(tmp_path, norm_required=True)] == [1024, 512]
+    assert _snapshots(tmp_path / "missing", norm_required=True) == []
