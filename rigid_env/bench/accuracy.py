@@ -411,8 +411,8 @@ def run_case(
     for integ in (i for i, info in INTEGRATORS.items() if info.error_control):
         mine = peer_rows(name, [p for p in points if p.integrator == integ or math.isnan(p.rtol)],
                          rk4_order)  # fmt: skip
-        time_peers(mine, scene, lambda n: _action_array(case, n, scene.action_dim), integ,
-                   horizon, N_TIMING, sweep.repeats)  # fmt: skip
+        commands = {1: act1, N_TIMING: act_n}
+        time_peers(mine, scene, commands.__getitem__, integ, horizon, N_TIMING, sweep.repeats)
         rows += mine
     log(f"[{name}] timed dop853 beside SciPy's DOP853 at {len(rows)} tolerances")
     return points, ref_info, rows
