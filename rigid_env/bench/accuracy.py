@@ -476,7 +476,7 @@ def sections(
     points: Sequence[Point],
     ref_info: dict[str, dict[str, float | str]],
     titles: dict[str, str],
-    rows: Sequence[PeerRow] = (),
+    peers: Sequence[PeerRow] = (),
 ) -> list[Section]:
     """What ``accuracy.md`` shows: the cheapest setting for each target, the cost of each
     integrator for each target, the observed orders, dop853 beside its peers and the
@@ -526,7 +526,7 @@ def sections(
             else ""
         )
         references.append(f"- {sc}: {info['kind']}{est_s}.")
-    peers = [peer_section(points, rows)] if rows else []
+    adaptive = [peer_section(points, peers)] if peers else []
     return [
         Section("Cheapest setting for a target error", tables=cheapest_tables),
         Section(
@@ -546,7 +546,7 @@ def sections(
             ],
             [Table(["integrator", "documented", *scenes], orders)],
         ),
-        *peers,
+        *adaptive,
         Section(
             "References",
             ["\n".join(references)],
