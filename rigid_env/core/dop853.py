@@ -146,8 +146,9 @@ N = 13
 called = njit(cache=True, nogil=True, error_model="numpy")
 """The decorator of the stages and the step: compiled once and called, where :func:`kernel`
 would inline them into each of the world's entries (and the stages into both branches of the
-step): the same code, a fraction of the compile time, and a call per body and substep, which
-is nothing beside the twelve evaluations of the dynamics."""
+step): the same code, 15 s of CPU to compile cold instead of 20 s for the first entry (and
+little for the next, which call the same code), and a call per body and substep, which is
+nothing beside the twelve evaluations of the dynamics."""
 
 
 # ---- the state as 13 numbers -----------------------------------------------------------------
