@@ -258,3 +258,25 @@ def test_batch_equals_single_bodies_bit_for_bit() -> None:
             single.step(command[i])
         assert np.array_equal(single.columns[:, 0], batch.columns[:, i])
         assert single.substeps_taken[0] == batch.substeps_taken[i]
+
+
+def test_env_takes_tolerances_and_reports_substeps() -> None:
+    """gym.make(..., integrator="dop853", rtol=...) sets the world's tolerances and the infos
+    carry the substeps each env's body took (single and vector env); a tolerance with a
+    fixed-step integrator is one line naming rtol."""
+    import gymnasium as gym
+
+    env = gym.make("RigidEnv/Detumble-v0", integrator="dop853", rtol=1e-9, atol=1e-11)
+    env.reset(seed=0)
+    *_, info = env.step(env.action_space.sample())
+    assert env.unwrapped.task.world.tolerances[:2] == (1e-9, 1e-11)
+    assert isinstance(info["substeps"], int) and info["substeps"] >= 1
+    venv = gym.make_vec(
+        "RigidEnv/Detumble-v0", num_envs=3, vectorization_mode="vector_entry_point",
+        integrator="dop853", rtol=1e-9,
+    )  # fmt: skip
+    venv.reset(seed=0)
+    *_, infos = venv.step(venv.action_space.sample())
+    assert infos["substeps"].shape == (3,) and np.all(infos["substeps"] >= 1)
+    with pytest.raises(ValueError, match=r"rtol: .*'rk4' takes fixed steps"):
+        gym.make("RigidEnv/Detumble-v0", integrator="rk4", rtol=1e-9)
