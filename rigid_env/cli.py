@@ -1,6 +1,7 @@
 """The ``rigid-env`` command line.
 
     rigid-env simulate SCENE.yaml --steps N [--dt H] [--integrator NAME] [--substeps K]
+                       [--rtol R] [--atol A]
                        [--action A1,A2,...] --out FILE.npz [--force]
     rigid-env bench accuracy [...]      work-precision benchmark (rigid_env.bench.accuracy)
     rigid-env bench speed [...]         throughput benchmark (rigid_env.bench.speed)
@@ -168,6 +169,19 @@ def build_parser() -> argparse.ArgumentParser:
         help="integrator steps per dt (default: the scene's)",
     )
     sim.add_argument(
+        "--rtol",
+        type=_positive_float,
+        metavar="R",
+        help="relative tolerance of each substep's error, 0 < R < 1, for an error-controlled "
+        "integrator (dop853) (default: the scene's, else 1e-10)",
+    )
+    sim.add_argument(
+        "--atol",
+        type=_positive_float,
+        metavar="A",
+        help="absolute tolerance, > 0, likewise (default: the scene's, else 1e-10)",
+    )
+    sim.add_argument(
         "--action",
         type=_action,
         metavar="A1,A2,...",
@@ -332,7 +346,10 @@ _PROGRESS_EVERY_S = 10.0
 
 def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     scene = load_scene(args.scene)
-    world = scene.build_world(1, integrator=args.integrator, dt=args.dt, substeps=args.substeps)
+    world = scene.build_world(
+        1, integrator=args.integrator, dt=args.dt, substeps=args.substeps, rtol=args.rtol,
+        atol=args.atol,
+    )  # fmt: skip
     action = _check_action(args.action, world.action_dim)
     out = Path(args.out)
     if out.is_dir():
@@ -364,7 +381,7 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
         arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps))
     wall = time.perf_counter() - start
     _write_npz(out, arrays)
-    print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall, out))
+    print(_summary(scene.name, world, arrays, wall, out))
     return 0
 
 
@@ -576,14 +593,12 @@ def _drift(series: NDArray[np.float64]) -> str:
 
 
 def _summary(
-    name: str,
-    integrator: str,
-    dt: float,
-    substeps: int,
-    arrays: dict[str, NDArray[np.float64]],
-    wall: float,
-    out: Path,
+    name: str, world: Any, arrays: dict[str, NDArray[np.float64]], wall: float, out: Path
 ) -> str:
+    integrator, dt, substeps = world.integrator.name, world.dt, world.substeps
+    stepping = f"{substeps} substep{'s' if substeps != 1 else ''} per step"
+    if world.tolerances is not None:
+        stepping = f"rtol {world.tolerances[0]:g}, atol {world.tolerances[1]:g}"
     steps = arrays["t"].shape[0] - 1
     l_norm = np.linalg.norm(arrays["angular_momentum_world"], axis=1)
     w_final = float(np.linalg.norm(arrays["angular_velocity_body"][-1]))
@@ -591,7 +606,7 @@ def _summary(
     return "\n".join(
         [
             f"{name}: {steps} steps of {dt:g} s = {steps * dt:g} s simulated with {integrator}"
-            f" ({substeps} substep{'s' if substeps != 1 else ''} per step)",
+            f" ({stepping})",
             f"  energy [J]:          {_drift(arrays['energy'])}",
             f"  |L| [kg m^2/s]:      {_drift(l_norm)}",
             f"  final |w| [rad/s]:   {w_final:.6g}",

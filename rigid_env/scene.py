@@ -48,7 +48,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, Field, field_validator, model_validator
+from pydantic import BaseModel, Field, ValidationInfo, field_validator, model_validator
 
 from rigid_env.config_files import ConfigFileError, number, read_yaml, validate
 from rigid_env.core.effects import (
@@ -133,6 +133,12 @@ class Scene(Spec):
     mistake: give a smaller dt instead)."""
     integrator: str = "rk4"
     """A name from rigid_env.core.integrators.INTEGRATORS."""
+    rtol: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)] | None = None
+    """Relative tolerance of each substep's error, 0 < rtol < 1, for an error-controlled
+    integrator (``dop853``) only; left out: 1e-10."""
+    atol: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
+    """Absolute tolerance of each substep's error, > 0, for an error-controlled integrator
+    (``dop853``) only; left out: 1e-10."""
     max_angular_speed: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("rad/s")] | (
         None
     ) = None
@@ -155,6 +161,17 @@ class Scene(Spec):
                 f"unknown integrator {name!r}; choose one of: {', '.join(INTEGRATORS)}"
             )
         return name
+
+    @field_validator("rtol", "atol")
+    @classmethod
+    def _error_controlled(cls, value: float | None, info: ValidationInfo) -> float | None:
+        name = info.data.get("integrator")
+        if value is not None and name in INTEGRATORS and not INTEGRATORS[name].error_control:
+            raise ValueError(
+                f"integrator {name!r} takes fixed steps; rtol and atol set the error control "
+                "of 'dop853' (leave them out, or choose integrator: dop853)"
+            )
+        return value
 
     @field_validator("initial", "effects_spec", "actuators", mode="before")
     @classmethod
@@ -285,22 +302,27 @@ class Scene(Spec):
         dt: float | None = None,
         substeps: int | None = None,
         on_error: Literal["raise", "freeze"] = "raise",
+        rtol: float | None = None,
+        atol: float | None = None,
+        **world: Any,
     ) -> World:
         """A :class:`World` of ``n`` bodies in the initial state.
 
         Args:
             n: number of bodies.
-            integrator, dt, substeps: overrides of the file's values (None keeps them).
+            integrator, dt, substeps, rtol, atol: overrides of the file's values (None keeps
+                them).
             on_error: passed to :class:`World` (``"raise"`` or ``"freeze"``).
+            world: further :class:`World` settings (``max_substeps``, ``adaptive``).
 
         Raises:
             SceneError: if an override is invalid.
         """
-        changes = {
-            k: v
-            for k, v in (("integrator", integrator), ("dt", dt), ("substeps", substeps))
-            if v is not None
-        }
+        overrides = (
+            ("integrator", integrator), ("dt", dt), ("substeps", substeps), ("rtol", rtol),
+            ("atol", atol),
+        )  # fmt: skip
+        changes = {k: v for k, v in overrides if v is not None}
         scene = self.replace(**changes) if changes else self
         return World(
             scene.body_model(),
@@ -311,6 +333,9 @@ class Scene(Spec):
             state=scene.initial_state(n),
             max_angular_speed=scene.max_angular_speed,
             on_error=on_error,
+            rtol=scene.rtol,
+            atol=scene.atol,
+            **world,
         )
 
     # ---- variants and serialisation --------------------------------------------------------

@@ -331,3 +331,14 @@ def test_simulate_does_not_import_benchmark_dependencies(tmp_path):
         cwd=ROOT,
     )
     assert "HEAVY [] 0" in proc.stdout, proc.stdout + proc.stderr
+
+
+def test_simulate_with_dop853_tolerances(tmp_path, capsys):
+    """--rtol/--atol set dop853's tolerances (the summary names them); with a fixed-step
+    integrator they are one line naming rtol."""
+    out = tmp_path / "dop.npz"
+    args = ["simulate", str(EXAMPLE), "--steps", "5", "--out", str(out)]
+    assert main([*args, "--integrator", "dop853", "--rtol", "1e-9", "--atol", "1e-11"]) == 0
+    assert "dop853 (rtol 1e-09, atol 1e-11)" in capsys.readouterr().out
+    assert main([*args, "--force", "--integrator", "rk4", "--rtol", "1e-9"]) == 2
+    assert_one_line_error(capsys.readouterr().err, "rtol", "takes fixed steps")

@@ -851,3 +851,20 @@ def test_free_fall_example_follows_the_drag_law():
     expected = -v_t * np.tanh(g * traj["t"] / v_t)
     np.testing.assert_allclose(traj["velocity"][:, 0, 2], expected, rtol=0, atol=1e-7)
     np.testing.assert_array_equal(traj["angular_velocity_body"], 0.0)  # nothing turns it
+
+
+def test_tolerances_belong_to_an_error_controlled_integrator():
+    """rtol and atol are scene keys for dop853 (0 < rtol < 1, atol > 0), refused with one line
+    naming the key for a fixed-step integrator; build_world passes them and overrides them."""
+    base = {"name": "tol", "body": {"mass": 1.0, "inertia": [1.0, 2.0, 3.0]}}
+    scene = load_scene({**base, "integrator": "dop853", "rtol": 1e-8, "atol": 1e-9})
+    assert scene.build_world(1).tolerances == (1e-8, 1e-9, 1000)
+    assert scene.build_world(1, rtol=1e-12).tolerances == (1e-12, 1e-9, 1000)
+    with pytest.raises(SceneError, match=r"^<scene dict>: rtol: .*'rk4' takes fixed steps"):
+        load_scene({**base, "integrator": "rk4", "rtol": 1e-8})
+    with pytest.raises(SceneError, match=r"^<scene dict>: rtol: must be less than 1"):
+        load_scene({**base, "integrator": "dop853", "rtol": 1.5})
+    with pytest.raises(SceneError, match=r"^<scene dict>: atol: must be greater than 0"):
+        load_scene({**base, "integrator": "dop853", "atol": 0.0})
+    with pytest.raises(SceneError, match=r"rtol: .*integrator 'rk4' takes fixed steps"):
+        scene.build_world(1, integrator="rk4")

@@ -22,16 +22,25 @@ For each benchmark scene (``configs/scenes/bench_*.yaml``) and each integrator i
     "cheapest setting" table (the scenes are scaled so that 1 rad/s, 1 rad and 1 m are all of
     order one).
 
+  An error-controlled integrator (``dop853``) is swept over its tolerance ``rtol = atol``
+  (:data:`DOP853_RTOLS`) at the world steps :data:`DOP853_DTS` instead.
+
 * **Cost.** The same integrator and ``dt`` step a batch of :data:`N_TIMING` bodies (so the
   batch, not Python overhead, decides), a few steps at a time, all (integrator, dt) pairs of a
   scene in turn, repeated (:mod:`rigid_env.bench.timing`); the median wall time per step
   divided by ``dt`` is the cost: wall time per simulated second for the whole batch. The
   process CPU time per step is kept beside it (``step_cpu_s``).
 
+* **dop853 against its peers** (:mod:`rigid_env.bench.adaptive`): at each tolerance, its cost
+  beside the cheapest fixed-step method reaching the same error, and beside SciPy's
+  ``solve_ivp(method="DOP853")`` on the same body and tolerance, timed in the same run, per
+  body at N = 1 and for the batch.
+
 Writes ``work_precision.png`` (log-log error against cost, one line per integrator, a point
 per ``dt``, one panel per scene), ``accuracy.csv`` (every point) and ``accuracy.md`` (the
 cheapest setting for each target error, the cost of each integrator for each target, the
-observed orders and the reference's own error), through :mod:`rigid_env.bench.report`.
+observed orders, dop853 against its peers and the reference's own error), through
+:mod:`rigid_env.bench.report`.
 """
 
 from __future__ import annotations
@@ -49,6 +58,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.bench import report
+from rigid_env.bench.adaptive import PeerRow, must_hold, peer_rows, time_peers
 from rigid_env.bench.reference import (
     REF_ATOL,
     REF_RTOL,
@@ -69,7 +79,7 @@ from rigid_env.scene import Scene, load_scene
 
 FloatArray = NDArray[np.float64]
 
-TARGETS = (1.0e-2, 1.0e-4, 1.0e-6, 1.0e-8, 1.0e-10)
+TARGETS = (1.0e-2, 1.0e-4, 1.0e-6, 1.0e-8, 1.0e-10, 1.0e-12)
 """Target errors of the "cheapest setting" table (``err_state``)."""
 SAMPLE_INTERVAL = 0.1
 """Seconds between error checkpoints; every ``dt`` of a sweep divides it."""
@@ -78,7 +88,11 @@ N_TIMING = 1024
 FLOOR_STALL = 1.0e-9
 """Below this error a sweep stops refining ``dt`` once the error no longer halves: it has met
 round-off or the reference's own error, and smaller steps would only cost time."""
-NEW_INTEGRATORS = ("yoshida4", "exact_free")
+DOP853_RTOLS = (1.0e-4, 1.0e-6, 1.0e-8, 1.0e-10, 1.0e-12)
+"""Tolerances ``rtol = atol`` of the error-controlled integrator's sweep (full run)."""
+DOP853_DTS = (0.1, 0.05)
+"""World steps [s] of the error-controlled integrator's sweep: it substeps inside each."""
+NEW_INTEGRATORS = ("yoshida4", "exact_free", "dop853")
 """Drawn with heavier lines in the figure."""
 OUTPUTS = ("work_precision.png", "accuracy.csv", "accuracy.md")
 
@@ -121,6 +135,7 @@ class Sweep:
         timing_steps: steps per timed run.
         check_reference: also solve the force scenes at 10x tighter tolerances to estimate
             the reference's error.
+        rtols: the error-controlled integrator's tolerances.
     """
 
     name: str
@@ -129,10 +144,11 @@ class Sweep:
     repeats: int
     timing_steps: int
     check_reference: bool
+    rtols: tuple[float, ...] = DOP853_RTOLS
 
 
 FULL = Sweep("full", (1, 2, 5, 10, 20, 50), None, 15, 10, True)
-QUICK = Sweep("quick", (2, 10, 50), 1.0, 5, 6, False)
+QUICK = Sweep("quick", (2, 10, 50), 1.0, 5, 6, False, (1.0e-6, 1.0e-10))
 
 
 @dataclass
@@ -157,6 +173,19 @@ class Point:
     step_cpu_s: float = math.nan
     cost_s_per_sim_s: float = math.nan
     n_bodies: int = N_TIMING
+    rtol: float = math.nan
+    """``rtol = atol`` of an error-controlled integrator (NaN: a fixed-step one)."""
+    substeps: float = math.nan
+    """Mean substeps per world step of an error-controlled integrator over the error run."""
+
+    def settings(self) -> dict[str, float]:
+        """The world settings besides ``integrator`` and ``dt`` (its tolerances)."""
+        return {} if math.isnan(self.rtol) else {"rtol": self.rtol, "atol": self.rtol}
+
+    @property
+    def label(self) -> str:
+        """``dt`` and, for an error-controlled integrator, its tolerance."""
+        return f"{self.dt:g}" + ("" if math.isnan(self.rtol) else f", rtol {self.rtol:.0e}")
 
     @property
     def ok(self) -> bool:
@@ -226,6 +255,15 @@ def measure_errors(
     return err
 
 
+def mean_substeps(world: World, steps: int, action: FloatArray | None) -> float:
+    """Mean substeps body 0 of ``world`` takes per step over ``steps`` steps."""
+    total = 0
+    for _ in range(steps):
+        world.step(action)
+        total += int(world.substeps_taken[0])
+    return total / steps
+
+
 def observed_order(points: Sequence[Point], low: float = 1.0e-11, high: float = 1.0e-1) -> float:
     """Least-squares slope of ``log err_state`` against ``log dt`` over the points with
     ``low < err < high`` (the asymptotic range, above round-off); NaN with fewer than two."""
@@ -254,11 +292,13 @@ def _action_array(case: BenchCase, n: int, action_dim: int) -> FloatArray | None
 
 def run_case(
     case: BenchCase, sweep: Sweep, scene_dir: Path = SCENE_DIR, log: Callable[[str], None] = print
-) -> tuple[list[Point], dict[str, float | str]]:
-    """Errors and costs of every integrator at every ``dt`` on one scene.
+) -> tuple[list[Point], dict[str, float | str], list[PeerRow]]:
+    """Errors and costs of every integrator at every ``dt`` on one scene, and the
+    error-controlled integrator beside its peers (:mod:`rigid_env.bench.adaptive`).
 
     Returns:
-        The points, and facts about the reference (``kind``, ``error_estimate``, ``seconds``).
+        The points, facts about the reference (``kind``, ``error_estimate``, ``seconds``) and
+        the peer rows.
     """
     scene: Scene = load_scene(scene_dir / case.file)
     horizon = sweep.horizon if sweep.horizon is not None else case.horizon
@@ -299,10 +339,15 @@ def run_case(
     for integ, info in INTEGRATORS.items():
         line = []
         prev = math.inf
-        for k in sweep.steps_per_sample:
+        settings = (
+            [(round(SAMPLE_INTERVAL / dt), r) for dt in DOP853_DTS for r in sweep.rtols]
+            if info.error_control
+            else [(k, math.nan) for k in sweep.steps_per_sample]
+        )
+        for k, rtol in settings:
             dt = SAMPLE_INTERVAL / k
-            p = Point(name, integ, info.order, dt, n_samples * k, horizon, "ok")
-            world = scene.build_world(1, integrator=integ, dt=dt)
+            p = Point(name, integ, info.order, dt, n_samples * k, horizon, "ok", rtol=rtol)
+            world = scene.build_world(1, integrator=integ, dt=dt, **p.settings())
             try:
                 with np.errstate(all="ignore"):
                     for key, val in measure_errors(world, ref, k, act1).items():
@@ -311,11 +356,16 @@ def run_case(
                 p.status = "diverged"
             if p.status == "ok" and not (p.err_state < 1.0e3):
                 p.status = "diverged"  # finite but meaningless (blown up)
+            if info.error_control and p.status == "ok":
+                p.substeps = mean_substeps(
+                    scene.build_world(1, integrator=integ, dt=dt, **p.settings()), p.steps, act1
+                )
             points.append(p)
-            line.append(f"{dt:g}:{p.err_state:.1e}" if p.status == "ok" else f"{dt:g}:div")
+            line.append(f"{p.label}:{p.err_state:.1e}" if p.status == "ok" else f"{p.label}:div")
             n_done = sum(1 for q in points if q.integrator == integ and q.status == "ok")
             if (
-                p.status == "ok"
+                not info.error_control
+                and p.status == "ok"
                 and p.err_state < FLOOR_STALL
                 and p.err_state > 0.5 * prev
                 and n_done >= 3
@@ -328,7 +378,9 @@ def run_case(
     timed = [p for p in points if p.status == "ok"]
     act_n = _action_array(case, N_TIMING, scene.action_dim)
     worlds = [
-        scene.build_world(N_TIMING, integrator=p.integrator, dt=p.dt, on_error="freeze")
+        scene.build_world(
+            N_TIMING, integrator=p.integrator, dt=p.dt, on_error="freeze", **p.settings()
+        )
         for p in timed
     ]
     for w in worlds:
@@ -342,7 +394,7 @@ def run_case(
         return run
 
     cases = [
-        Case(f"{p.integrator} dt={p.dt:g}", steps(w), sweep.timing_steps, calls=1)
+        Case(f"{p.integrator} dt={p.label}", steps(w), sweep.timing_steps, calls=1)
         for p, w in zip(timed, worlds, strict=True)
     ]
     with np.errstate(all="ignore"):
@@ -353,7 +405,17 @@ def run_case(
         p.step_cpu_s = float(np.median(t.cpu_per_call)) / t.work
         p.cost_s_per_sim_s = t.per_unit / p.dt
     log(f"[{name}] timed {len(timed)} settings at N = {N_TIMING}")
-    return points, ref_info
+
+    rk4_order = observed_order([p for p in points if p.integrator == "rk4"])
+    rows: list[PeerRow] = []
+    for integ in (i for i, info in INTEGRATORS.items() if info.error_control):
+        mine = peer_rows(name, [p for p in points if p.integrator == integ or math.isnan(p.rtol)],
+                         rk4_order)  # fmt: skip
+        commands = {1: act1, N_TIMING: act_n}
+        time_peers(mine, scene, commands.__getitem__, integ, horizon, N_TIMING, sweep.repeats)
+        rows += mine
+    log(f"[{name}] timed dop853 beside SciPy's DOP853 at {len(rows)} tolerances")
+    return points, ref_info, rows
 
 
 # --------------------------------------------------------------------------------------------
@@ -371,13 +433,54 @@ def _cost(c: float) -> str:
     return f"{c:.3g}"
 
 
+def peer_section(points: Sequence[Point], rows: Sequence[PeerRow]) -> Section:
+    """dop853 at each tolerance beside the cheapest fixed step to the same error and SciPy's
+    DOP853 at the same tolerance, and the issue's must-holds."""
+    header = ["rtol = atol", "dt [s]", "substeps per step", "error reached",
+              f"cost, N = {N_TIMING}", "fixed step to the same error", "its cost", "ratio",
+              "per body, N = 1 [us]", "SciPy per body [us]", "ratio",
+              f"SciPy, N = {N_TIMING}", "ratio"]  # fmt: skip
+    tables, notes = [], []
+    for sc in dict.fromkeys(r.scene for r in rows):
+        mine = [r for r in rows if r.scene == sc]
+        body = [
+            [f"{r.rtol:.0e}", f"{r.dt:g}", f"{r.substeps:.2f}", f"{r.err_state:.1e}",
+             _cost(r.cost_batch), r.fixed_label or "-", _cost(r.fixed_cost),
+             f"{r.fixed_cost / r.cost_batch:.1f}", f"{r.per_body * 1e6:.3g}",
+             f"{r.scipy_per_body * 1e6:.4g}", f"{r.scipy_per_body / r.per_body:.0f}",
+             _cost(r.scipy_batch), f"{r.scipy_batch / r.cost_batch:.0f}"]
+            for r in mine
+        ]  # fmt: skip
+        tables.append(Table(header, body, "rrrrrlrrrrrrr", caption=f"**{sc}**"))
+        pts = [p for p in points if p.scene == sc]
+        rk4 = observed_order([p for p in pts if p.integrator == "rk4"])
+        notes.append(f"- {sc}: " + " ".join(must_hold(mine, pts, rk4)))
+    return Section(
+        "dop853 beside fixed steps and SciPy",
+        [
+            "Costs in seconds per simulated second (`per body` columns in microseconds). "
+            "`dop853` at each tolerance at its cheaper world step; beside it the cheapest "
+            "fixed-step setting of the sweep that reaches the same error (or `rk4` extrapolated "
+            'by its measured order when none does) and SciPy\'s `solve_ivp(method="DOP853")` '
+            "at the same tolerance on the same body, its right-hand side the world's compiled "
+            f"dynamics: one body over the horizon, and {N_TIMING} bodies as one system over "
+            "1 s, timed in turn with `dop853` in the same run. Ratios: how many times cheaper "
+            "`dop853` is.",
+        ],
+        tables,
+        after=["\n".join(notes)],
+    )
+
+
 def sections(
     points: Sequence[Point],
     ref_info: dict[str, dict[str, float | str]],
     titles: dict[str, str],
+    peers: Sequence[PeerRow] = (),
 ) -> list[Section]:
     """What ``accuracy.md`` shows: the cheapest setting for each target, the cost of each
-    integrator for each target, the observed orders and the references."""
+    integrator for each target, the observed orders, dop853 beside its peers and the
+    references."""
     scenes = list(dict.fromkeys(p.scene for p in points))
     integs = list(dict.fromkeys(p.integrator for p in points))
     targets = [f"{t:.0e}" for t in TARGETS]
@@ -390,7 +493,7 @@ def sections(
             rows.append(
                 [f"{tgt:.0e}", "not reached in the sweep", "", "", ""]
                 if c is None
-                else [f"{tgt:.0e}", f"`{c.integrator}`", f"{c.dt:g}",
+                else [f"{tgt:.0e}", f"`{c.integrator}`", c.label,
                       _cost(c.cost_s_per_sim_s), f"{c.err_state:.1e}"]
             )  # fmt: skip
         header = ["target", "integrator", "dt [s]", "cost [s per simulated s]", "error reached"]
@@ -408,7 +511,9 @@ def sections(
     orders = [
         [f"`{i}`", str(INTEGRATORS[i].order)]
         + [
-            f"{observed_order([p for p in points if p.scene == sc and p.integrator == i]):.2f}"
+            "-"  # its error follows rtol, not dt (its order: tests/core/test_dop853.py)
+            if INTEGRATORS[i].error_control
+            else f"{observed_order([p for p in points if p.scene == sc and p.integrator == i]):.2f}"
             for sc in scenes
         ]
         for i in integs
@@ -423,6 +528,7 @@ def sections(
             else ""
         )
         references.append(f"- {sc}: {info['kind']}{est_s}.")
+    adaptive = [peer_section(points, peers)] if peers else []
     return [
         Section("Cheapest setting for a target error", tables=cheapest_tables),
         Section(
@@ -438,10 +544,12 @@ def sections(
             [
                 "Slope of log `err_state` against log dt over the points with 1e-11 < error < "
                 "0.1 (nan: fewer than two such points, e.g. an exact method, or a method that "
-                "never gets below 0.1 on the scene)."
+                "never gets below 0.1 on the scene; `-`: an error-controlled method, whose "
+                "error follows its tolerance, not dt)."
             ],
             [Table(["integrator", "documented", *scenes], orders)],
         ),
+        *adaptive,
         Section(
             "References",
             ["\n".join(references)],
@@ -554,9 +662,11 @@ def run(args: argparse.Namespace) -> int:
     points: list[Point] = []
     ref_info: dict[str, dict[str, float | str]] = {}
     titles: dict[str, str] = {}
+    rows: list[PeerRow] = []
     for case in CASES:
-        pts, info = run_case(case, sweep, log=lambda s: print(s, flush=True))
+        pts, info, peers = run_case(case, sweep, log=lambda s: print(s, flush=True))
         points += pts
+        rows += peers
         ref_info[pts[0].scene] = info
         titles[pts[0].scene] = case.title
     elapsed = time.perf_counter() - t0
@@ -564,7 +674,7 @@ def run(args: argparse.Namespace) -> int:
     text = report.markdown(
         "Accuracy benchmark: what accuracy costs in time",
         header(points, sweep, machine, elapsed),
-        sections(points, ref_info, titles),
+        sections(points, ref_info, titles, rows),
     )
     (out / "accuracy.md").write_text(text, encoding="utf-8")
     dts = ", ".join(f"{SAMPLE_INTERVAL / k:g}" for k in sweep.steps_per_sample)

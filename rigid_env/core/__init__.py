@@ -17,7 +17,7 @@ from rigid_env.core.effects import (
 )
 from rigid_env.core.integrators import INTEGRATORS, get_integrator
 from rigid_env.core.state import BodyModel, State
-from rigid_env.core.world import NumericalInstabilityError, World
+from rigid_env.core.world import NumericalInstabilityError, SubstepLimitError, World
 
 __all__ = [
     "INTEGRATORS",
@@ -32,6 +32,7 @@ __all__ = [
     "QuadraticDrag",
     "State",
     "StepMap",
+    "SubstepLimitError",
     "Thrusters",
     "World",
     "get_integrator",

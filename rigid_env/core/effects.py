@@ -325,11 +325,13 @@ def pack(
     substeps: int,
     max_angular_speed: float | None = None,
     stable_angle: float | None = None,
+    control: tuple[float, float, int, bool] | None = None,
 ) -> FloatArray:
     """The world's parameters: the named :class:`Params` (the step ``h`` and ``substeps``, each
     effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad], None:
-    no limit), then from :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one row
-    ``(force (3,), torque (3,))`` per command component in scene order.
+    no limit, an error-controlled integrator's ``(rtol, atol, max_substeps, adaptive)``, None:
+    a fixed-step one), then from :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one
+    row ``(force (3,), torque (3,))`` per command component in scene order.
 
     Raises:
         TypeError: if an effect names a parameter that :class:`Params` does not declare.
@@ -345,6 +347,10 @@ def pack(
         named |= {"max_speed": 1.0, "max_speed_value": max_angular_speed}
     if stable_angle is not None:
         named["stable_speed"] = stable_angle / h
+    if control is not None:
+        rtol, atol, max_substeps, adaptive = control
+        named |= {"rtol": rtol, "atol": atol, "max_substeps": float(max_substeps),
+                  "adaptive": 1.0 if adaptive else 0.0}  # fmt: skip
     named["actions"] = float(maps.shape[0])
     named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
     named["any_force"] = 1.0 if forces else 0.0

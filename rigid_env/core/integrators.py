@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core.dop853 import dop853
 from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
 from rigid_env.core.exact import free_rotation_exact
 from rigid_env.core.jit import kernel, threads_kernel, world_kernel
@@ -551,6 +552,22 @@ def _yoshida4_threads(world, i, j, t):
     return over_threads(_yoshida4_range, world, i, j, t)
 
 
+# An error-controlled method's entries take the (N,) substep counts ``n`` before the command.
+@world_kernel
+def _dop853(p, m, s, f, b, n, u):
+    return advance(dop853, p, m, s, f, b, u, (0, s.shape[1]), n)
+
+
+@world_kernel
+def _dop853_range(p, m, s, f, b, n, u, i, j):
+    return advance(dop853, p, m, s, f, b, u, (i, j), n)
+
+
+@threads_kernel
+def _dop853_threads(world, i, j, t):
+    return over_threads(_dop853_range, world, i, j, t)
+
+
 # ---- registry --------------------------------------------------------------------------------
 EXACT_PHASE_LIMIT = 1.0e9
 """``h |w|`` [rad] beyond which ``exact_free`` loses its exactness: the elliptic phase
@@ -579,16 +596,20 @@ class IntegratorInfo:
         name: registry key.
         order: global order of accuracy on smooth problems.
         note: one line for tables and ``--help``.
-        body: the per-body step ``(x, v, q, w, act, m, p, h) -> (x, v, q, w)``; None for an
-            array integrator.
+        body: the per-body step ``(x, v, q, w, act, m, p, h) -> (x, v, q, w)`` (an
+            error-controlled one also returns the substeps it took); None for an array
+            integrator.
         world_step: the world step of all bodies, ``(p, model, state, status, wrenches,
-            command) -> code`` (:func:`rigid_env.core.stepping.advance`).
+            command) -> code`` (:func:`rigid_env.core.stepping.advance`); an error-controlled
+            integrator's takes the (N,) int64 substep counts before the command.
         world_step_range: the compiled world step of the bodies ``start <= i < stop``, the
             same arguments and then ``start, stop``; None for an array integrator.
         world_step_threads: the range over Numba's threads, ``(world, start, stop, threads)``
             (:func:`rigid_env.core.stepping.over_threads`); None: never threaded.
         stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;
             a world warns once when a body goes beyond it.
+        error_control: whether the method controls its error to the world's ``rtol`` and
+            ``atol`` by substeps of its own inside each step (``dop853``).
     """
 
     name: str
@@ -599,6 +620,7 @@ class IntegratorInfo:
     world_step_range: Callable | None
     world_step_threads: Callable | None
     stability: float | None = None
+    error_control: bool = False
 
 
 INTEGRATORS: dict[str, IntegratorInfo] = {
@@ -696,6 +718,16 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step_range=None,
             world_step_threads=None,
             stability=EXACT_PHASE_LIMIT,
+        ),
+        IntegratorInfo(
+            name="dop853",
+            order=8,
+            note="Dormand-Prince 8(5,3), substeps to the world's rtol and atol inside each step",
+            body=dop853,
+            world_step=_dop853,
+            world_step_range=_dop853_range,
+            world_step_threads=_dop853_threads,
+            error_control=True,
         ),
     )
 }

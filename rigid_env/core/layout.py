@@ -81,6 +81,10 @@ class Params(NamedTuple):
     velocity_dependent: float  # flag: some force depends on v or w (kicks need more stages)
     stable_speed: float  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
     actions: float  # number A of command components
+    rtol: float  # error-controlled integrators (dop853): relative tolerance of a substep's error
+    atol: float  # and its absolute tolerance
+    max_substeps: float  # the most substeps one integrator step may take
+    adaptive: float  # flag: error control on (else one fixed step of h)
 
 
 MAPS = len(Params._fields)

@@ -13,7 +13,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
+from numba import prange, types
+from numba.extending import overload
 
 from rigid_env.core.dynamics import accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
@@ -136,11 +137,59 @@ def beyond(w, c, ok):
     return 1 if ok & fast & (c.stable_speed != 0.0) else 0
 
 
+def integrate(step, x, v, q, w, act, m, c, counts, i):
+    """``step`` of body ``i`` over ``c.h``. ``counts`` None: a fixed-step integrator, whose step
+    returns ``(x, v, q, w)``; else (N,) int64: an error-controlled one, whose step also returns
+    the substeps it took, added to ``counts[i]``. Compiled, the choice is made by the type of
+    ``counts`` (the overload below), so a fixed-step integrator's loop is unchanged."""
+    if counts is None:
+        return step(x, v, q, w, act, m, c, c.h)
+    x, v, q, w, n = step(x, v, q, w, act, m, c, c.h)
+    counts[i] += n
+    return x, v, q, w
+
+
+def clear_counts(counts, bodies):
+    """``counts[start:stop] = 0`` for ``bodies = (start, stop)``; nothing for None."""
+    if counts is not None:
+        counts[bodies[0] : bodies[1]] = 0
+
+
+def _none(counts):
+    return isinstance(counts, types.NoneType | types.Omitted)
+
+
+@overload(integrate, inline="always")
+def _integrate(step, x, v, q, w, act, m, c, counts, i):
+    if _none(counts):
+        return lambda step, x, v, q, w, act, m, c, counts, i: step(x, v, q, w, act, m, c, c.h)
+
+    def counted(step, x, v, q, w, act, m, c, counts, i):
+        x1, v1, q1, w1, n = step(x, v, q, w, act, m, c, c.h)
+        counts[i] += n
+        return x1, v1, q1, w1
+
+    return counted
+
+
+@overload(clear_counts, inline="always")
+def _clear_counts(counts, bodies):
+    if _none(counts):
+        return lambda counts, bodies: None
+
+    def clear(counts, bodies):
+        for i in range(bodies[0], bodies[1]):
+            counts[i] = 0
+
+    return clear
+
+
 @pass_kernel
-def substep(step, c, model, wrenches, state, status, last, i):
+def substep(step, c, model, wrenches, state, status, last, i, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
     limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
-    Returns ``(failed, beyond)``, each 0 or 1."""
+    Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps each body
+    took (:func:`integrate`)."""
     x0, v0, q0, w0 = load(state, i)
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
@@ -148,7 +197,7 @@ def substep(step, c, model, wrenches, state, status, last, i):
     m = body_model(model, i)
     w = limit_speed(w0, c)
     reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
-    x, v, q, w = step(x0, v0, q0, w, act, m, c, c.h)
+    x, v, q, w = integrate(step, x0, v0, q0, w, act, m, c, counts, i)
     if last:
         v, w = step_maps(v, w, c)
     ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
@@ -157,7 +206,7 @@ def substep(step, c, model, wrenches, state, status, last, i):
 
 # ---- the world step of a compiled integrator -------------------------------------------------
 @pass_kernel
-def advance(step, p, model, state, status, wrenches, command, bodies):
+def advance(step, p, model, state, status, wrenches, command, bodies, counts=None):
     """One world step of the bodies ``start <= i < stop`` (``bodies``), in passes whose loops
     the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
     body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
@@ -168,6 +217,9 @@ def advance(step, p, model, state, status, wrenches, command, bodies):
     A failed body's column is left at its last finite state (before the world step for one
     substep, else before the failing substep, which :class:`rigid_env.core.world.World`
     replaces by the one before the world step); a frozen body is left alone.
+
+    ``counts``: None for a fixed-step integrator; for an error-controlled one (N,) int64, set
+    to the substeps each body took (over the ``substeps`` passes).
 
     Returns:
         the step's code (:func:`rigid_env.core.layout.step_code`), or
@@ -185,6 +237,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies):
             fb, tb = wrench(p, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+    clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
     for k in range(substeps):
@@ -193,7 +246,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies):
             # An unsigned index: no wraparound of negative indices to compute, which would
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
-            failed, past = substep(step, c, model, wrenches, state, status, last, j)
+            failed, past = substep(step, c, model, wrenches, state, status, last, j, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))

@@ -25,7 +25,14 @@ from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
 
-__all__ = ["THREAD_MIN_BODIES", "NumericalInstabilityError", "World", "call_threaded", "threaded"]
+__all__ = [
+    "THREAD_MIN_BODIES",
+    "NumericalInstabilityError",
+    "SubstepLimitError",
+    "World",
+    "call_threaded",
+    "threaded",
+]
 
 ASYMMETRY_LIMIT = 2.0
 """Largest ``|I_j - I_k| / I_i`` of a body's principal moments a world takes without a warning.
@@ -41,6 +48,13 @@ steps of 0.01 s, splitting 30, the explicit ones overflow)."""
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 _FLOAT64 = np.dtype(np.float64)
+DEFAULT_RTOL = 1.0e-10
+"""Relative tolerance of an error-controlled integrator (``dop853``) when none is given."""
+DEFAULT_ATOL = 1.0e-10
+"""Absolute tolerance of an error-controlled integrator when none is given."""
+DEFAULT_MAX_SUBSTEPS = 1000
+"""The most substeps (accepted or rejected) an error-controlled integrator may take per
+integrator step before the body counts as failed (:class:`SubstepLimitError`)."""
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -65,6 +79,27 @@ class NumericalInstabilityError(FloatingPointError):
         )
 
 
+class SubstepLimitError(NumericalInstabilityError):
+    """An error-controlled integrator needed more substeps than allowed in one step; the message
+    names the bodies, the limit, the tolerances and the fixes."""
+
+    def __init__(
+        self, bodies: Sequence[int], step: int, integrator: str, dt: float, limit: str
+    ) -> None:
+        super().__init__(bodies, step, integrator, dt)
+        shown = ", ".join(str(b) for b in self.bodies[:5])
+        if len(self.bodies) > 5:
+            shown += f" ... ({len(self.bodies)} bodies)"
+        self.args = (
+            f"body {shown} needed more than {limit} in step {step} (integrator "
+            f"{integrator!r}, dt {dt:g} s); loosen rtol/atol, use a smaller dt, or allow more "
+            "with max_substeps",
+        )
+
+    def __str__(self) -> str:
+        return str(self.args[0])
+
+
 class World:
     """A batch of ``N`` free rigid bodies stepped together.
 
@@ -83,6 +118,15 @@ class World:
         on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
             non-finite; ``"freeze"`` keeps failed bodies at their last finite state, flagged in
             :attr:`failed`, the others going on bit for bit as without them (vector envs).
+        rtol, atol: an error-controlled integrator's (``dop853``) relative and absolute
+            tolerance of each substep's error, ``0 < rtol < 1`` and ``atol > 0`` (None:
+            :data:`DEFAULT_RTOL`, :data:`DEFAULT_ATOL`); refused for a fixed-step integrator.
+        max_substeps: the most substeps an error-controlled integrator may take per integrator
+            step (``dt / substeps``); a body that needs more fails as a non-finite one does
+            (:class:`SubstepLimitError` under ``"raise"``, frozen with a warning under
+            ``"freeze"``).
+        adaptive: False turns an error-controlled integrator's control off: it then takes one
+            fixed step of ``dt / substeps`` per substep (to measure its order).
     """
 
     def __init__(
@@ -97,6 +141,10 @@ class World:
         n: int = 1,
         max_angular_speed: float | None = None,
         on_error: Literal["raise", "freeze"] = "raise",
+        rtol: float | None = None,
+        atol: float | None = None,
+        max_substeps: int = DEFAULT_MAX_SUBSTEPS,
+        adaptive: bool = True,
     ) -> None:
         if not (np.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt: must be a finite time step > 0 [s], got {dt}")
@@ -117,6 +165,9 @@ class World:
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
         self._integrator = get_integrator(integrator)
+        self.tolerances = check_tolerances(integrator, rtol, atol, max_substeps)
+        """``(rtol, atol, max_substeps)`` of an error-controlled integrator, else None."""
+        self._adaptive = bool(adaptive)
         self._dt = float(dt)
         self._substeps = int(substeps)
         self.h = self._dt / self._substeps
@@ -124,7 +175,10 @@ class World:
         self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
         self.on_error = on_error
         stability = self._integrator.stability
-        self.params = pack(self.effects, self.h, self._substeps, self.max_angular_speed, stability)
+        control = None if self.tolerances is None else (*self.tolerances, self._adaptive)
+        self.params = pack(
+            self.effects, self.h, self._substeps, self.max_angular_speed, stability, control
+        )
         """The world's parameters for the compiled step: the named :class:`Params`
         (:attr:`parameters`), then the actuators' maps (:mod:`rigid_env.core.layout`)."""
         self.action_dim = int(self.parameters.actions)
@@ -141,6 +195,7 @@ class World:
         if state is not None:
             self._state.assign(state)
         self._status = np.zeros(self._n, dtype=np.uint8)
+        self._counts = np.full(self._n, self._substeps, dtype=np.int64)
         self._no_command = np.zeros((1, self.action_dim))
         self._one_command = (self.action_dim,)  # and the shapes of a command as it is used:
         self._shapes = ((1, self.action_dim), (self._n, self.action_dim)) if self.action_dim else ()
@@ -171,19 +226,34 @@ class World:
     del _read_only
 
     def with_settings(
-        self, *, dt: float | None = None, substeps: int | None = None, integrator: str | None = None
+        self,
+        *,
+        dt: float | None = None,
+        substeps: int | None = None,
+        integrator: str | None = None,
+        rtol: float | None = None,
+        atol: float | None = None,
     ) -> World:
         """A new world of this one's model, effects, bodies and state (copied) with another
-        ``dt``, ``substeps`` or ``integrator`` (each left out: kept), its step counter at 0."""
+        ``dt``, ``substeps``, ``integrator``, ``rtol`` or ``atol`` (each left out: kept, the
+        tolerances only while the integrator controls its error), its step counter at 0."""
+        name = self._integrator.name if integrator is None else integrator
+        kept = self.tolerances if get_integrator(name).error_control else None
+        rtol = rtol if rtol is not None or kept is None else kept[0]
+        atol = atol if atol is not None or kept is None else kept[1]
         return World(
             self.model,
             self.effects,
-            self._integrator.name if integrator is None else integrator,
+            name,
             self._dt if dt is None else dt,
             self._substeps if substeps is None else substeps,
             state=self._state.copy(),
             max_angular_speed=self.max_angular_speed,
             on_error=self.on_error,
+            rtol=rtol,
+            atol=atol,
+            max_substeps=DEFAULT_MAX_SUBSTEPS if kept is None else kept[2],
+            adaptive=self._adaptive,
         )
 
     # ---------------------------------------------------------------------------------------
@@ -226,6 +296,16 @@ class World:
         return unpack(self.params)
 
     @property
+    def substeps_taken(self) -> NDArray[np.int64]:
+        """(N,) the integrator steps each body took in the last :meth:`step`, read-only: for an
+        error-controlled integrator the substeps it tried (accepted or rejected; each costs 11
+        evaluations of the dynamics, plus one per accepted substep), over all ``substeps``
+        passes; for a fixed-step one ``substeps``."""
+        view = self._counts.view()
+        view.flags.writeable = False
+        return view
+
+    @property
     def n(self) -> int:
         """Number of bodies."""
         return self._n
@@ -247,8 +327,11 @@ class World:
         self.model = model
         self._model_cols = model.columns(self._n)
         self._check_asymmetry()
-        # the compiled step's arrays but the command (whose place is last)
+        # the compiled step's arrays but the command (whose place is last); an error-controlled
+        # integrator also writes the substeps each body took
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        if self._integrator.error_control:
+            self._arrays += (self._counts,)
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -338,16 +421,36 @@ class World:
         bad = self._status == FAILED
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
+        limited = self._over_limit(bad)
         if self.on_error == "raise":
             self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
+            if limited is not None:
+                raise limited
             bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
             cause = self._likely_cause()
             raise NumericalInstabilityError(bodies, step, self._integrator.name, self._dt, cause)
+        if limited is not None:
+            warnings.warn(str(limited), RuntimeWarning, stacklevel=3)
         self._status[bad] = FROZEN
         self.step_count += 1
         return bad
+
+    def _over_limit(self, bad: BoolArray) -> SubstepLimitError | None:
+        """The error for the failed bodies that ran out of substeps (None if none did): those
+        that took more than ``max_substeps`` in the step (exact for ``substeps = 1``; with more
+        passes a body that failed otherwise after that many substeps is counted here too)."""
+        if self.tolerances is None:
+            return None
+        rtol, atol, limit = self.tolerances
+        over = bad & (self._counts > limit)
+        if not over.any():
+            return None
+        return SubstepLimitError(
+            np.flatnonzero(over).tolist(), self.step_count + 1, self._integrator.name, self._dt,
+            f"max_substeps = {limit} substeps at rtol {rtol:g}, atol {atol:g}",
+        )  # fmt: skip
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if action is None or self.action_dim == 0:
@@ -444,6 +547,34 @@ class World:
     def angular_momentum_world(self) -> FloatArray:
         """(N, 3) spin angular momentum about the COM, world frame, ``R (I w)`` [kg m^2/s]."""
         return quat_rotate(self.state.q, self.model.inertia * self.state.w)
+
+
+def check_tolerances(
+    integrator: str, rtol: float | None, atol: float | None, max_substeps: int
+) -> tuple[float, float, int] | None:
+    """``(rtol, atol, max_substeps)`` for an error-controlled integrator (defaults filled in),
+    None for a fixed-step one.
+
+    Raises:
+        ValueError: for a tolerance given to a fixed-step integrator, or one out of range.
+    """
+    if not get_integrator(integrator).error_control:
+        given = [k for k, v in (("rtol", rtol), ("atol", atol)) if v is not None]
+        if given:
+            raise ValueError(
+                f"{given[0]}: integrator {integrator!r} takes fixed steps; rtol and atol set the "
+                "error control of 'dop853' (leave them out, or choose integrator 'dop853')"
+            )
+        return None
+    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
+    atol = DEFAULT_ATOL if atol is None else float(atol)
+    if not 0.0 < rtol < 1.0:
+        raise ValueError(f"rtol: must be a relative tolerance with 0 < rtol < 1, got {rtol}")
+    if not (np.isfinite(atol) and atol > 0.0):
+        raise ValueError(f"atol: must be a finite absolute tolerance > 0, got {atol}")
+    if int(max_substeps) != max_substeps or max_substeps < 1:
+        raise ValueError(f"max_substeps: must be an integer >= 1, got {max_substeps}")
+    return rtol, atol, int(max_substeps)
 
 
 def check_state(state: State) -> None:

@@ -103,6 +103,8 @@ class TaskBatch:
             dt=settings.dt,
             substeps=settings.substeps,
             on_error="freeze",
+            rtol=settings.rtol,
+            atol=settings.atol,
         )
         if self.world.action_dim == 0:
             raise ValueError(
@@ -374,10 +376,11 @@ class TaskBatch:
         return self.obs
 
     def infos(self) -> dict[str, NDArray[Any]]:
-        """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure."""
+        """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure; with an
+        error-controlled integrator also the substeps each env's body took in the last step."""
         r = self.record
         success = r["success"].copy()
-        return {
+        out = {
             "angular_speed": r["speed"].copy(),
             "energy": r["energy"].copy(),
             "fuel": r["fuel"].copy(),
@@ -386,12 +389,15 @@ class TaskBatch:
             "numerical_error": self.world.failed.copy(),
             "angular_velocity_world": r["w_world"].copy(),
         }
+        if self.world.tolerances is not None:
+            out["substeps"] = self.world.substeps_taken.copy()
+        return out
 
     def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
         record (read here if not given)."""
         r = K.EnvRecord._make(self.record.item(0)) if r is None else r
-        return {
+        out = {
             "angular_speed": r.speed,
             "energy": r.energy,
             "fuel": r.fuel,
@@ -400,6 +406,9 @@ class TaskBatch:
             "numerical_error": bool(self.world.failed[0]),
             "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
         }
+        if self.world.tolerances is not None:
+            out["substeps"] = int(self.world.substeps_taken[0])
+        return out
 
     # ---- what a renderer shows (rigid_env.render) ----------------------------------------
     def view(self) -> TaskView:

@@ -129,6 +129,11 @@ class EnvSettings(BaseModel):
     """The control step [s] overriding the scene's (checked by the world)."""
     substeps: Any = None
     """Integrator steps per control step overriding the scene's (checked by the world)."""
+    rtol: Any = None
+    """An error-controlled integrator's (``integrator="dop853"``) relative tolerance, 0 < rtol <
+    1, overriding the scene's (checked by the scene; refused for a fixed-step integrator)."""
+    atol: Any = None
+    """Its absolute tolerance, > 0, likewise."""
     rotation_repr: Literal["quaternion", "sixd"] = "quaternion"
     """The observed orientation: "quaternion" (canonical, 4 numbers) or "sixd" (the first two
     columns of the rotation matrix, 6 numbers)."""

@@ -495,7 +495,8 @@ def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
     serial, ranges, threads = (world.columns.copy() for _ in range(3))
 
     def arrays(cols: FloatArray) -> tuple:
-        return (world.params, world.model_columns, cols, np.zeros(n, np.uint8), np.zeros((6, n)))
+        out = (world.params, world.model_columns, cols, np.zeros(n, np.uint8), np.zeros((6, n)))
+        return (*out, np.zeros(n, np.int64)) if info.error_control else out  # substep counts
 
     for u in commands:
         assert info.world_step(*arrays(serial), u) == 0

@@ -17,6 +17,7 @@ from rigid_env.core import (
     Gravity,
     NumericalInstabilityError,
     State,
+    SubstepLimitError,
     Thrusters,
     World,
 )
@@ -462,7 +463,9 @@ def test_world_fails_a_state_that_explodes_in_one_step(integrator):
                 world.step()
                 assert float(world.kinetic_energy()[0]) <= 100.0 * e0
     except NumericalInstabilityError as err:
-        assert err.bodies == [0] and "blew up" in str(err)
+        # dop853 shrinks its substeps to follow the true motion and stops at its limit first
+        limit = isinstance(err, SubstepLimitError) and "needed more than max_substeps" in str(err)
+        assert err.bodies == [0] and ("blew up" in str(err) or limit)
         assert np.isfinite(world.state.w).all()
         assert float(world.kinetic_energy()[0]) <= 100.0 * e0
     if integrator == "splitting":  # the default: it cannot follow this body
