@@ -14,10 +14,11 @@ The evaluation history ``eval/evaluations.npz`` (SB3's ``timesteps``, ``results`
 ``ep_lengths``, plus per-episode ``successes`` and ``fuel`` [N s], the PD controller's mean
 ``pd_fuel`` on the same episodes, ``seconds`` and ``cpu_seconds``, the training wall-clock and
 the process's CPU time since the segment started) and the best model survive resumes: on
-resume from a checkpoint at step S the entries of steps after S, which describe models that no longer
-exist, move to ``abandoned_timesteps`` / ``abandoned_results`` / ``abandoned_ep_lengths`` /
-``abandoned_successes`` (nothing is dropped, and the main arrays stay one increasing line for
-plotting); the best model is replaced only by a better one, whichever segment it came from.
+resume from a checkpoint at step S the entries of steps after S, which describe models that
+no longer exist, move to ``abandoned_timesteps`` / ``abandoned_results`` /
+``abandoned_ep_lengths`` / ``abandoned_successes`` (nothing is dropped, and the main arrays
+stay one increasing line for plotting); the best model is replaced only by a better one,
+whichever segment it came from.
 """
 
 from __future__ import annotations

@@ -66,9 +66,9 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
+from .bar import live_policy as live_policy  # re-exported (agents.sweep.live_policy)
 from .config import ConfigError, TrainConfig, load_config
 from .sweep_config import (
     METRICS,
@@ -105,20 +105,6 @@ class SweepError(RuntimeError):
 def _clean(metrics: dict[str, Any]) -> dict[str, Any]:
     """Tune-friendly values (no ``None``)."""
     return {k: (math.nan if v is None else v) for k, v in metrics.items()}
-
-
-def live_policy(model: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """The model's deterministic policy on raw observations, normalised as in training."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    env = model.get_env()
-
-    def policy(obs: np.ndarray) -> np.ndarray:
-        if isinstance(env, VecNormalize) and env.norm_obs:
-            obs = env.normalize_obs(obs)
-        return model.predict(obs, deterministic=True)[0]
-
-    return policy
 
 
 def make_report_callback(

@@ -11,11 +11,16 @@ Every model comes with a JSON sidecar naming its statistics and environment, for
 ``agents.evaluate``; each set of files is written whole or not at all (see
 :mod:`agents.callbacks`).
 
+A run uses ``threads`` CPU threads (default 1: two seeds train at once on two cores). Every
+``eval.freq`` steps it evaluates the policy on the same held-out episodes against the bar
+(:mod:`agents.bar`), and prints a line with env-steps/s, that evaluation and an ETA
+(:mod:`agents.progress`; TensorBoard gets the same numbers).
+
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
 count, statistics and replay buffer; a checkpoint that does not load is skipped with a warning.
 The evaluation history and the best model are kept. A finished run is left alone unless
 ``--total-timesteps`` asks for more. A config that differs from the run's ``config.yaml`` in
-anything but ``total_timesteps`` and ``device`` is refused.
+anything but ``total_timesteps``, ``device`` and ``threads`` is refused.
 """
 
 from __future__ import annotations

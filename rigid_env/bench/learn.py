@@ -2,7 +2,7 @@
 previous configs, in the same run.
 
     rigid-env bench learn [--tasks detumble ...] [--seeds 0 1 2] [--jobs 2]
-                          [--previous-limit 240] [--no-previous] [--out DIR] [--force]
+                          [--previous-limit 240] [--previous-seeds 0 ...] [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
@@ -73,7 +73,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=240.0,
         help="CPU seconds after which a previous-config run stops if it has not met the bar",
     )
-    parser.add_argument("--no-previous", action="store_true", help="train the shipped configs only")
+    parser.add_argument(
+        "--previous-seeds",
+        nargs="*",
+        type=int,
+        help="seeds of the previous configs (default: --seeds; none: the shipped configs only)",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/bench_learn"))
     parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
 
@@ -183,12 +188,15 @@ def run(args: argparse.Namespace) -> int:
         import shutil
 
         shutil.rmtree(runs_dir)  # prepare_out asked for --force before earlier results go
+    previous_seeds = args.seeds if args.previous_seeds is None else args.previous_seeds
     jobs = [
         (task, seed, previous, str(runs_dir / ("previous" if previous else "shipped")), lim)
         for task in args.tasks
-        for seed in args.seeds
-        for previous, lim in ((False, math.inf), (True, args.previous_limit))
-        if not (previous and args.no_previous)
+        for previous, lim, seeds in (
+            (False, math.inf, args.seeds),
+            (True, args.previous_limit, previous_seeds),
+        )
+        for seed in seeds
     ]
     t0 = time.perf_counter()
     rows: list[LearnRow] = []

@@ -207,8 +207,11 @@ def test_train_cli_bad_config_is_one_line(tmp_path):
     assert "foo" in out.stderr
 
 
-@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
-def test_training_smoke_run(algo, tmp_path):
+def test_training_smoke_run(tmp_path):
+    """The suite's one training run: a few hundred PPO steps through the shipped path (one
+    thread, episode-end infos, progress lines, the sidecar's evaluation rule). SAC and TD3
+    configs are validated by loading them (tests/test_packaging.py)."""
+    algo = "ppo"
     cfg = ROOT / f"configs/agents/{algo}_detumble.yaml"
     extra = ["--n-envs", "2"]
     out = _run(
