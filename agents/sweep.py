@@ -161,7 +161,6 @@ def run_trial(
     Returns:
         The final metrics (also reported, with ``final: True``).
     """
-    import torch
 
     from .evaluate import evaluate
     from .train import train
@@ -170,9 +169,9 @@ def run_trial(
         from ray import tune  # Ray >= 2.41: tune.report (ray.train.report is Ray Train's)
 
         report = tune.report
-    torch.set_num_threads(int(spec["threads"]))
     point = _flatten_point(params, spec["axes"])
-    cfg = load_config(trial_data(spec["base"], point))
+    # The trial's CPUs are its threads (agents.train sets torch's and Numba's from them).
+    cfg = load_config(trial_data(spec["base"], point), {"threads": int(spec["threads"])})
     label = setting_label(spec["varying"], point)
     runs_dir = Path(spec["sweep_dir"]) / "runs" / setting_folder(label)
     run_dir = runs_dir / cfg.run_name
