@@ -62,21 +62,44 @@ class LearnRow:
     history: str  # the run's eval/evaluations.npz
 
 
+def _count(low: int) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
+
+    return parse
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0 seconds, got {text}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The benchmark's flags."""
     parser.add_argument("--tasks", nargs="+", choices=TASKS, default=list(TASKS))
-    parser.add_argument("--seeds", nargs="+", type=int, default=[0, 1, 2])
-    parser.add_argument("--jobs", type=int, default=2, help="runs at once (one thread each)")
+    parser.add_argument("--seeds", nargs="+", type=_count(0), default=[0, 1, 2])
+    parser.add_argument("--jobs", type=_count(1), default=2, help="runs at once (one thread each)")
     parser.add_argument(
         "--previous-limit",
-        type=float,
+        type=_seconds,
         default=240.0,
         help="CPU seconds after which a previous-config run stops if it has not met the bar",
     )
     parser.add_argument(
         "--previous-seeds",
         nargs="*",
-        type=int,
+        type=_count(0),
         help="seeds of the previous configs (default: --seeds; none: the shipped configs only)",
     )
     parser.add_argument("--out", type=Path, default=Path("runs/bench_learn"))
@@ -272,8 +295,9 @@ def _figure(rows: list[LearnRow], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(TASKS), figsize=(4 * len(TASKS), 3.4), sharey=True)
-    for ax, task in zip(np.atleast_1d(axes), TASKS, strict=False):
+    tasks = [t for t in TASKS if any(r.task == t for r in rows)]
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4 * len(tasks), 3.4), sharey=True)
+    for ax, task in zip(np.atleast_1d(axes), tasks, strict=True):
         for r in (r for r in rows if r.task == task):
             with np.load(r.history) as h:
                 x = h["seconds"]
