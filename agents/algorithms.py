@@ -1,14 +1,16 @@
 """The SB3 algorithms by name, and their keyword arguments as frozen pydantic models.
 
 A training config's ``hyperparams`` and ``policy_kwargs`` load into :class:`Hyperparams` and
-:class:`PolicyKwargs`; :func:`check_arguments` then holds every key given against the chosen
+:class:`PolicyKwargs`; :func:`argument_problems` then holds every key given against the chosen
 algorithm's and policy's signatures, so a key SB3 would reject (or silently ignore) is an error
 in the config file rather than in the middle of a run.
 """
 
 from __future__ import annotations
 
+import difflib
 import inspect
+from collections.abc import Iterable
 from typing import Literal
 
 from pydantic import BaseModel, ConfigDict
@@ -89,27 +91,39 @@ def algorithm_class(algo: str) -> type:
     return {"ppo": sb3.PPO, "sac": sb3.SAC, "td3": sb3.TD3}[algo]
 
 
-def check_arguments(
-    algo: str, policy: str, hyperparams: Hyperparams, policy_kwargs: PolicyKwargs
-) -> None:
-    """Every key given is one the algorithm (or its ``policy``) takes.
-
-    Raises:
-        FieldError: naming ``hyperparams.<key>`` or ``policy_kwargs.<key>``.
-    """
+def argument_problems(algo: str, policy: str, section: str, keys: list[str]) -> list[FieldError]:
+    """The keys of ``section`` (``hyperparams`` or ``policy_kwargs``) that the algorithm (or
+    its ``policy``) does not take, one :class:`FieldError` each."""
     algo_cls = algorithm_class(algo)
-    taken = inspect.signature(algo_cls.__init__).parameters
-    for key in hyperparams.model_dump(exclude_none=True):
-        if key in _RESERVED:
-            raise FieldError(f"hyperparams.{key}", "is set by the trainer", "use the top-level key")
-        if key not in taken:
-            raise FieldError(
-                f"hyperparams.{key}", f"not a {algo_cls.__name__} argument", "see its documentation"
+    if section == "hyperparams":
+        taken = inspect.signature(algo_cls.__init__).parameters
+        return [
+            FieldError(key, "is set by the trainer", "use the top-level key", unknown=True)
+            if key in _RESERVED
+            else FieldError(
+                key,
+                f"not a {algo_cls.__name__} argument",
+                _near(key, taken, "see its documentation"),
+                unknown=True,
             )
-    policy_cls = algo_cls.policy_aliases[policy]
-    taken = inspect.signature(policy_cls.__init__).parameters
-    for key in policy_kwargs.model_dump(exclude_none=True):
-        if key not in taken:
-            raise FieldError(
-                f"policy_kwargs.{key}", f"not taken by {algo_cls.__name__}'s policy", "remove it"
-            )
+            for key in keys
+            if key in _RESERVED or key not in taken
+        ]
+    taken = inspect.signature(algo_cls.policy_aliases[policy].__init__).parameters
+    return [
+        FieldError(
+            key,
+            f"not taken by {algo_cls.__name__}'s policy",
+            _near(key, taken, "remove it"),
+            unknown=True,
+        )
+        for key in keys
+        if key not in taken
+    ]
+
+
+def _near(key: str, names: Iterable[str], otherwise: str) -> str:
+    near = difflib.get_close_matches(
+        key, [n for n in names if n not in _RESERVED], n=1, cutoff=0.75
+    )
+    return f"did you mean {near[0]}?" if near else otherwise

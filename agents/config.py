@@ -11,7 +11,15 @@ import re
 from typing import Any, Literal
 
 import gymnasium as gym
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+)
 
 from rigid_env.config_files import (
     ConfigFileError,
@@ -22,7 +30,7 @@ from rigid_env.config_files import (
     load_model,
 )
 
-from .algorithms import Hyperparams, PolicyKwargs, check_arguments
+from .algorithms import Hyperparams, PolicyKwargs, argument_problems
 from .algorithms import algorithm_class as algorithm_class  # re-exported
 from .env_kwargs import check_env_kwargs
 
@@ -114,16 +122,55 @@ class TrainConfig(BaseModel):
                 raise ValueError(f"no CUDA device {index} on this machine; use cpu or auto")
         return name
 
-    @model_validator(mode="after")
-    def _fits_algorithm_and_env(self) -> TrainConfig:
-        check_arguments(self.algo, self.policy, self.hyperparams, self.policy_kwargs)
+    @field_validator("algo")
+    @classmethod
+    def _installed(cls, algo: str) -> str:
         try:
-            check_env_kwargs(self.env_id, self.env_kwargs).close()
+            algorithm_class(algo)
+        except FieldError as exc:
+            raise ValueError(f"{exc.problem}; {exc.fix}") from None
+        return algo
+
+    @field_validator("policy_kwargs", "hyperparams", mode="wrap")
+    @classmethod
+    def _taken_by_algorithm(
+        cls, value: Any, handler: ValidatorFunctionWrapHandler, info: ValidationInfo
+    ) -> Any:
+        """Every key given is one the algorithm (or its policy) takes; the first key that is
+        not is named before the section's typed problems, and all are counted."""
+        algo, policy = info.data.get("algo"), info.data.get("policy")
+        keys = [k for k, v in value.items() if v is not None] if isinstance(value, dict) else []
+        if info.field_name == "policy_kwargs":  # other keys are PolicyKwargs' unknown keys
+            keys = [k for k in keys if k in PolicyKwargs.model_fields]
+        keys = [k for k in keys if isinstance(k, str)]
+        found = []
+        if algo is not None and policy is not None and keys:
+            found = argument_problems(algo, policy, str(info.field_name), keys)
+        typed = 0
+        try:
+            checked = handler(value)
+        except ValidationError as exc:
+            if not found:
+                raise
+            typed = len(exc.errors())
+        if found:
+            first = found[0]
+            raise FieldError(first.path, first.problem, first.fix, len(found) - 1 + typed, True)
+        return checked
+
+    @field_validator("env_kwargs")
+    @classmethod
+    def _env_builds(cls, env_kwargs: dict[str, Any], info: ValidationInfo) -> dict[str, Any]:
+        env_id = info.data.get("env_id")
+        if env_id is None:
+            return env_kwargs
+        try:
+            check_env_kwargs(env_id, env_kwargs).close()
         except ValueError as exc:
             field, _, text = str(exc).partition(": ")
             problem, _, fix = text.partition("; ")
-            raise FieldError(f"env_kwargs.{field}", problem, fix or "fix the value") from None
-        return self
+            raise FieldError(field, problem, fix or "fix the value") from None
+        return env_kwargs
 
     @property
     def task(self) -> str:

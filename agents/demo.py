@@ -44,6 +44,12 @@ DEMO_SEED = 20261201
 #: Episodes per task and policy by default: the whole command (imports, the four tasks, the
 #: GIFs) takes well under 2 minutes on two busy cores.
 DEFAULT_EPISODES = 10
+#: The most episodes per task and policy: a success rate over 1000 episodes is known to
+#: +-3 % (95 %, binomial, p = 0.5), finer than the demo's table shows, and 8000 episodes take
+#: about an hour; more belongs to ``python -m agents.evaluate``.
+MAX_EPISODES = 1000
+#: Seconds between progress lines within a task.
+PROGRESS_EVERY_S = 10.0
 DEFAULT_OUT = Path("runs/demo")
 PRETRAINED = Path(__file__).resolve().parent / "pretrained"
 RESULT_FILES = ("results.md", "results.csv", "episodes.csv")
@@ -101,6 +107,12 @@ def resolve_tasks(text: str | None) -> list[str]:
     for task in TASKS:
         if text.strip().lower() in (task.lower(), env_id(task).lower()):
             return [task]
+        if text.strip().lower().startswith(f"rigidenv/{task.lower()}-v"):
+            raise DemoError(
+                f"--task: {text} is not the version the pretrained policy plays; the demo "
+                f"runs {env_id(task)}: pass {task} or {env_id(task)} (python -m "
+                f"agents.evaluate MODEL --env {text.strip()} evaluates a policy of that version)"
+            )
     raise DemoError(
         f"--task: unknown task {text!r}; choose one of {', '.join(TASKS)} "
         f"(or its id, e.g. {env_id('Detumble')})"
@@ -119,11 +131,20 @@ def policy_label(model: Path) -> str:
     return str(algo).upper()
 
 
-def run_episodes(task: str, policy: Policy, episodes: int, seed: int) -> list[Episode]:
+def run_episodes(
+    task: str,
+    policy: Policy,
+    episodes: int,
+    seed: int,
+    progress: Callable[[int], None] | None = None,
+) -> list[Episode]:
     """Episodes ``seed + k`` one at a time, each by :func:`agents.evaluate.rollout` (which
-    returns means; one episode at a time keeps each episode's outcome)."""
+    returns means; one episode at a time keeps each episode's outcome); ``progress(k)`` is
+    called after each."""
     out = []
     for k in range(episodes):
+        if progress is not None and k:
+            progress(k)
         r = rollout(env_id(task), policy, 1, seed + k)
         out.append(
             Episode(
@@ -143,6 +164,22 @@ def pd_policy(task: str) -> Policy:
     policy = CONTROLLERS["pd"](probe)
     probe.close()
     return policy
+
+
+class _Progress:
+    """A line every :data:`PROGRESS_EVERY_S` seconds: episodes done and the time left."""
+
+    def __init__(self, what: str, total: int, log: Callable[[str], None]) -> None:
+        self.what, self.total, self.log = what, total, log
+        self.start = self.last = time.perf_counter()
+
+    def __call__(self, done: int) -> None:
+        now = time.perf_counter()
+        if now - self.last < PROGRESS_EVERY_S:
+            return
+        self.last = now
+        left = (now - self.start) / done * (self.total - done)
+        self.log(f"{self.what}: {done}/{self.total} episodes, about {left:.0f} s left")
 
 
 # ---- tables ------------------------------------------------------------------------------------
@@ -318,8 +355,12 @@ def run(
     start = time.perf_counter()
     tasks = resolve_tasks(task)
     episodes = DEFAULT_EPISODES if episodes is None else int(episodes)
-    if episodes < 1:
-        raise DemoError(f"--episodes: must be an integer >= 1, got {episodes}")
+    if not 1 <= episodes <= MAX_EPISODES:
+        raise DemoError(
+            f"--episodes: must be an integer from 1 to {MAX_EPISODES}, got {episodes}; "
+            f"{MAX_EPISODES} pin a success rate to +-3 %, more is a job for python -m "
+            "agents.evaluate MODEL --episodes N"
+        )
     out = DEFAULT_OUT if out is None else Path(out)
     check_out(out, tasks, force)
     _check_render_extras()
@@ -335,8 +376,9 @@ def run(
         label = policy_label(model)
         learned = load_policy(model, env_id(name))
         pd = pd_policy(name)
-        rows.append(Row(name, label, run_episodes(name, learned, episodes, seed)))
-        rows.append(Row(name, "PD", run_episodes(name, pd, episodes, seed)))
+        for policy_name, policy in ((label, learned), ("PD", pd)):
+            ticker = _Progress(f"{name} {policy_name}", episodes, log)
+            rows.append(Row(name, policy_name, run_episodes(name, policy, episodes, seed, ticker)))
         gif = animation_path(out, name)
         pair = [(f"{label} (pretrained)", learned), ("PD controller", pd)]
         record_side_by_side(env_id(name), pair, seed, gif)

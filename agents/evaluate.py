@@ -8,9 +8,9 @@
 JSON sidecar ``<model>.json`` (``agents.train`` writes one beside every model it saves: the
 final ``model.zip``, ``eval/best_model.zip``, each checkpoint): the env id, the ``env_kwargs``
 and the file of its ``VecNormalize`` statistics. One rule for every model, a user's run and a
-pretrained policy alike: it is evaluated on the task it was trained on *without* the training
-randomisation (the recorded ``env_kwargs`` less ``randomization``; ``trained_env_kwargs``
-keeps what it trained under), with ``--env-kwargs`` merged over that (so
+pretrained policy alike: it is evaluated on the sidecar's ``env_kwargs``, which
+``agents.train`` writes as the task it was trained on *without* the training randomisation
+(``trained_env_kwargs`` keeps what it trained under), with ``--env-kwargs`` merged over that (so
 ``--env-kwargs '{"randomization": {"inertia": 0.9}}'`` evaluates under +-90 % inertia); every
 policy, the controllers too, runs with the merged set. A model without a sidecar (from
 elsewhere) gets its statistics from ``<model>_vecnormalize.pkl``,
@@ -46,9 +46,9 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer
-from .bar import evaluation_env_kwargs
 from .controllers import CONTROLLERS
 from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
@@ -228,9 +228,10 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             trained on another env or on observations of another shape.
     """
     if not model_path.exists():
+        shipped = find_data("agents/pretrained")  # where this install keeps them
+        use = f" or use a shipped policy, {shipped}/*.zip" if shipped is not None else ""
         raise EvaluationError(
-            f"{model_path}: model file not found; train one with "
-            "`python -m agents.train` or use agents/pretrained/*.zip"
+            f"{model_path}: model file not found; train one with `python -m agents.train`{use}"
         )
     meta = read_sidecar(model_path)
     staged = model_path.parent / str((meta or {}).get("staged", ""))
@@ -298,13 +299,11 @@ def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
 def resolve_env_kwargs(
     model: Path | None, env_kwargs: dict[str, Any] | None = None
 ) -> dict[str, Any]:
-    """The env kwargs an evaluation runs with: the model's recorded ones (sidecar) less the
-    training randomisation (:func:`agents.bar.evaluation_env_kwargs`; sidecars since issue 24
-    record them so, older ones of ``agents.train`` did not), with ``env_kwargs`` merged over
-    them."""
+    """The env kwargs an evaluation runs with: the model's recorded ones (its sidecar's
+    ``env_kwargs``: ``agents.train`` records the training ones less the randomisation, by
+    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them."""
     meta = read_sidecar(model) if model is not None and model.exists() else None
-    recorded = evaluation_env_kwargs((meta or {}).get("env_kwargs") or {})
-    return merge_env_kwargs(recorded, env_kwargs or {})
+    return merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
 
 
 def evaluate(
@@ -332,11 +331,20 @@ def evaluate(
             f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
         )
     kwargs = resolve_env_kwargs(model, env_kwargs)
+    if "render_mode" in kwargs:  # gym.make takes it; the evaluation's vector env would not
+        raise EvaluationError(
+            f"--env-kwargs: render_mode={kwargs['render_mode']}: an evaluation runs all episodes "
+            "at once and draws nothing; leave render_mode out, and record an episode with "
+            "--video FILE.gif"
+        )
     _probe(env_id, kwargs).close()
     results: dict[str, dict[str, Any]] = {}
-    probe = gym.make_vec(
-        env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **kwargs
-    )
+    try:
+        probe = gym.make_vec(
+            env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **kwargs
+        )
+    except (TypeError, ValueError) as exc:  # a keyword the single env takes, the batch not
+        raise EvaluationError(f"--env-kwargs: {' '.join(str(exc).split())}") from None
     for name in names:
         if name == "model":
             if model is None:
@@ -463,6 +471,13 @@ def main(argv: list[str] | None = None) -> int:
         used = resolve_env_kwargs(model, env_kwargs)
     except EvaluationError as exc:
         print(f"agents.evaluate: error: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError:  # the episodes run at once, one row of every array each
+        print(
+            f"agents.evaluate: error: --episodes: {args.episodes} episodes at once do not fit "
+            "in memory; give fewer (1000 estimate a success rate to +-3 %)",
+            file=sys.stderr,
+        )
         return 2
     if args.json:
         shown = {name: {**r, "env_kwargs": used} for name, r in results.items()}

@@ -26,6 +26,7 @@ anything but ``total_timesteps``, ``device`` and ``threads`` is refused.
 from __future__ import annotations
 
 import json
+import os
 import re
 import sys
 from collections.abc import Sequence
@@ -35,7 +36,7 @@ from typing import Any
 
 import yaml
 
-from rigid_env.config_files import read_yaml
+from rigid_env.config_files import load_model, read_yaml
 
 from ._cli import OneLineParser, integer
 from .bar import BarEvaluation, evaluation_env_kwargs
@@ -106,58 +107,77 @@ def _policy_kwargs(cfg: TrainConfig) -> dict[str, Any]:
 
 @dataclass(frozen=True)
 class Snapshot:
-    """A saved model and its companions (absent ones ``None``)."""
+    """A saved model and its companions (absent ones ``None``); ``missing`` says why it cannot
+    be resumed from (a companion file it needs is not there), else ``None``."""
 
     steps: int
     model: Path
     norm: Path | None
     buffer: Path | None
+    config: dict[str, Any] | None = None
+    missing: str | None = None
 
 
-def _checkpoints(ckpt_dir: Path) -> list[Snapshot]:
-    """The complete checkpoints in ``ckpt_dir``, newest first.
+def _from_sidecar(model: Path, steps: int, norm_required: bool) -> Snapshot | None:
+    """The snapshot a model's committed JSON sidecar describes, ``None`` without one.
 
-    One written with its JSON sidecar is complete when the sidecar exists (it is written
-    last). One written by SB3's ``CheckpointCallback`` (model, then replay buffer, then
-    statistics, no sidecar) counts only when it has every kind of companion file that any
-    checkpoint of the run has."""
-    kinds = [k for k in ("vecnormalize", "replay_buffer") if any(ckpt_dir.glob(f"model_{k}_*.pkl"))]
+    The files the sidecar names must all be there, and so must statistics when the config
+    normalises: a model resumed without its ``VecNormalize`` statistics would go on with fresh
+    ones, i.e. from something other than what was saved."""
+    side = _read_json(model.with_suffix(".json"))
+    if side is None or "staged" in side:
+        return None
+    named = {k: side.get(k) for k in ("vecnormalize", "replay_buffer")}
+    files = {k: model.parent / v if isinstance(v, str) else None for k, v in named.items()}
+    gone = [f.name for f in files.values() if f is not None and not f.exists()]
+    if norm_required and files["vecnormalize"] is None:
+        gone.append("its VecNormalize statistics (the sidecar names none)")
+    config = side.get("config") if isinstance(side.get("config"), dict) else None
+    missing = f"{model.name} lacks {', '.join(gone)}" if gone else None
+    return Snapshot(steps, model, files["vecnormalize"], files["replay_buffer"], config, missing)
+
+
+def _checkpoints(ckpt_dir: Path, norm_required: bool) -> list[Snapshot]:
+    """The checkpoints in ``ckpt_dir``, newest first (incomplete ones with ``missing`` set).
+
+    One written with its JSON sidecar (:mod:`agents.callbacks`) is complete when the files the
+    sidecar names are there (the sidecar is written last). One written by SB3's
+    ``CheckpointCallback`` (model, then replay buffer, then statistics, no sidecar) counts only
+    when it has every kind of companion file that any checkpoint of the run has, and its
+    statistics when the config normalises."""
+    kinds = {k for k in ("vecnormalize", "replay_buffer") if any(ckpt_dir.glob(f"model_{k}_*.pkl"))}
+    if norm_required:
+        kinds.add("vecnormalize")
     found: list[Snapshot] = []
     for p in ckpt_dir.glob("model_*_steps.zip"):
         m = re.fullmatch(r"model_(\d+)_steps\.zip", p.name)
         if m is None:
             continue
         n = int(m.group(1))
-        side = {k: ckpt_dir / f"model_{k}_{n}_steps.pkl" for k in ("vecnormalize", "replay_buffer")}
-        if p.with_suffix(".json").exists() or all(side[k].exists() for k in kinds):
+        snap = _from_sidecar(p, n, norm_required)
+        if snap is None:
+            side = {
+                k: ckpt_dir / f"model_{k}_{n}_steps.pkl" for k in ("vecnormalize", "replay_buffer")
+            }
+            if not all(side[k].exists() for k in kinds):
+                continue  # SB3 was killed between its files: never complete
             there = {k: v if v.exists() else None for k, v in side.items()}
-            found.append(Snapshot(n, p, there["vecnormalize"], there["replay_buffer"]))
+            snap = Snapshot(n, p, there["vecnormalize"], there["replay_buffer"])
+        found.append(snap)
     return sorted(found, key=lambda s: s.steps, reverse=True)
 
 
-def _snapshots(run_dir: Path) -> list[Snapshot]:
-    """The run's complete snapshots, newest first: checkpoints and the final model (first of
-    equal steps: it is the same state)."""
-    found = _checkpoints(run_dir / "checkpoints")
+def _snapshots(run_dir: Path, norm_required: bool) -> list[Snapshot]:
+    """The run's snapshots, newest first: checkpoints and the final model (first of equal
+    steps: it is the same state); incomplete ones have ``missing`` set."""
+    found = _checkpoints(run_dir / "checkpoints", norm_required)
     final = _read_json(run_dir / "model.json")
     steps = None if final is None else final.get("num_timesteps")
     if steps is not None and zip_timesteps(run_dir / "model.zip") == steps:
-        norm, buffer = run_dir / "vecnormalize.pkl", run_dir / "replay_buffer.pkl"
-        found.append(
-            Snapshot(
-                int(steps),
-                run_dir / "model.zip",
-                norm if norm.exists() else None,
-                buffer if buffer.exists() else None,
-            )
-        )
+        snap = _from_sidecar(run_dir / "model.zip", int(steps), norm_required)
+        if snap is not None:
+            found.append(snap)
     return sorted(found, key=lambda s: (s.steps, s.model.name == "model.zip"), reverse=True)
-
-
-def _latest_checkpoint(ckpt_dir: Path) -> tuple[Path, int] | None:
-    """The newest complete checkpoint ``(model zip, steps)`` in ``ckpt_dir``, or None."""
-    snaps = _checkpoints(ckpt_dir)
-    return (snaps[0].model, snaps[0].steps) if snaps else None
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
@@ -195,12 +215,42 @@ def _changed_fields(old: Any, new: Any, prefix: str = "") -> list[str]:
     return [f"{prefix[:-1]} (run: {shown[0]}, now: {shown[1]})"]
 
 
-def _check_unchanged(cfg: TrainConfig, run_dir: Path) -> None:
-    """Refuse a resume whose config differs from the one the run was trained with."""
-    recorded_path = run_dir / "config.yaml"
-    if not recorded_path.exists():
+def _norm_required(cfg: TrainConfig) -> bool:
+    return cfg.normalize.obs or cfg.normalize.reward
+
+
+def _recorded_config(run_dir: Path) -> tuple[dict[str, Any], str] | None:
+    """The config the run was trained with and where it was read: the one recorded in the
+    sidecar of its newest snapshot (what ran, whatever happened to ``config.yaml``), else the
+    run's ``config.yaml`` (runs written before sidecars recorded it); ``None`` if neither."""
+    for snap in _snapshots(run_dir, norm_required=False):
+        if snap.config is not None:
+            return snap.config, str(snap.model.with_suffix(".json").relative_to(run_dir))
+    path = run_dir / "config.yaml"
+    if path.exists():
+        data = read_yaml(path)
+        if isinstance(data, dict):
+            return data, "config.yaml"
+    return None
+
+
+def _check_unchanged(cfg: TrainConfig, run_dir: Path, continues: bool) -> None:
+    """Refuse a resume whose config differs from the one the run was trained with, or, when
+    it ``continues`` a saved model, whose config was never recorded."""
+    record = _recorded_config(run_dir)
+    if record is None:
+        if continues:
+            raise ConfigError(
+                str(run_dir),
+                "--resume",
+                "the run has no record of the config it was trained with (config.yaml is "
+                "missing and its checkpoints predate recorded configs)",
+                "put the run's config.yaml back, or start a new run with another --seed or "
+                "--runs-dir",
+            )
         return
-    recorded = load_config(recorded_path).to_dict()
+    data, where = record
+    recorded = load_model(TrainConfig, dict(data), name=str(run_dir / where)).to_dict()
     current = cfg.to_dict()
     for key in RESUMABLE_CHANGES:
         recorded.pop(key, None)
@@ -210,9 +260,10 @@ def _check_unchanged(cfg: TrainConfig, run_dir: Path) -> None:
         raise ConfigError(
             str(run_dir),
             "--resume",
-            f"the config differs from the run's config.yaml in {'; '.join(changes)}",
+            f"the config differs from the one the run was trained with ({where}) in "
+            f"{'; '.join(changes)}",
             "resume with the run's own config.yaml, or start a new run with another --seed "
-            "or --runs-dir (only total_timesteps and device may change on resume)",
+            "or --runs-dir (only total_timesteps, device and threads may change on resume)",
         )
 
 
@@ -255,10 +306,14 @@ def _load(cfg: TrainConfig, snap: Snapshot) -> tuple[Any, Any]:
 
 
 def _resume_point(cfg: TrainConfig, run_dir: Path) -> tuple[Any, Any, Snapshot] | None:
-    """The newest snapshot that loads, with a warning for each one skipped."""
-    snaps = _snapshots(run_dir)
+    """The newest complete snapshot that loads, with a warning for each one skipped."""
+    snaps = _snapshots(run_dir, _norm_required(cfg))
     problems = []
     for snap in snaps:
+        if snap.missing is not None:
+            problems.append(snap.missing)
+            warn(f"{run_dir}: {snap.missing}; falling back to the previous checkpoint")
+            continue
         try:
             model, env = _load(cfg, snap)
         except Exception as exc:  # a file cut short by a kill, or not a model at all
@@ -271,10 +326,37 @@ def _resume_point(cfg: TrainConfig, run_dir: Path) -> tuple[Any, Any, Snapshot] 
         raise ConfigError(
             str(run_dir),
             "--resume",
-            f"no checkpoint loads ({'; '.join(problems)})",
+            f"no checkpoint is complete and loads ({'; '.join(problems)})",
             "start a new run with another --seed or --runs-dir",
         )
     return None
+
+
+def check_runs_dir(runs_dir: Path, run_dir: Path) -> None:
+    """Refuse a ``--runs-dir`` (or run folder) that cannot hold a run, before any work.
+
+    Raises:
+        ConfigError: it, or the nearest existing folder above it, is not a folder or not
+            writable.
+    """
+    for path in (run_dir, runs_dir, *runs_dir.resolve().parents):
+        if not path.exists():
+            continue
+        if not path.is_dir():
+            raise ConfigError(
+                str(runs_dir),
+                "--runs-dir",
+                f"{path} is a file, not a folder",
+                "give a folder for the runs (it is created if missing)",
+            )
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise ConfigError(
+                str(runs_dir),
+                "--runs-dir",
+                f"{path} is not writable",
+                "give a folder you can write to",
+            )
+        return
 
 
 def train(
@@ -284,6 +366,7 @@ def train(
     progress: bool = True,
     verbose: int = 0,
     callbacks: Sequence[Any] = (),
+    or_start: bool = False,
 ) -> Path:
     """Train and save; returns the run directory.
 
@@ -295,13 +378,16 @@ def train(
         callbacks: extra SB3 callbacks, called after the built-in ones (checkpoints,
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
+        or_start: with ``resume``, start the run when there is none (else that is an error).
 
     Raises:
-        ConfigError: the run exists and ``resume`` is not set; the config differs from the
-            run's; no checkpoint of the run loads.
+        ConfigError: the run exists and ``resume`` is not set; ``resume`` without
+            ``or_start`` and no run; the config differs from the run's; no checkpoint of the
+            run is complete and loads; ``runs_dir`` cannot hold a run.
     """
     limit_threads(cfg.threads)
     run_dir = runs_dir / cfg.run_name
+    check_runs_dir(runs_dir, run_dir)
     trained = _has_training(run_dir)
     if trained and not resume:
         raise ConfigError(
@@ -310,9 +396,17 @@ def train(
             "a run already exists",
             "pass --resume to continue it, or choose another --seed or --runs-dir",
         )
+    if resume and not trained and not or_start:
+        raise ConfigError(
+            str(run_dir),
+            "--resume",
+            "no run to resume (nothing trained there)",
+            "check --seed and --runs-dir, or pass --resume-or-start to start the run when "
+            "there is none",
+        )
     if trained:
         finish_snapshots(run_dir)  # saves a kill interrupted: completed, or dropped if uncommitted
-        _check_unchanged(cfg, run_dir)
+        _check_unchanged(cfg, run_dir, continues=bool(_snapshots(run_dir, False)))
     final = _read_json(run_dir / "model.json") if trained else None
     if final is not None and int(final.get("num_timesteps", 0)) >= cfg.total_timesteps:
         print(
@@ -336,12 +430,14 @@ def train(
     config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)
     write_atomic({run_dir / "config.yaml": lambda p: p.write_text(config_text)})
     # env_kwargs: the env the model is evaluated on (agents.bar's rule: the training ones less
-    # the randomisation); trained_env_kwargs: what it was trained on.
+    # the randomisation); trained_env_kwargs: what it was trained on; config: the config it
+    # was trained with (what --resume checks).
     meta = {
         "env_id": cfg.env_id,
         "algo": cfg.algo,
         "env_kwargs": evaluation_env_kwargs(cfg.env_kwargs),
         "trained_env_kwargs": cfg.env_kwargs,
+        "config": cfg.to_dict(),
     }
     evaluation = DurableEvaluation(
         BarEvaluation(cfg.env_id, cfg.env_kwargs, cfg.eval.episodes, cfg.eval.seed),
@@ -389,17 +485,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
     )
-    parser.add_argument(
+    how = parser.add_mutually_exclusive_group()
+    how.add_argument(
         "--resume",
         action="store_true",
-        help="continue the run from its newest checkpoint (total_timesteps: the run's own "
-        "unless --total-timesteps is given)",
+        help="continue the run from its newest complete checkpoint (total_timesteps: the "
+        "run's own unless --total-timesteps is given); an error if there is no such run",
+    )
+    how.add_argument(
+        "--resume-or-start",
+        action="store_true",
+        help="as --resume, but start the run when there is none (for scripts and job queues)",
     )
     parser.add_argument(
         "--no-progress", action="store_true", help="no progress lines (TensorBoard keeps them)"
     )
     parser.add_argument("--verbose", type=int, default=0)
     args = parser.parse_args(argv)
+    resume = args.resume or args.resume_or_start
     overrides = {
         k: v
         for k, v in (
@@ -411,33 +514,35 @@ def main(argv: list[str] | None = None) -> int:
     }
     try:
         cfg = load_config(args.config, overrides)
-        if args.resume and args.total_timesteps is None:
-            recorded = _recorded_budget(args.runs_dir / cfg.run_name)
-            if recorded is not None and "total_timesteps" in recorded:
-                cfg = load_config(args.config, {**overrides, **recorded})
+        run_dir = args.runs_dir / cfg.run_name
+        check_runs_dir(args.runs_dir, run_dir)
+        if resume and args.total_timesteps is None and _has_training(run_dir):
+            finish_snapshots(run_dir)
+            record = _recorded_config(run_dir)
+            if record is not None and "total_timesteps" in record[0]:
+                budget = {"total_timesteps": record[0]["total_timesteps"]}
+                cfg = load_config(args.config, {**overrides, **budget})
         run_dir = train(
             cfg,
             args.runs_dir,
-            resume=args.resume,
+            resume=resume,
             progress=not args.no_progress,
             verbose=args.verbose,
+            or_start=args.resume_or_start,
         )
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # the disk filled up, a folder was removed under the run, ...
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(
+            f"agents.train: error: {where}{exc.strerror or exc}; check that the folder can be "
+            "written and has free space, then run again (with --resume if the run had started)",
+            file=sys.stderr,
+        )
+        return 1
     print(f"model: {run_dir / 'model.zip'}")
     return 0
-
-
-def _recorded_budget(run_dir: Path) -> dict[str, Any] | None:
-    """The ``total_timesteps`` recorded in a run's ``config.yaml`` (``None`` if no run)."""
-    path = run_dir / "config.yaml"
-    if not path.exists():
-        return None
-    data = read_yaml(path)
-    if not isinstance(data, dict) or "total_timesteps" not in data:
-        return None
-    return {"total_timesteps": data["total_timesteps"]}
 
 
 if __name__ == "__main__":

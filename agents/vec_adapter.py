@@ -32,13 +32,24 @@ from rigid_env.envs.base import TaskBatch
 RENDER_MODES = (None, "rgb_array")
 
 
+def episode_limit(value: Any) -> int:
+    """``max_episode_steps`` as an int >= 1 (an integral NumPy integer too); anything else
+    (0, -1, 2.5, True, "400") raises a one-line ``ValueError`` rather than being bent."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        raise ValueError(
+            f"max_episode_steps: expected an integer >= 1 (steps per episode), got {value!r}; "
+            "pass None for the registry's limit"
+        )
+    return int(value)
+
+
 class RigidBodySB3VecEnv(VecEnv):
     """``num_envs`` copies of a registered ``RigidEnv`` task as one SB3 ``VecEnv``.
 
     Args:
         env_id: registered id, e.g. ``"RigidEnv/Detumble-v0"``.
         num_envs: number of sub-environments.
-        max_episode_steps: time limit; the registry's value if None.
+        max_episode_steps: time limit in steps, an integer >= 1; the registry's value if None.
         render_mode: None or ``"rgb_array"`` (:meth:`get_images` draws every sub-env).
         step_infos: True: every env's info dict every step (as ``DummyVecEnv``); False: only
             an env whose episode ended in this step gets its info, the others an empty dict.
@@ -49,7 +60,8 @@ class RigidBodySB3VecEnv(VecEnv):
         **kwargs: passed to the task, as to ``gym.make(env_id, **kwargs)``.
 
     Raises:
-        ValueError: an id that is not ours, or a ``render_mode`` other than those above.
+        ValueError: an id that is not ours, a ``max_episode_steps`` that is not an integer
+            >= 1, or a ``render_mode`` other than those above.
     """
 
     def __init__(
@@ -77,7 +89,11 @@ class RigidBodySB3VecEnv(VecEnv):
         # The id's registered kwargs first (a task version: RigidEnv/Reorient-v1 is version=1),
         # the caller's over them, as gym.make merges them.
         self.task: TaskBatch = vec_cls.task_cls(num_envs, **{**spec.kwargs, **kwargs})
-        self.max_episode_steps = max_episode_steps or spec.max_episode_steps
+        self.max_episode_steps = (
+            spec.max_episode_steps
+            if max_episode_steps is None
+            else episode_limit(max_episode_steps)
+        )
         self.render_mode = render_mode
         self.step_infos = step_infos
         self._renderer: Any = None
@@ -163,8 +179,17 @@ class RigidBodySB3VecEnv(VecEnv):
         return [value for _ in self._indices(indices)]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
-        """Set an attribute on the task (shared by every sub-env)."""
-        setattr(self.task, attr_name, value)
+        """Set ``max_episode_steps`` (checked as in the constructor). The task's own attributes
+        are fixed when it is built (``dt``, the scene, the randomisation: others derive from
+        them), so setting one raises ``ValueError`` naming the constructor argument instead."""
+        if attr_name == "max_episode_steps":
+            self.max_episode_steps = episode_limit(value)
+            return
+        raise ValueError(
+            f"set_attr: {attr_name!r} cannot be changed on a built env (the task derives other "
+            f"values from its arguments); build a new one: "
+            f"RigidBodySB3VecEnv({self.env_id!r}, num_envs, {attr_name}=...) as for gym.make"
+        )
 
     def env_method(
         self,

@@ -38,6 +38,7 @@ from numpy.typing import NDArray
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError
+from rigid_env.envs import ENV_IDS, TASKS
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import SceneError, load_scene
 from rigid_env.trajectory import simulate
@@ -213,21 +214,21 @@ def build_parser() -> argparse.ArgumentParser:
     demo = sub.add_parser(
         "demo",
         help="the main job: pretrained PPO beside the PD controller (table + GIF)",
-        description="Evaluate the pretrained policies (agents/pretrained) beside the PD "
+        description="Evaluate the pretrained policies shipped with the package beside the PD "
         "controller on fixed seeds never used in training (20261201 + k), print the table, and "
         "write results.md, results.csv, episodes.csv and a side-by-side GIF per task to --out.",
     )
     demo.add_argument(
         "--task",
         metavar="T",
-        help="one task: Detumble, SpinStabilize, Reorient, TumblingFall or its id "
-        "RigidEnv/<Task>-v0 (default: all four)",
+        help=f"one task: {', '.join(TASKS)}, or the id its pretrained policy plays: "
+        f"{', '.join(ENV_IDS)} (default: all four)",
     )
     demo.add_argument(
         "--episodes",
         type=_int_at_least(1),
         metavar="K",
-        help="episodes per task and policy (default: 10)",
+        help="episodes per task and policy, 1 to 1000 (default: 10)",
     )
     demo.add_argument(
         "--out",
@@ -268,6 +269,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args_in = _join_action_value(list(sys.argv[1:] if argv is None else argv))
     parser = build_parser()
     try:
+        _refuse_empty_paths(args_in)
         args, extra = parser.parse_known_args(args_in)
         if extra and not getattr(args, "takes_extra", False):
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
@@ -284,9 +286,26 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(exc, 2)
     except (ValueError, OSError) as exc:  # a user's value the core rejected, or a file error
         return _fail(exc, 2)
+    except MemoryError:  # past the sizing above: the room went to something else meanwhile
+        print(
+            f"{PROG}: error: out of memory (free memory or ulimit -v); ask for less "
+            "(fewer --steps or --episodes) or raise the limit",
+            file=sys.stderr,
+        )
+        return 2
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+
+
+def _refuse_empty_paths(argv: list[str]) -> None:
+    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder."""
+    for i, arg in enumerate(argv):
+        flag, eq, value = arg.partition("=")
+        if flag == "--out" and (
+            (eq and not value.strip()) or (not eq and i + 1 < len(argv) and not argv[i + 1].strip())
+        ):
+            raise UsageError("--out: empty path; give a file or folder name (an unset variable?)")
 
 
 def _fail(exc: BaseException, status: int) -> int:
@@ -383,19 +402,35 @@ def _check_writable_folder(out: Path) -> None:
 def _check_room(steps: int, size: int, folder: Path) -> None:
     """Refuse a run whose trajectory cannot fit in the free memory or on the disk."""
     memory = _available_memory()
+    if memory is not None:
+        # Besides the trajectory: one chunk of the core's per-step records (a few arrays of
+        # _CHUNK_STEPS rows) and the writer's buffers; 64 MB covers them with room to spare.
+        memory = max(memory - 64 * 2**20, 0)
     disk = shutil.disk_usage(folder).free
-    for room, where in ((memory, "memory available"), (disk, f"free on the disk of {folder}")):
+    for room, where in (
+        (memory, "memory available (free memory and ulimit -v / -d)"),
+        (disk, f"free on the disk of {folder}"),
+    ):
         if room is not None and size > room:
-            most = max(room // (8 * _NUMBERS_PER_STEP) - 1, 1)
+            most = int(0.98 * room) // (8 * _NUMBERS_PER_STEP) - 1  # 2 % slack
+            fix = f"give at most --steps {most}" if most >= 1 else "free room, or raise the limit"
             raise UsageError(
                 f"--steps: {steps} steps make a trajectory of {_bytes(size)} "
                 f"({8 * _NUMBERS_PER_STEP} bytes a step), more than the {_bytes(room)} {where}; "
-                f"give at most --steps {most}"
+                f"{fix}"
             )
 
 
 def _available_memory() -> int | None:
-    """Bytes of memory available to a new allocation (Linux ``MemAvailable``), or None."""
+    """Bytes a new allocation may take: the least of the memory available (Linux
+    ``MemAvailable``) and the room left under this process's limits on its address space
+    (``ulimit -v``, ``RLIMIT_AS``) and data (``ulimit -d``, ``RLIMIT_DATA``); None if unknown."""
+    rooms = [_free_memory(), *_room_under_limits()]
+    known = [r for r in rooms if r is not None]
+    return min(known) if known else None
+
+
+def _free_memory() -> int | None:
     try:
         with open("/proc/meminfo", encoding="ascii") as fh:
             for line in fh:
@@ -407,6 +442,37 @@ def _available_memory() -> int | None:
         return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
     except (AttributeError, ValueError, OSError):
         return None
+
+
+#: Address space a simulation maps after the size check besides its trajectory: compiling the
+#: step and starting its threads took VmSize from 367 to 503 MB on a 1000-step run (Linux,
+#: x86-64); twice that, rounded up.
+_RUN_RESERVE = 320 * 2**20
+
+
+def _room_under_limits() -> list[int | None]:
+    """Per limit set (soft ``RLIMIT_AS``, ``RLIMIT_DATA``): the limit less what this process
+    already uses of it (``VmSize``, ``VmData`` in ``/proc/self/status``) and less
+    :data:`_RUN_RESERVE` for what the run maps besides the trajectory."""
+    try:
+        import resource
+    except ImportError:  # not on POSIX
+        return []
+    used = {}
+    try:
+        with open("/proc/self/status", encoding="ascii") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                if key in ("VmSize", "VmData"):
+                    used[key] = int(value.split()[0]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    rooms: list[int | None] = []
+    for limit, key in ((resource.RLIMIT_AS, "VmSize"), (resource.RLIMIT_DATA, "VmData")):
+        soft = resource.getrlimit(limit)[0]
+        if soft != resource.RLIM_INFINITY:
+            rooms.append(max(soft - used.get(key, 0) - _RUN_RESERVE, 0))
+    return rooms
 
 
 def _bytes(n: float) -> str:

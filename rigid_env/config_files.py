@@ -3,7 +3,9 @@
     cfg = load_model(TrainConfig, "configs/agents/ppo_detumble.yaml")
 
 Reading is PyYAML's safe loader with two changes, so that a file means what its author wrote:
-a key given twice is an error (PyYAML silently keeps the last one), and ``1e-4``, ``1e5`` and
+a key given twice in one mapping is an error, in block and flow style alike (PyYAML silently
+keeps the last one; the check compares the keys themselves, so ``{mass: 1, mass: 2}`` on one
+line and ``1`` beside ``1.0`` count), and ``1e-4``, ``1e5`` and
 ``1.0e5`` are floats (YAML 1.1 reads a number without a dot or an exponent sign as a string;
 YAML 1.2 and JSON read it as a number). Validation is pydantic v2's; the first problem becomes
 one line, ``file: field.path: problem; fix``, the fix taken from the field's docstring unless
@@ -16,6 +18,7 @@ sweep file (:mod:`agents.sweep`) are read this way.
 
 from __future__ import annotations
 
+import difflib
 import math
 import os
 import re
@@ -131,10 +134,16 @@ class ConfigFileError(ValueError):
 
 
 class FieldError(ValueError):
-    """Raised by a validator: ``path`` (dotted, below the model it validates), problem, fix."""
+    """Raised by a validator: ``path`` (dotted, below the model it validates), problem, fix;
+    ``more``: how many further problems the same check found (counted in "(and N more)");
+    ``unknown``: the problem is a key that is not allowed there (named before other problems).
+    """
 
-    def __init__(self, path: str, problem: str, fix: str) -> None:
+    def __init__(
+        self, path: str, problem: str, fix: str, more: int = 0, unknown: bool = False
+    ) -> None:
         self.path, self.problem, self.fix = path, problem, fix
+        self.more, self.unknown = more, unknown
         super().__init__(f"{path}: {problem}; {fix}")
 
 
@@ -146,19 +155,25 @@ class _Loader(yaml.SafeLoader):
     """Safe loader that refuses duplicate keys and reads ``1e-4`` as a float."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        seen: dict[Any, int] = {}
-        for key_node, _ in node.value:
+        """The mapping, after checking the keys this node itself writes (block or flow style
+        alike; keys that a merge ``<<: *anchor`` brings in may be overridden, as YAML says)."""
+        seen: dict[Any, tuple[int, yaml.Mark]] = {}
+        for index, (key_node, _) in enumerate(node.value):
+            if key_node.tag == "tag:yaml.org,2002:merge":
+                continue
             key = self.construct_object(key_node, deep=True)
             try:
-                first = seen.setdefault(key, key_node.start_mark.line)
+                first_index, first = seen.setdefault(key, (index, key_node.start_mark))
             except TypeError:  # an unhashable key: PyYAML's own error follows
                 continue
-            if first != key_node.start_mark.line:
+            if first_index != index:
+                mark = key_node.start_mark
                 raise yaml.constructor.ConstructorError(
                     None,
                     None,
-                    f"key {key!r} given twice (first at line {first + 1})",
-                    key_node.start_mark,
+                    f"key {key!r} given twice, at column {mark.column + 1} and before at "
+                    f"line {first.line + 1}, column {first.column + 1}",
+                    mark,
                 )
         return super().construct_mapping(node, deep=deep)
 
@@ -196,13 +211,26 @@ def read_yaml(path: str | os.PathLike[str], name: str | None = None) -> Any:
             return loader.get_single_data()
         finally:
             loader.dispose()
+    except yaml.reader.ReaderError as exc:  # a control character (NUL, ...) in the text
+        line = text.count("\n", 0, exc.position) + 1
+        column = exc.position - (text.rfind("\n", 0, exc.position) + 1) + 1
+        char = f"U+{exc.character:04X}" if isinstance(exc.character, int) else "a byte"
+        raise ConfigFileError(
+            name,
+            f"line {line}",
+            f"the control character {char} at column {column} is not allowed in YAML",
+            "remove it (a file saved in a binary format?)",
+        ) from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f"line {mark.line + 1}" if mark is not None else ""
-        column = f" (column {mark.column + 1})" if mark is not None else ""
         problem = getattr(exc, "problem", None) or "invalid YAML"
-        fix = "keep one" if "given twice" in problem else "fix the YAML syntax at that line"
-        raise ConfigFileError(name, where, f"YAML error: {problem}{column}", fix) from None
+        if "given twice" in problem:
+            raise ConfigFileError(name, where, problem, "keep one") from None
+        column = f" (column {mark.column + 1})" if mark is not None else ""
+        raise ConfigFileError(
+            name, where, f"YAML error: {problem}{column}", "fix the YAML syntax at that line"
+        ) from None
 
 
 def validate(model: type[Model], data: Any, source: str) -> Model:
@@ -268,20 +296,88 @@ _PROBLEMS: dict[str, Callable[[dict[str, Any]], str]] = {
 
 
 def error_line(exc: ValidationError, model: type[BaseModel], source: str) -> ConfigFileError:
-    """The first error of ``exc`` as one line: where, what, and what to do."""
+    """One line for all of ``exc``'s problems: the one most likely to be the real mistake, with
+    its fix, and how many more there are.
+
+    An unknown key (the usual typo) comes first, with the allowed key nearest to it; a missing
+    key that is that nearest key is the same mistake, not one more. The rest follow in field
+    order. Every problem counts once in "(and N more)", including those a validator found
+    besides the one it raised (:attr:`FieldError.more`).
+    """
     errors = exc.errors()
-    err = errors[0]
+    unknown = [e for e in errors if _is_unknown_key(e)]
+    suggestions = {(tuple(_field_path(e["loc"])[:-1]), _suggest(model, e)) for e in unknown} - {
+        (None, None)
+    }
+    first = (unknown or errors)[0]
+    paths = set()
+    extra = 0
+    for e in errors:
+        loc = _field_path(e["loc"])
+        if e["type"] == "missing" and (tuple(loc[:-1]), loc[-1]) in suggestions:
+            continue  # `bdy` for `body`: one mistake, named by the unknown key
+        paths.add(tuple(loc))
+        cause = (e.get("ctx") or {}).get("error")
+        extra += cause.more if isinstance(cause, FieldError) else 0
+    count = len(paths - {tuple(_field_path(first["loc"]))}) + extra
+    return _render(first, model, source, f" (and {count} more)" if count else "")
+
+
+def _is_unknown_key(err: Any) -> bool:
+    cause = (err.get("ctx") or {}).get("error")
+    return err["type"] in ("extra_forbidden", "invalid_key") or (
+        isinstance(cause, FieldError) and cause.unknown
+    )
+
+
+def _key_text(key: Any) -> str:
+    """A key as the file would write it (``true``, ``1``, ``null``)."""
+    if isinstance(key, str):
+        return key
+    return "null" if key is None else str(key).lower() if isinstance(key, bool) else repr(key)
+
+
+def _kind_of(value: Any) -> str:
+    """What YAML made of a plain scalar: ``a number``, ``a boolean``, ``nothing (null)``."""
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return "a boolean"
+    return "a number" if isinstance(value, int | float) else f"a {type(value).__name__}"
+
+
+def _suggest(model: type[BaseModel], err: Any) -> str | None:
+    """The allowed key nearest to an unknown one (``bdy`` -> ``body``), if any is near."""
     loc = _field_path(err["loc"])
-    others = {tuple(_field_path(e["loc"])) for e in errors} - {tuple(loc)}
-    more = f" (and {len(others)} more)" if others else ""
+    key = err["input"] if err["type"] == "invalid_key" else loc[-1]
+    allowed = _fields_at(model, loc[:-1])
+    near = difflib.get_close_matches(_key_text(key).lower(), allowed, n=1, cutoff=0.6)
+    return near[0] if near else None
+
+
+def _render(err: Any, model: type[BaseModel], source: str, more: str) -> ConfigFileError:
+    """One pydantic error as ``file: field.path: problem; fix`` + ``more``."""
+    loc = _field_path(err["loc"])
     ctx = err.get("ctx") or {}
     cause = ctx.get("error")
     if isinstance(cause, FieldError):
         return ConfigFileError(source, _dotted([*loc, cause.path]), cause.problem, cause.fix + more)
     kind, msg = err["type"], err["msg"]
-    if kind == "extra_forbidden":
-        keys = ", ".join(_fields_at(model, loc[:-1])) or "see the documentation"
-        return ConfigFileError(source, _dotted(loc), "unknown key", f"allowed keys: {keys}{more}")
+    if kind in ("extra_forbidden", "invalid_key"):
+        allowed = _fields_at(model, loc[:-1])
+        near = _suggest(model, err)
+        hint = f"did you mean {near}? " if near else ""
+        keys = f"allowed keys: {', '.join(allowed)}" if allowed else "see the documentation"
+        if kind == "extra_forbidden":
+            return ConfigFileError(source, _dotted(loc), "unknown key", f"{hint}{keys}{more}")
+        key = err["input"]
+        where = _dotted(loc[:-1]) or "top level"
+        return ConfigFileError(
+            source,
+            where,
+            f"the key {_key_text(key)} is not a name (YAML read it as {_kind_of(key)})",
+            f"{hint}write a name (quote it if it is meant as one); {keys}{more}",
+        )
     meaning = _description(model, loc)
     if kind == "missing":
         parent = _dotted(loc[:-1])

@@ -52,12 +52,8 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from rigid_env.config_files import ConfigFileError, number, read_yaml, validate
 from rigid_env.core.effects import (
-    AngularDamping,
     ForceEffect,
-    Gravity,
-    LinearDamping,
     PointForces,
-    QuadraticDrag,
     StepMap,
     Thrusters,
 )
@@ -73,6 +69,7 @@ from rigid_env.core.rotation import (
 )
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import World
+from rigid_env.resources import SCENE_DIR
 from rigid_env.scene_sections import (
     ActuatorsSpec,
     BodySpec,
@@ -162,6 +159,7 @@ class Scene(Spec):
     @model_validator(mode="after")
     def _derive(self) -> Scene:
         _ = self._frame  # the mass properties are computed (and checked) when loading
+        self.effects_spec.check(self)
         return self
 
     # ---- derived ---------------------------------------------------------------------------
@@ -219,24 +217,12 @@ class Scene(Spec):
     def effects(self) -> list[ForceEffect | StepMap]:
         """The listed effects as core objects (nothing else), in body-frame coordinates.
 
-        Order: gravity, quadratic drag, thrusters, point forces, linear damping, angular
-        damping (the action vector follows the actuators' order).
+        Order: the force effects in the order of :class:`EffectsSpec` (gravity, quadratic drag,
+        ...), the actuators (thrusters, point forces: the action vector follows their order),
+        then the per-step maps (linear damping, angular damping).
         """
-        spec = self.effects_spec
-        out: list[ForceEffect | StepMap] = []
-        if spec.gravity is not None:
-            out.append(Gravity(np.array(spec.gravity.g)))
-        if spec.quadratic_drag is not None:
-            d = spec.quadratic_drag
-            cop = d.center_of_pressure
-            cop_body = np.zeros(3) if cop is None else self.point_to_body(cop)
-            out.append(QuadraticDrag(d.rho, d.cd, d.area, cop_body))
-        out.extend(self._actuator_effects())
-        if spec.linear_damping is not None:
-            out.append(LinearDamping(spec.linear_damping.alpha))
-        if spec.angular_damping is not None:
-            out.append(AngularDamping(spec.angular_damping.alpha))
-        return out
+        forces, maps = self.effects_spec.effects(self.point_to_body)
+        return [*forces, *self._actuator_effects(), *maps]
 
     def _actuator_effects(self) -> list[ForceEffect]:
         act = self.actuators
@@ -444,5 +430,5 @@ def load_scene(
     except ConfigFileError as exc:
         fix = exc.fix
         if exc.problem == "file not found":
-            fix = "check the path (example scenes are in configs/scenes/)"
+            fix = f"check the path (example scenes are in {SCENE_DIR})"
         raise SceneError(exc.source, exc.path, exc.problem, fix) from None

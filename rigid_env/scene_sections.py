@@ -10,10 +10,12 @@ its field's range, and when its non-zero magnitude leaves [:data:`MIN_MAGNITUDE`
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 from pydantic import (
     BaseModel,
     BeforeValidator,
@@ -27,6 +29,14 @@ from pydantic_core import CoreSchema, core_schema
 
 from rigid_env.config_files import FieldError, number, vector
 from rigid_env.core import inertia as mass_props
+from rigid_env.core.effects import (
+    AngularDamping,
+    ForceEffect,
+    Gravity,
+    LinearDamping,
+    QuadraticDrag,
+    StepMap,
+)
 from rigid_env.core.inertia import MassProperties
 
 # |q| of initial.orientation may differ from 1 by this much (rounding of hand-typed decimals
@@ -301,7 +311,23 @@ class InitialSpec(Spec):
 # --------------------------------------------------------------------------------------------
 
 
-class GravitySpec(Spec):
+ToBody = Callable[[Any], NDArray[np.float64]]
+"""Shape-frame points (..., 3) [m] -> body frame (:meth:`rigid_env.scene.Scene.point_to_body`)."""
+
+
+class EffectSpec(Spec):
+    """A section of ``effects``: :meth:`effect` is the core object it describes."""
+
+    def effect(self, to_body: ToBody) -> ForceEffect | StepMap:
+        """The core effect, its points in body coordinates (``to_body``)."""
+        raise NotImplementedError
+
+    def check(self, scene: Any) -> None:
+        """Rules that involve other sections of the :class:`rigid_env.scene.Scene` (its body,
+        its initial state); raise :class:`FieldError` naming ``effects.<section>.<field>``."""
+
+
+class GravitySpec(EffectSpec):
     """Uniform gravity at the centre of mass."""
 
     g: Annotated[tuple[Acceleration, Acceleration, Acceleration], vector(3, "m/s^2")] = (
@@ -311,8 +337,11 @@ class GravitySpec(Spec):
     )
     """Gravitational acceleration, world frame [m/s^2]."""
 
+    def effect(self, to_body: ToBody) -> Gravity:
+        return Gravity(np.array(self.g))
 
-class QuadraticDragSpec(Spec):
+
+class QuadraticDragSpec(EffectSpec):
     """Quadratic drag ``F = -1/2 rho cd A |v_p| v_p`` at the centre of pressure."""
 
     rho: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("kg/m^3")] = 1.225
@@ -324,12 +353,31 @@ class QuadraticDragSpec(Spec):
     center_of_pressure: Position | None = None
     """Point where drag acts, shape frame [m]; left out: the centre of mass (no torque)."""
 
+    def effect(self, to_body: ToBody) -> QuadraticDrag:
+        cop = self.center_of_pressure
+        cop_body = np.zeros(3) if cop is None else to_body(cop)
+        return QuadraticDrag(self.rho, self.cd, self.area, cop_body)
 
-class DampingSpec(Spec):
+
+class DampingSpec(EffectSpec):
     """The seed's per-step damping ``u <- alpha u``."""
 
     alpha: Annotated[float, Field(gt=0, le=1, allow_inf_nan=False), Quantity("")]
     """Factor applied once per step, in (0, 1] (1.0 = no damping)."""
+
+
+class LinearDampingSpec(DampingSpec):
+    """The seed's ``v <- alpha v`` once per step."""
+
+    def effect(self, to_body: ToBody) -> LinearDamping:
+        return LinearDamping(self.alpha)
+
+
+class AngularDampingSpec(DampingSpec):
+    """The seed's ``w <- alpha w`` once per step."""
+
+    def effect(self, to_body: ToBody) -> AngularDamping:
+        return AngularDamping(self.alpha)
 
 
 class EffectsSpec(Spec):
@@ -343,10 +391,22 @@ class EffectsSpec(Spec):
         QuadraticDragSpec | None, _present("{rho: 1.225, cd: 1.05, area: 0.06}")
     ] = None
     """Quadratic air drag."""
-    linear_damping: Annotated[DampingSpec | None, _present("{alpha: 0.999}")] = None
+    linear_damping: Annotated[LinearDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``v <- alpha v`` each step."""
-    angular_damping: Annotated[DampingSpec | None, _present("{alpha: 0.999}")] = None
+    angular_damping: Annotated[AngularDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``w <- alpha w`` each step."""
+
+    def check(self, scene: Any) -> None:
+        """Each listed section's :meth:`EffectSpec.check` against the whole scene."""
+        for _, section in self:
+            if isinstance(section, EffectSpec):
+                section.check(scene)
+
+    def effects(self, to_body: ToBody) -> tuple[list[ForceEffect], list[StepMap]]:
+        """The listed sections' core effects, ``(force effects, step maps)`` in file order."""
+        listed = [s.effect(to_body) for _, s in self if isinstance(s, EffectSpec)]
+        forces = [e for e in listed if isinstance(e, ForceEffect)]
+        return forces, [e for e in listed if isinstance(e, StepMap)]
 
 
 class ThrusterSpec(Spec):

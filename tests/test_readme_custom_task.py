@@ -42,7 +42,7 @@ def test_custom_task_threaded_pass_equals_the_single_env(tmp_path, monkeypatch) 
     """The README's optional threaded twin of the pass (its second code block), used from
     ``THREAD_MIN_BODIES`` envs on: the last env of a threaded vector env equals its single env,
     bit for bit."""
-    from rigid_env.core import world as world_module
+    from rigid_env.core import threads as world_module
 
     section = README.read_text()[README.read_text().index("## Your own task") :]
     first, second = re.findall(r"```python\n(.*?)```", section, re.S)[:2]

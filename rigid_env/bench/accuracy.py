@@ -177,7 +177,7 @@ def mechanical_energy(model: BodyModel, effects: Sequence[ForceEffect], s: State
     """(N,) kinetic energy plus the potential of the conservative effects [J]."""
     e = kinetic_energy(model, s)
     for eff in effects:
-        u = eff.potential_energy(model, s.x)
+        u = eff.potential_energy(model, s)
         if u is not None:
             e = e + u
     return e

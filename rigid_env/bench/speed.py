@@ -36,7 +36,7 @@ import sys
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
@@ -48,6 +48,23 @@ from numpy.typing import NDArray
 
 import rigid_env.envs  # noqa: F401  (registers the RigidEnv ids)
 from rigid_env.bench import report
+from rigid_env.bench.speed_report import write
+from rigid_env.bench.speed_rows import (
+    CARTPOLE_CASE,
+    ENV_REFERENCE,
+    MJ_INTEGRATORS,
+    NO_EFFECTS,
+    NOISE_FLOOR,
+    PPO_ADAPTER,
+    PPO_DUMMY,
+    PPO_SUBPROC,
+    SECTIONS,
+    SYNC_CASE,
+    Config,
+    Results,
+    Row,
+    short_id,
+)
 from rigid_env.bench.timing import CLOCKS, Case, Timing, measure
 from rigid_env.core import (
     INTEGRATORS,
@@ -69,8 +86,6 @@ from rigid_env.scene import load_scene
 
 FloatArray = NDArray[np.float64]
 
-SECTIONS = ("core", "env", "vec", "effects", "ppo")
-"""The measurements, in the order they run and appear."""
 OUTPUTS = ("speed.md", "speed.csv", "speed.png")
 
 DETUMBLE = "RigidEnv/Detumble-v0"
@@ -85,61 +100,6 @@ MJ_BLOCK = 1000
 """``mj_step`` calls per timed call of the Python-loop peer (the state is restored first)."""
 MJ_ROLLOUT_BODY_STEPS = 8192
 """Body-steps per ``rollout`` call: ``nstep = 8192 / N`` clipped to [10, 1000]."""
-
-
-@dataclass(frozen=True)
-class Config:
-    """What to measure and how long; :data:`FULL`, :data:`QUICK` and :data:`SMOKE` below."""
-
-    name: str
-    """``full``, ``quick`` or ``smoke``."""
-    min_time: float
-    """Shortest repeat [s]: calls per repeat are chosen from the warm-up to reach it."""
-    repeats: int
-    """Repeats per case (rounds over a group); the tables give the median."""
-    core_sizes: tuple[int, ...]
-    """Batch sizes ``N`` of the core measurement."""
-    core_integrators: tuple[str, ...]
-    """Integrators of the core measurement (names in ``INTEGRATORS``)."""
-    env_ids: tuple[str, ...]
-    """Our tasks for the single- and vector-env measurements."""
-    vec_sizes: tuple[int, ...]
-    """``num_envs`` of the vector-env measurement."""
-    sync_sizes: tuple[int, ...]
-    """``num_envs`` at which Detumble under ``SyncVectorEnv`` is measured (it steps env by env;
-    larger ``N`` use its per-env cost at the largest of these)."""
-    effect_sizes: tuple[int, ...]
-    """Batch sizes of the effects measurement."""
-    ppo_timesteps: int
-    """PPO environment steps per timed ``learn`` (a multiple of ``ppo_n_steps * n_envs``)."""
-    ppo_repeats: int
-    """Timed ``learn`` calls per PPO variant."""
-    ppo_warmup: bool = True
-    """Run one untimed rollout-and-update first."""
-    ppo_n_envs: tuple[int, ...] = (8, 16)
-    """Sub-environments of the PPO variants; 16 is what our Detumble baseline trains with."""
-    ppo_n_steps: int = 256
-    """PPO ``n_steps`` (per sub-environment)."""
-    ppo_batch_size: int = 512
-    """PPO minibatch size."""
-    effect_integrator: str = "rk4"
-    """Integrator of the effects measurement."""
-    clock: str = "wall"
-    """``wall`` or ``cpu`` (:data:`rigid_env.bench.timing.CLOCKS`); PPO is always timed on
-    the wall clock (its SubprocVecEnv works in other processes)."""
-
-    def __post_init__(self) -> None:
-        unknown = [n for n in self.core_integrators if n not in INTEGRATORS]
-        if unknown:
-            raise ValueError(
-                f"core_integrators: unknown {unknown}; known: {', '.join(INTEGRATORS)}"
-            )
-        for n_envs in self.ppo_n_envs:
-            if self.ppo_timesteps % (self.ppo_n_steps * n_envs):
-                raise ValueError(
-                    f"ppo_timesteps: {self.ppo_timesteps} is not a multiple of "
-                    f"n_steps * n_envs = {self.ppo_n_steps * n_envs}"
-                )
 
 
 FULL = Config(
@@ -166,54 +126,6 @@ SMOKE = replace(
 # --------------------------------------------------------------------------------------------
 
 
-@dataclass
-class Row:
-    """One measured case: a line of ``speed.csv``.
-
-    Attributes:
-        section: measurement (one of :data:`SECTIONS`).
-        case: what ran (integrator, engine, env id, effect, VecEnv).
-        n: batch size / number of environments (1 for a single env).
-        metric: what ``value`` is, e.g. ``body_steps_per_s``.
-        value: the median measurement in ``unit``.
-        unit: unit of ``value``.
-        median_s, min_s, max_s: seconds per unit of work on ``clock`` (median, fastest and
-            slowest repeat).
-        clock: ``wall`` (``perf_counter``) or ``cpu`` (``process_time``).
-        wall_median_s: median wall seconds per unit of work.
-        repeats: repeats of the case.
-        calls: calls per repeat.
-        cpu_share: CPU time of the process / wall time (see :class:`Timing`).
-        cpu_median_s: median CPU seconds of the process per unit of work.
-        peer: the case the ratio compares with ("" if none).
-        ratio: our throughput / the peer's (higher is faster), or for ``us_per_step`` rows our
-            time / the peer's (lower is faster); NaN if no peer.
-        note: e.g. ``extrapolated`` or why a peer is missing.
-    """
-
-    section: str
-    case: str
-    n: int
-    metric: str
-    value: float
-    unit: str
-    median_s: float = math.nan
-    min_s: float = math.nan
-    max_s: float = math.nan
-    clock: str = "wall"
-    wall_median_s: float = math.nan
-    repeats: int = 0
-    calls: int = 0
-    cpu_share: float = math.nan
-    cpu_median_s: float = math.nan
-    peer: str = ""
-    ratio: float = math.nan
-    note: str = ""
-
-
-CSV_COLUMNS = tuple(f.name for f in fields(Row))
-
-
 def _row(
     section: str, case: str, n: int, metric: str, unit: str, t: Timing, value: float, **kw: Any
 ) -> Row:
@@ -226,30 +138,8 @@ def _row(
     )  # fmt: skip
 
 
-@dataclass
-class Results:
-    """What a run measured: the CSV's rows, and each section's notes on its method."""
-
-    config: Config
-    rows: list[Row] = field(default_factory=list)
-    notes: dict[str, list[str]] = field(default_factory=dict)
-
-    def get(self, section: str, case: str, n: int) -> Row | None:
-        """The row of ``case`` at ``n`` in ``section``, if measured."""
-        return next((r for r in self.rows if (r.section, r.case, r.n) == (section, case, n)), None)
-
-    def section(self, name: str) -> list[Row]:
-        """The rows of one section, in measurement order."""
-        return [r for r in self.rows if r.section == name]
-
-
 def _log(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
-
-
-def short_id(env_id: str) -> str:
-    """``RigidEnv/Detumble-v0 -> Detumble``."""
-    return env_id.split("/")[-1].removesuffix("-v0")
 
 
 # --------------------------------------------------------------------------------------------
@@ -267,10 +157,6 @@ MJCF = """<mujoco model="free_body">
 </mujoco>
 """
 """One free body without geoms (so no contacts), no gravity: torque-free rotation."""
-
-MJ_INTEGRATORS = {"Euler": "symplectic_euler", "RK4": "rk4"}
-"""MuJoCo integrator -> our integrator of the same kind (semi-implicit Euler: velocity first,
-then position with the new velocity; classical RK4)."""
 
 
 def random_spins(n: int, seed: int = 0) -> FloatArray:
@@ -396,7 +282,6 @@ def bench_core(cfg: Config, res: Results) -> None:
 # --------------------------------------------------------------------------------------------
 
 ENV_PEERS = ("Pendulum-v1", "InvertedPendulum-v5")
-ENV_REFERENCE = "InvertedPendulum-v5"
 
 
 def _env_case(env_id: str, seed: int = 0, pool: int = 256) -> Case:
@@ -452,8 +337,6 @@ def bench_env(cfg: Config, res: Results) -> None:
 # --------------------------------------------------------------------------------------------
 
 CARTPOLE = "CartPole-v1"
-SYNC_CASE = "Detumble SyncVectorEnv"
-CARTPOLE_CASE = "CartPoleVectorEnv"
 
 
 def _vec_case(name: str, env_id: str, n: int, mode: str, seed: int = 0, pool: int = 8) -> Case:
@@ -529,9 +412,6 @@ def bench_vec(cfg: Config, res: Results) -> None:
 # 4. Effects: only what a scene calls for
 # --------------------------------------------------------------------------------------------
 
-NO_EFFECTS = "no effects"
-NOISE_FLOOR = "no effects (again)"
-
 
 def detumble_thrusters() -> Thrusters:
     """Detumble's six thrusters (``configs/scenes/detumble.yaml``)."""
@@ -605,10 +485,6 @@ def bench_effects(cfg: Config, res: Results) -> None:
 # --------------------------------------------------------------------------------------------
 # 5. Training: PPO with our adapter, DummyVecEnv and SubprocVecEnv
 # --------------------------------------------------------------------------------------------
-
-PPO_ADAPTER = "RigidBodySB3VecEnv"
-PPO_DUMMY = "DummyVecEnv"
-PPO_SUBPROC = "SubprocVecEnv"
 
 
 def make_detumble() -> gym.Env:
@@ -764,8 +640,6 @@ def run(args: argparse.Namespace) -> int:
         MEASUREMENTS[name](cfg, res)
         _log(f"{name}: {time.perf_counter() - t0:.1f} s")
     wall = time.perf_counter() - start
-    from rigid_env.bench.speed_report import write
-
     write(res, out, sections, command=command, date=date, load_start=load_start, wall=wall)
     print(f"wrote {out / 'speed.md'}, {out / 'speed.csv'}, {out / 'speed.png'} ({wall:.0f} s)")
     return 0

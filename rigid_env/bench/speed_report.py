@@ -10,11 +10,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rigid_env.bench import report
 from rigid_env.bench.report import Panel, Section, Series, Table, si, times
-from rigid_env.bench.speed import (
+from rigid_env.bench.speed_rows import (
     CARTPOLE_CASE,
     CSV_COLUMNS,
     ENV_REFERENCE,
@@ -25,11 +25,10 @@ from rigid_env.bench.speed import (
     PPO_SUBPROC,
     SECTIONS,
     SYNC_CASE,
+    Results,
+    Row,
     short_id,
 )
-
-if TYPE_CHECKING:
-    from rigid_env.bench.speed import Results, Row
 
 
 def _curves(rows: Sequence[Row], names: Sequence[str], styles: dict[str, Any]) -> list[Series]:

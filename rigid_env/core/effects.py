@@ -1,9 +1,10 @@
 """Effects: small frozen, validated specs of the terms a scene can list.
 
-A world composes only those: each spec writes its flag and numbers into the world's parameters
-(:func:`pack`), which the compiled kernels (:func:`rigid_env.core.kernels.accelerations`)
-evaluate: :class:`ForceEffect` terms of the differential equation (actuators among them) and
-:class:`StepMap` maps applied once per world step, outside it.
+A world composes only those: each spec names its flag and numbers among the world's parameters
+(:class:`rigid_env.core.layout.Params`, filled by :func:`pack`), which the compiled kernels
+(:func:`rigid_env.core.dynamics.accelerations`) evaluate: :class:`ForceEffect` terms of the
+differential equation (actuators among them) and :class:`StepMap` maps applied once per world
+step, outside it.
 
 Torque convention: a force ``f`` at body point ``r`` (body frame, from the centre of mass) gives
 the world torque ``(R r) x (R f_b) = R (r x f_b)``, kept in the body frame: ``r x f_body``.
@@ -18,28 +19,34 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core import kernels as K
 from rigid_env.core.inertia import checked_floats
+from rigid_env.core.layout import Params
 from rigid_env.core.rotation import cross
-from rigid_env.core.state import BodyModel
+from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
 
 
 class ForceEffect:
-    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame,
-    where ``rotational``) at any state an integrator asks about."""
+    """A term that adds force (world frame, on the centre of mass) and/or torque (body frame)
+    at any state an integrator asks about.
+
+    Attributes:
+        velocity_dependent: whether the term depends on ``v`` or ``w``: the kicks of the
+            splitting methods then take more stages to keep their order (a term of ``x, q``
+            alone is constant over a kick, which freezes them).
+    """
 
     name: ClassVar[str]
-    rotational: bool = True
-    action_dim: int = 0
+    velocity_dependent: ClassVar[bool] = False
 
-    def write(self, p: FloatArray) -> None:
-        """Set this term's flag and numbers in the world's parameters ``p``."""
+    def parameters(self) -> dict[str, float]:
+        """This term's flag and numbers by their names in :class:`Params`."""
         raise NotImplementedError
 
-    def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray | None:
-        """(N,) potential energy [J] if the term is conservative, else None."""
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray | None:
+        """(N,) potential energy [J] of the bodies' ``state`` if the term is conservative,
+        else None."""
         return None
 
 
@@ -49,8 +56,8 @@ class StepMap:
 
     name: ClassVar[str]
 
-    def write(self, p: FloatArray) -> None:
-        """Set this map's flag and factor in the world's parameters ``p``."""
+    def parameters(self) -> dict[str, float]:
+        """This map's flag and factor by their names in :class:`Params`."""
         raise NotImplementedError
 
 
@@ -65,18 +72,17 @@ class Gravity(ForceEffect):
 
     g: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, -9.81]))
     name: ClassVar[str] = "gravity"
-    rotational: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "g", checked_floats("gravity.g", self.g, (3,)))
 
-    def write(self, p: FloatArray) -> None:
-        p[K.GRAVITY] = 1.0
-        p[K.G : K.G + 3] = self.g
+    def parameters(self) -> dict[str, float]:
+        gx, gy, gz = self.g.tolist()
+        return {"gravity": 1.0, "gravity_x": gx, "gravity_y": gy, "gravity_z": gz}
 
-    def potential_energy(self, model: BodyModel, x: FloatArray) -> FloatArray:
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray:
         """``U = -m g . x`` [J]."""
-        g = self.g
+        g, x = self.g, state.x
         return -model.mass * (x[:, 0] * g[0] + x[:, 1] * g[1] + x[:, 2] * g[2])
 
 
@@ -98,12 +104,17 @@ class QuadraticDrag(ForceEffect):
     area: float = 0.06
     center_of_pressure: FloatArray = field(default_factory=lambda: np.zeros(3))
     name: ClassVar[str] = "quadratic_drag"
+    velocity_dependent: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
+        # > 0 as in a scene file: a drag that vanishes is left out, not evaluated as zero.
         for name in ("rho", "cd", "area"):
             val = float(getattr(self, name))
-            if not np.isfinite(val) or val < 0.0:
-                raise ValueError(f"quadratic_drag.{name}: must be finite and >= 0, got {val}")
+            if not (np.isfinite(val) and val > 0.0):
+                raise ValueError(
+                    f"quadratic_drag.{name}: must be finite and > 0, got {val} (for no drag, "
+                    "leave the effect out)"
+                )
         cop = checked_floats("quadratic_drag.center_of_pressure", self.center_of_pressure, (3,))
         object.__setattr__(self, "center_of_pressure", cop)
 
@@ -117,16 +128,14 @@ class QuadraticDrag(ForceEffect):
         """Whether the centre of pressure is off the centre of mass (then drag makes torque)."""
         return bool(np.any(self.center_of_pressure != 0.0))
 
-    @property
-    def rotational(self) -> bool:  # type: ignore[override]
-        """Makes torque only when the centre of pressure is off the centre of mass."""
-        return self.offset
-
-    def write(self, p: FloatArray) -> None:
-        p[K.DRAG] = 1.0
-        p[K.DRAG_K] = self.k
-        p[K.DRAG_OFFSET] = 1.0 if self.offset else 0.0
-        p[K.COP : K.COP + 3] = self.center_of_pressure
+    def parameters(self) -> dict[str, float]:
+        cx, cy, cz = self.center_of_pressure.tolist()
+        offset = 1.0 if self.offset else 0.0
+        return {"drag": 1.0, "drag_k": self.k, "drag_offset": offset} | {
+            "cop_x": cx,
+            "cop_y": cy,
+            "cop_z": cz,
+        }
 
     def terminal_speed(self, mass: float, g: float) -> float:
         """Terminal speed ``sqrt(m g / k) = sqrt(2 m g / (rho C_D A))`` [m/s] of a falling body."""
@@ -142,15 +151,15 @@ class _Damping(StepMap):
     """
 
     alpha: float = 0.999
-    slots: ClassVar[tuple[int, int]]  # its flag and factor in the world's parameters
+    slots: ClassVar[tuple[str, str]]  # the names of its flag and factor in Params
 
     def __post_init__(self) -> None:
         if not (np.isfinite(self.alpha) and 0.0 < self.alpha <= 1.0):
             raise ValueError(f"{self.name}.alpha: must lie in (0, 1], got {self.alpha}")
 
-    def write(self, p: FloatArray) -> None:
-        p[self.slots[0]] = 1.0
-        p[self.slots[1]] = self.alpha
+    def parameters(self) -> dict[str, float]:
+        flag, factor = self.slots
+        return {flag: 1.0, factor: float(self.alpha)}
 
 
 @dataclass(frozen=True)
@@ -158,7 +167,7 @@ class LinearDamping(_Damping):
     """The seed's ``v <- alpha v`` once per world step, ``alpha`` in (0, 1]."""
 
     name: ClassVar[str] = "linear_damping"
-    slots: ClassVar[tuple[int, int]] = (K.LINEAR_DAMPING, K.LINEAR_ALPHA)
+    slots: ClassVar[tuple[str, str]] = ("linear_damping", "linear_alpha")
 
 
 @dataclass(frozen=True)
@@ -167,7 +176,7 @@ class AngularDamping(_Damping):
     same in the world frame since the map is a scalar)."""
 
     name: ClassVar[str] = "angular_damping"
-    slots: ClassVar[tuple[int, int]] = (K.ANGULAR_DAMPING, K.ANGULAR_ALPHA)
+    slots: ClassVar[tuple[str, str]] = ("angular_damping", "angular_alpha")
 
 
 # ---- actuators: forces at body points, linear in the command ---------------------------------
@@ -180,13 +189,9 @@ class LinearActuator(ForceEffect):
     force_map: FloatArray
     torque_map: FloatArray
 
-    @property
-    def action_dim(self) -> int:  # type: ignore[override]
-        """Number of command components."""
-        return self.force_map.shape[0]
-
-    def write(self, p: FloatArray) -> None:
-        """Actuators are written by :func:`pack`, all of them into one table of maps."""
+    def parameters(self) -> dict[str, float]:
+        """None by name: :func:`pack` puts every actuator's rows into one table of maps."""
+        return {}
 
 
 @dataclass(frozen=True)
@@ -271,25 +276,27 @@ def pack(
     max_angular_speed: float | None = None,
     stable_angle: float | None = None,
 ) -> FloatArray:
-    """The world's parameters (:mod:`rigid_env.core.kernels`): the step ``h`` and ``substeps``,
-    each effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad]
-    (None: no limit) and the actuators' maps, one row ``(force (3,), torque (3,))`` per command
-    component in scene order."""
+    """The world's parameters: the named :class:`Params` (the step ``h`` and ``substeps``, each
+    effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad], None:
+    no limit), then from :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one row
+    ``(force (3,), torque (3,))`` per command component in scene order.
+
+    Raises:
+        TypeError: if an effect names a parameter that :class:`Params` does not declare.
+    """
     actuators = [e for e in effects if isinstance(e, LinearActuator)]
     rows = [np.hstack([a.force_map, a.torque_map]) for a in actuators]
     maps = np.vstack(rows) if rows else np.zeros((0, 6))
-    p = np.zeros(K.HEADER + maps.size)
-    p[K.H] = h
-    p[K.SUBSTEPS] = substeps
+    forces = [e for e in effects if isinstance(e, ForceEffect)]
+    named = dict.fromkeys(Params._fields, 0.0) | {"h": h, "substeps": float(substeps)}
     for e in effects:
-        e.write(p)
+        named |= e.parameters()
     if max_angular_speed is not None:
-        p[K.MAX_SPEED] = 1.0
-        p[K.MAX_SPEED_VALUE] = max_angular_speed
+        named |= {"max_speed": 1.0, "max_speed_value": max_angular_speed}
     if stable_angle is not None:
-        p[K.STABLE_SPEED] = stable_angle / h
-    p[K.ACTIONS] = maps.shape[0]
-    p[K.MAPS :] = maps.ravel()
-    p[K.ACTUATOR_FORCE] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
-    p[K.ANY_FORCE] = 1.0 if any(isinstance(e, ForceEffect) for e in effects) else 0.0
-    return p
+        named["stable_speed"] = stable_angle / h
+    named["actions"] = float(maps.shape[0])
+    named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
+    named["any_force"] = 1.0 if forces else 0.0
+    named["velocity_dependent"] = 1.0 if any(e.velocity_dependent for e in forces) else 0.0
+    return np.concatenate([np.array(Params(**named), dtype=np.float64), maps.ravel()])

@@ -1,15 +1,17 @@
-"""Named integrators, each ONE per-body function compiled with Numba.
+"""Named integrators, each ONE per-body function compiled with Numba, and their registry.
 
 An integrator advances one body's ``(x, v, q, w)`` (x, v world frame; q body -> world
 ``(w, x, y, z)``; w body frame) by one step ``h`` under the active effects,
-``step(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``, with ``(fb, tb)`` the actuators'
-body-frame wrench (constant over a world step), ``m`` the body's model and ``p`` the world's
-parameters (:mod:`rigid_env.core.kernels`). A world step is :func:`advance`, compiled passes
-over the bodies; ``exact_free`` is the one NumPy array integrator (:mod:`rigid_env.core.exact`).
+``step(x, v, q, w, act, m, p, h) -> (x, v, q, w)``, with ``act = (force, torque)`` the
+actuators' body-frame wrench (constant over a world step), ``m`` the body's model and ``p`` the
+world's parameters, both named tuples (:mod:`rigid_env.core.layout`). A world step is that
+function looped over the bodies (:func:`rigid_env.core.stepping.advance`); ``exact_free`` is
+the one NumPy array integrator (:mod:`rigid_env.core.exact`).
 
 Orientation moves by ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``) except in ``rk4``,
 which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is renormalised. Choose by name
-from :data:`INTEGRATORS` (:func:`get_integrator`).
+from :data:`INTEGRATORS` (:func:`get_integrator`). A new method is its per-body function, its
+three entries (below) and one row of :data:`INTEGRATORS`.
 """
 
 from __future__ import annotations
@@ -19,69 +21,37 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, prange
 from numpy.typing import NDArray
 
-from rigid_env.core.kernels import (
-    ANGULAR_ALPHA,
-    ANGULAR_DAMPING,
-    ANY_FORCE,
-    DRAG,
-    I0,
-    I1,
-    I2,
-    INV_I0,
-    INV_I1,
-    INV_I2,
-    ISOTROPIC,
-    LINEAR_ALPHA,
-    LINEAR_DAMPING,
-    MAX_SPEED,
-    MAX_SPEED_VALUE,
-    STABLE_SPEED,
-    SUBSTEPS,
-    H,
-    accelerations,
-    axpy,
-    body_model,
-    gyro_jacobian,
-    gyroscopic,
-    header,
-    kernel,
-    load,
-    normalize,
-    qdot,
-    sincos,
-    solve3,
-    spin,
-    split_range,
-    store,
-    threads_kernel,
-    world_kernel,
-    wrench,
-)
+from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
+from rigid_env.core.exact import free_rotation_exact
+from rigid_env.core.jit import kernel, threads_kernel, world_kernel
+from rigid_env.core.layout import BAD_COMMAND, Body, unpack
+from rigid_env.core.maths import axpy, normalize, qdot, sincos, solve3, spin
+from rigid_env.core.rotation import quat_normalize
+from rigid_env.core.stepping import advance, finish_pass, kicks, limit_speed_pass, over_threads
 
 FloatArray = NDArray[np.float64]
 
 
 # ---- textbook methods ------------------------------------------------------------------------
 @kernel
-def explicit_euler(x, v, q, w, fb, tb, m, p, h):
+def explicit_euler(x, v, q, w, act, m, p, h):
     """Forward Euler, every derivative at the start of the step:
 
         x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0)
 
     Torque-free it inflates the energy by ``O(h^2)`` a step (along the tangent of the orbit)."""
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, p, True)
     return axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha)
 
 
 @kernel
-def symplectic_euler(x, v, q, w, fb, tb, m, p, h):
+def symplectic_euler(x, v, q, w, act, m, p, h):
     """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
 
     v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)"""
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, p, True)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
     return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1
@@ -96,7 +66,7 @@ def _change(new, old):
 
 
 @kernel
-def implicit_euler(x, v, q, w, fb, tb, m, p, h):
+def implicit_euler(x, v, q, w, act, m, p, h):
     """Backward Euler, every derivative at the end of the step,
 
         v1 = v + h a(y1),  w1 = w + h I^-1 (tau(y1) - w1 x I w1),
@@ -109,18 +79,18 @@ def implicit_euler(x, v, q, w, fb, tb, m, p, h):
     v1, w1 = v, w
     for _ in range(50):
         q1 = spin(q, w1, h)
-        a, alpha = accelerations(v1, q1, w1, fb, tb, m, p, False)
+        a, alpha = accelerations(axpy(x, h, v1), v1, q1, w1, act, m, p, False)
         v_new = axpy(v, h, a)
-        if m[ISOTROPIC] == 0.0:
+        if m.isotropic == 0.0:
             # Residual r(w1) = w1 - w - h I^-1 (tau - w1 x I w1); Newton: J dw = -r.
             g = gyroscopic(w1, m)
             r = (
-                w1[0] - w[0] + h * (g[0] * m[INV_I0] - alpha[0]),
-                w1[1] - w[1] + h * (g[1] * m[INV_I1] - alpha[1]),
-                w1[2] - w[2] + h * (g[2] * m[INV_I2] - alpha[2]),
+                w1[0] - w[0] + h * (g[0] * m.inv_inertia_x - alpha[0]),
+                w1[1] - w[1] + h * (g[1] * m.inv_inertia_y - alpha[1]),
+                w1[2] - w[2] + h * (g[2] * m.inv_inertia_z - alpha[2]),
             )
             j = gyro_jacobian(w1, m)
-            s0, s1, s2 = h * m[INV_I0], h * m[INV_I1], h * m[INV_I2]
+            s0, s1, s2 = h * m.inv_inertia_x, h * m.inv_inertia_y, h * m.inv_inertia_z
             jac = (
                 1.0 + s0 * j[0], s0 * j[1], s0 * j[2],
                 s1 * j[3], 1.0 + s1 * j[4], s1 * j[5],
@@ -137,7 +107,7 @@ def implicit_euler(x, v, q, w, fb, tb, m, p, h):
 
 
 @kernel
-def leapfrog(x, v, q, w, fb, tb, m, p, h):
+def leapfrog(x, v, q, w, act, m, p, h):
     """Leapfrog, drift-kick-drift (Strang splitting of drift and kick):
 
         x_h = x + h/2 v,                    q_h = q exp(h/4 w)
@@ -147,27 +117,25 @@ def leapfrog(x, v, q, w, fb, tb, m, p, h):
     The kick uses the mid-point velocities ``(v_m, w_m) = (v, w) + h/2 (a, alpha)(x_h, v, q_h,
     w)``, which keeps it second order when the accelerations depend on velocity (the
     gyroscopic term, drag)."""
-    q_h = spin(q, w, 0.5 * h)
-    a, alpha = accelerations(v, q_h, w, fb, tb, m, p, True)
-    if p[DRAG] != 0.0 or m[ISOTROPIC] == 0.0:
-        a, alpha = accelerations(
-            axpy(v, 0.5 * h, a), q_h, axpy(w, 0.5 * h, alpha), fb, tb, m, p, True
-        )
+    x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
+    a, alpha = accelerations(x_h, v, q_h, w, act, m, p, True)
+    if p.velocity_dependent != 0.0 or m.isotropic == 0.0:
+        v_m, w_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha)
+        a, alpha = accelerations(x_h, v_m, q_h, w_m, act, m, p, True)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
-    x1 = axpy(axpy(x, 0.5 * h, v), 0.5 * h, v1)
-    return x1, v1, normalize(spin(q_h, w1, 0.5 * h)), w1
+    return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1
 
 
 @kernel
-def midpoint(x, v, q, w, fb, tb, m, p, h):
+def midpoint(x, v, q, w, act, m, p, h):
     """Explicit midpoint rule, the orientation moved on the group:
 
     y_m = y0 + h/2 f(y0)  (q_m = q exp(h/4 w)),   y1 = y0 + h f(y_m)  (q1 = q exp(h/2 w_m))"""
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, p, True)
     v_m = axpy(v, 0.5 * h, a)
     w_m = axpy(w, 0.5 * h, alpha)
-    a, alpha = accelerations(v_m, spin(q, w, 0.5 * h), w_m, fb, tb, m, p, True)
+    a, alpha = accelerations(axpy(x, 0.5 * h, v), v_m, spin(q, w, 0.5 * h), w_m, act, m, p, True)
     return axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha)
 
 
@@ -187,21 +155,21 @@ def _rk4_sum(y, c, k1, k2, k3, k4):
 
 
 @kernel
-def rk4(x, v, q, w, fb, tb, m, p, h):
+def rk4(x, v, q, w, act, m, p, h):
     """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w)`` with ``q' = 1/2 q (x) (0, w)``:
 
     k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
     y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|"""
-    a1, b1 = accelerations(v, q, w, fb, tb, m, p, True)
+    a1, b1 = accelerations(x, v, q, w, act, m, p, True)
     d1 = qdot(q, w)
     v2, q2, w2 = axpy(v, 0.5 * h, a1), _q_axpy(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    a2, b2 = accelerations(v2, q2, w2, fb, tb, m, p, True)
+    a2, b2 = accelerations(axpy(x, 0.5 * h, v), v2, q2, w2, act, m, p, True)
     d2 = qdot(q2, w2)
     v3, q3, w3 = axpy(v, 0.5 * h, a2), _q_axpy(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    a3, b3 = accelerations(v3, q3, w3, fb, tb, m, p, True)
+    a3, b3 = accelerations(axpy(x, 0.5 * h, v2), v3, q3, w3, act, m, p, True)
     d3 = qdot(q3, w3)
     v4, q4, w4 = axpy(v, h, a3), _q_axpy(q, h, d3), axpy(w, h, b3)
-    a4, b4 = accelerations(v4, q4, w4, fb, tb, m, p, True)
+    a4, b4 = accelerations(axpy(x, h, v3), v4, q4, w4, act, m, p, True)
     d4 = qdot(q4, w4)
     c = h / 6.0
     qv = _rk4_sum((q[1], q[2], q[3]), c, d1[1:], d2[1:], d3[1:], d4[1:])
@@ -218,11 +186,11 @@ def rk4(x, v, q, w, fb, tb, m, p, h):
 @kernel
 def _energy2(w, m):
     """``2 E = w . I w`` [J]."""
-    return m[I0] * w[0] * w[0] + m[I1] * w[1] * w[1] + m[I2] * w[2] * w[2]
+    return m.inertia_x * w[0] * w[0] + m.inertia_y * w[1] * w[1] + m.inertia_z * w[2] * w[2]
 
 
 @kernel
-def implicit_gyro(x, v, q, w, fb, tb, m, p, h):
+def implicit_gyro(x, v, q, w, act, m, p, h):
     """Semi-implicit Euler with the gyroscopic term taken implicitly by one Newton step
     (E. Catto, "Numerical Methods", GDC 2015; Bullet's ``computeGyroscopicImpulseImplicit``):
 
@@ -236,15 +204,15 @@ def implicit_gyro(x, v, q, w, fb, tb, m, p, h):
     projected back onto ``E = E(w_e)`` by the radial scaling ``w1 <- w1 sqrt(E(w_e) / E(w1))``
     (Hairer, Lubich and Wanner, "Geometric Numerical Integration", 2nd ed., Sec. IV.4), formed
     from ``w1 / max|w1|`` so it cannot overflow."""
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, False)
+    a, alpha = accelerations(x, v, q, w, act, m, p, False)
     v1 = axpy(v, h, a)
     w1 = w_e = axpy(w, h, alpha)
-    if m[ISOTROPIC] == 0.0:
+    if m.isotropic == 0.0:
         j = gyro_jacobian(w_e, m)
         jac = (
-            m[I0] + h * j[0], h * j[1], h * j[2],
-            h * j[3], m[I1] + h * j[4], h * j[5],
-            h * j[6], h * j[7], m[I2] + h * j[8],
+            m.inertia_x + h * j[0], h * j[1], h * j[2],
+            h * j[3], m.inertia_y + h * j[4], h * j[5],
+            h * j[6], h * j[7], m.inertia_z + h * j[8],
         )  # fmt: skip
         g = gyroscopic(w_e, m)
         w1 = axpy(w_e, -1.0, solve3(jac, (h * g[0], h * g[1], h * g[2])))
@@ -284,43 +252,30 @@ def free_rotation(q, w, m, h):
 
     Each ``Rk`` rotates ``L`` and the body, so ``|L|`` and the world ``L`` are kept to round-off
     for any ``h``; an isotropic body takes the exact ``q exp(h w / 2)``. Returns ``(q, w)``."""
-    if m[ISOTROPIC] != 0.0:
+    if m.isotropic != 0.0:
         return spin(q, w, h), w
     qw, qx, qy, qz = q
-    lx, ly, lz = w[0] * m[I0], w[1] * m[I1], w[2] * m[I2]
-    hx, hy, hz = 0.25 * h * m[INV_I0], 0.25 * h * m[INV_I1], 0.5 * h * m[INV_I2]
+    lx, ly, lz = w[0] * m.inertia_x, w[1] * m.inertia_y, w[2] * m.inertia_z
+    hx, hy, hz = 0.25 * h * m.inv_inertia_x, 0.25 * h * m.inv_inertia_y, 0.5 * h * m.inv_inertia_z
     qw, qx, qy, qz, ly, lz = _turn(qw, qx, qy, qz, ly, lz, hx * lx)
     qw, qy, qz, qx, lz, lx = _turn(qw, qy, qz, qx, lz, lx, hy * ly)
     qw, qz, qx, qy, lx, ly = _turn(qw, qz, qx, qy, lx, ly, hz * lz)
     qw, qy, qz, qx, lz, lx = _turn(qw, qy, qz, qx, lz, lx, hy * ly)
     qw, qx, qy, qz, ly, lz = _turn(qw, qx, qy, qz, ly, lz, hx * lx)
-    return (qw, qx, qy, qz), (lx * m[INV_I0], ly * m[INV_I1], lz * m[INV_I2])
+    return (qw, qx, qy, qz), (lx * m.inv_inertia_x, ly * m.inv_inertia_y, lz * m.inv_inertia_z)
 
 
 @kernel
-def kick(v, q, w, fb, tb, m, p, h):
-    """Flow of the external forces for time ``h`` with ``x, q`` frozen (gyroscopic term
-    excluded): exact in one evaluation when no force depends on velocity (a constant
-    acceleration), else the explicit midpoint rule, second order."""
-    a, alpha = accelerations(v, q, w, fb, tb, m, p, False)
-    if p[DRAG] != 0.0:
-        a, alpha = accelerations(
-            axpy(v, 0.5 * h, a), q, axpy(w, 0.5 * h, alpha), fb, tb, m, p, False
-        )
-    return axpy(v, h, a), axpy(w, h, alpha)
-
-
-@kernel
-def splitting(x, v, q, w, fb, tb, m, p, h):
+def splitting(x, v, q, w, act, m, p, h):
     """Strang splitting ``kick(h/2) -> [x += h v ; free rotation] -> kick(h/2)``: torque-free it
     keeps ``|L|`` and the world ``L`` to round-off and the energy up to a bounded oscillation
     (symplectic); with forces it is second order."""
-    if p[ANY_FORCE] != 0.0:
-        v, w = kick(v, q, w, fb, tb, m, p, 0.5 * h)
+    if p.any_force != 0.0:
+        v, w = kick(x, v, q, w, act, m, p, 0.5 * h)
     x1 = axpy(x, h, v)
     q1, w = free_rotation(q, w, m, h)
-    if p[ANY_FORCE] != 0.0:
-        v, w = kick(v, q1, w, fb, tb, m, p, 0.5 * h)
+    if p.any_force != 0.0:
+        v, w = kick(x1, v, q1, w, act, m, p, 0.5 * h)
     return x1, v, normalize(q1), w
 
 
@@ -333,22 +288,22 @@ YOSHIDA_C0 = 1.0 - 2.0 * YOSHIDA_C1  # -1.7024..., a step backwards in time
 
 
 @kernel
-def kick_rk4(v, q, w, fb, tb, m, p, h):
+def kick_rk4(x, v, q, w, act, m, p, h):
     """The kick of :func:`kick` to a local error of ``O(h^5)``: exact in one evaluation when no
     force depends on velocity, otherwise classical RK4 on ``(v, w)`` (the midpoint kick's
     ``O(h^3)`` error would leave the triple jump at order 3 with drag)."""
-    if p[DRAG] == 0.0:
-        return kick(v, q, w, fb, tb, m, p, h)
-    a1, b1 = accelerations(v, q, w, fb, tb, m, p, False)
-    a2, b2 = accelerations(axpy(v, 0.5 * h, a1), q, axpy(w, 0.5 * h, b1), fb, tb, m, p, False)
-    a3, b3 = accelerations(axpy(v, 0.5 * h, a2), q, axpy(w, 0.5 * h, b2), fb, tb, m, p, False)
-    a4, b4 = accelerations(axpy(v, h, a3), q, axpy(w, h, b3), fb, tb, m, p, False)
+    if p.velocity_dependent == 0.0:
+        return kick(x, v, q, w, act, m, p, h)
+    a1, b1 = accelerations(x, v, q, w, act, m, p, False)
+    a2, b2 = accelerations(x, axpy(v, 0.5 * h, a1), q, axpy(w, 0.5 * h, b1), act, m, p, False)
+    a3, b3 = accelerations(x, axpy(v, 0.5 * h, a2), q, axpy(w, 0.5 * h, b2), act, m, p, False)
+    a4, b4 = accelerations(x, axpy(v, h, a3), q, axpy(w, h, b3), act, m, p, False)
     c = h / 6.0
     return _rk4_sum(v, c, a1, a2, a3, a4), _rk4_sum(w, c, b1, b2, b3, b4)
 
 
 @kernel
-def yoshida4(x, v, q, w, fb, tb, m, p, h):
+def yoshida4(x, v, q, w, act, m, p, h):
     """Fourth-order symmetric composition (Yoshida 1990; Hairer, Lubich and Wanner, Sec. II.4)
     of the Strang step ``S(h) = K(h/2) D(h) K(h/2)`` of :func:`splitting`:
 
@@ -358,260 +313,202 @@ def yoshida4(x, v, q, w, fb, tb, m, p, h):
     (neighbouring half-kicks act at the same ``x, q`` and merge: 4 kicks, 15 exact axis
     rotations per step). Torque-free it keeps ``|L|`` and the world ``L`` to round-off; with
     drag the kicks are taken by RK4 (:func:`kick_rk4`) to stay fourth order."""
-    forces = p[ANY_FORCE] != 0.0
+    forces = p.any_force != 0.0
     if forces:
-        v, w = kick_rk4(v, q, w, fb, tb, m, p, 0.5 * YOSHIDA_C1 * h)
+        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * YOSHIDA_C1 * h)
     x = axpy(x, YOSHIDA_C1 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C1 * h)
     if forces:
-        v, w = kick_rk4(v, q, w, fb, tb, m, p, 0.5 * (YOSHIDA_C1 + YOSHIDA_C0) * h)
+        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * (YOSHIDA_C1 + YOSHIDA_C0) * h)
     x = axpy(x, YOSHIDA_C0 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C0 * h)
     if forces:
-        v, w = kick_rk4(v, q, w, fb, tb, m, p, 0.5 * (YOSHIDA_C0 + YOSHIDA_C1) * h)
+        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * (YOSHIDA_C0 + YOSHIDA_C1) * h)
     x = axpy(x, YOSHIDA_C1 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C1 * h)
     if forces:
-        v, w = kick_rk4(v, q, w, fb, tb, m, p, 0.5 * YOSHIDA_C1 * h)
+        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * YOSHIDA_C1 * h)
     return x, v, normalize(q), w
 
 
-# ---- the world step: one compiled loop over the bodies ---------------------------------------
-@kernel
-def _clamp(w, limit):
-    """PhysX's ``setMaxAngularVelocity``: ``w`` scaled down to ``|w| = limit`` when above it,
-    its direction kept (a non-finite ``w`` stays non-finite for the guard)."""
-    s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
-    if s2 > limit * limit:
-        f = limit / math.sqrt(s2)
-        return (w[0] * f, w[1] * f, w[2] * f)
-    return w
+# ---- the array integrator -------------------------------------------------------------------
+_INERTIA = slice(Body._fields.index("inertia_x"), Body._fields.index("inertia_z") + 1)
+_ISOTROPIC = Body._fields.index("isotropic")
 
 
-@kernel
-def _finite(x, v, q, w):
-    """Whether every number of a body's state is finite, without a branch: ``a - a`` is 0 for a
-    finite ``a`` and NaN for an inf or a NaN."""
-    z = (x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (v[0] - v[0]) + (v[1] - v[1])
-    z += (v[2] - v[2]) + (q[0] - q[0]) + (q[1] - q[1]) + (q[2] - q[2]) + (q[3] - q[3])
-    return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
+def exact_free(
+    p: FloatArray,
+    model: FloatArray,
+    state: FloatArray,
+    status: NDArray[np.uint8],
+    wrenches: FloatArray,
+    command: FloatArray,
+) -> int:
+    """The world step of ``exact_free``, arguments and result as a compiled entry's
+    (:func:`rigid_env.core.stepping.advance`; ``wrenches`` unused): per substep the speed limit,
+    then Strang splitting ``kick(h/2) -> [x += h v ; exact torque-free flow] -> kick(h/2)``
+    with the compiled kicks of ``splitting`` and the Jacobi elliptic flow
+    (:func:`rigid_env.core.exact.free_rotation_exact`), after the last the same maps and guard
+    as the compiled step (:func:`rigid_env.core.stepping.finish_pass`)."""
+    if not np.all(np.isfinite(command)):
+        return BAD_COMMAND
+    c = unpack(p)
+    before = state.copy()
+    inertia = np.ascontiguousarray(model[_INERTIA].T)
+    isotropic = bool(np.all(model[_ISOTROPIC] != 0.0))
+    x, v, q, w = state[0:3].T, state[3:6].T, state[6:10].T, state[10:13].T
+    with np.errstate(all="ignore"):
+        for _ in range(int(c.substeps)):
+            limit_speed_pass(p, state)
+            if c.any_force != 0.0:
+                kicks(p, model, state, command, 0.5 * c.h)
+            x += c.h * v
+            q[:], w[:] = free_rotation_exact(q, w, inertia, c.h, isotropic)
+            if c.any_force != 0.0:
+                kicks(p, model, state, command, 0.5 * c.h)
+            q[:] = quat_normalize(q)
+    return finish_pass(p, state, before, status)
 
 
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _substep_of(step, c, model, wrenches, state, status, last, i):
-    """One integrator step of body ``i`` in place on its column of ``state`` (13, N), after the
-    speed limit (if set); on the ``last`` substep also the speed limit after it and the damping
-    maps. Then the guard, by selects: a healthy body (``status[i]`` 0) takes a finite new state,
-    else keeps its column and gets ``status[i] = 2``; a frozen one (1) keeps its column. Returns
-    ``(failed, beyond)``, each 0 or 1, ``beyond`` past the integrator's stable ``|w|``."""
-    x0, v0, q0, w0 = load(state, i)
-    w = _clamp(w0, c[MAX_SPEED_VALUE]) if c[MAX_SPEED] != 0.0 else w0
-    fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
-    tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    x, v, q, w = step(x0, v0, q0, w, fb, tb, body_model(model, i), c, c[H])
-    if last:
-        if c[MAX_SPEED] != 0.0:
-            w = _clamp(w, c[MAX_SPEED_VALUE])
-        if c[LINEAR_DAMPING] != 0.0:
-            a = c[LINEAR_ALPHA]
-            v = (v[0] * a, v[1] * a, v[2] * a)
-        if c[ANGULAR_DAMPING] != 0.0:
-            a = c[ANGULAR_ALPHA]
-            w = (w[0] * a, w[1] * a, w[2] * a)
-    healthy = status[i] == 0
-    ok = healthy & _finite(x, v, q, w)
-    status[i] = 2 if healthy & ~ok else status[i]
-    store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
-    fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c[STABLE_SPEED] * c[STABLE_SPEED]
-    return (1 if healthy & ~ok else 0), (1 if ok & last & fast & (c[STABLE_SPEED] != 0.0) else 0)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def advance(step, p, model, state, status, wrenches, command, start, stop):
-    """One world step of the bodies ``start <= i < stop``, in passes whose loops the compiler
-    vectorises (struct-of-arrays columns; no call, inner loop or branch in the body, only
-    selects): the actuators' wrench of each body's command (:func:`wrench`), if any, then
-    ``SUBSTEPS`` passes of ``step`` in place, each with its guard (:func:`_substep_of`).
-
-    The world's arrays must not overlap (:data:`rigid_env.core.kernels.world_kernel` compiles
-    on that promise); they come one by one, as a tuple they would cost atomic reference counts.
-
-    Args:
-        p: the world's parameters (the passes read their :func:`header`).
-        model: (MODEL_WIDTH, N) model columns.
-        state: (13, N) state columns ``(x, v, q, w)``, advanced in place.
-        status: (N,) uint8: 0 healthy, 1 frozen by an earlier failure (left alone); set to 2
-            where the state turned non-finite, its column left at its last finite state (before
-            the world step for one substep, else before the failing substep, which
-            :class:`rigid_env.core.world.World` replaces by the one before the world step).
-        wrenches: (6, N) scratch for the wrenches (zero without actuators).
-        command: (N | 1, A) actuator commands.
-        start, stop: the bodies to step (threads step disjoint ranges of one world).
-
-    Returns:
-        ``2 f + o``: ``f`` the number of bodies that failed, ``o`` 1 if a body ended the step
-        beyond the stable ``h |w|`` (``STABLE_SPEED``); -1 (nothing stepped) if the command has
-        a NaN or inf.
-    """
-    for r in range(command.shape[0]):
-        for a in range(command.shape[1]):
-            if not math.isfinite(command[r, a]):
-                return -1
-    c = header(p)
-    if command.shape[1] > 0:
-        for i in range(start, stop):  # each body's wrench into its column of wrenches
-            fb, tb = wrench(p, command, i)
-            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
-            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
-    failures = over = 0
-    substeps = int(c[SUBSTEPS])
-    for k in range(substeps):
-        last = k == substeps - 1
-        for i in range(start, stop):
-            # An unsigned index: no wraparound of negative indices to compute, which would
-            # keep the compiler from vectorising the loop.
-            j = np.uint64(i)
-            failed, beyond = _substep_of(step, c, model, wrenches, state, status, last, j)
-            failures += failed
-            over += beyond
-    return 2 * failures + min(over, 1)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def over_threads(entry, world, start, stop, threads):
-    """A world step ``entry(*world, start, stop)`` (one integrator's compiled :func:`advance`)
-    of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
-    (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
-    called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
-    Python): called in here it would keep the function from being cached."""
-    codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
-    for t in prange(threads):
-        codes[t] = entry(*world, *split_range(start, stop, t, threads))
-    failures = over = 0
-    for t in range(threads):
-        if codes[t] < 0:
-            return -1  # every range checks the command before it steps: nothing stepped
-        failures += codes[t] >> 1
-        over = max(over, codes[t] & 1)
-    return 2 * failures + over
-
-
-@kernel
-def clamp_bodies(state, limit):
-    """:func:`_clamp` of every body's ``w`` in the state columns (13, N), in place: the speed
-    limit of the array integrator ``exact_free``."""
-    for i in range(state.shape[1]):
-        x, v, q, w = load(state, i)
-        store(state, i, x, v, q, _clamp(w, limit))
-
-
-@kernel
-def kicks(p, model, state, command, h):
-    """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``
-    (13, N): the force half-steps of ``exact_free``."""
-    c = header(p)
-    for i in range(state.shape[1]):
-        fb, tb = wrench(p, command, i)
-        x, v, q, w = load(state, i)
-        v, w = kick(v, q, w, fb, tb, body_model(model, i), c, h)
-        store(state, i, x, v, q, w)
-
-
-@kernel
-def derivatives(p, model, state, command, out):
-    """``(v', w')`` of every body's state column (13, N) into ``out`` (N, 6): the linear (world)
-    and angular (body, Euler's equations included) accelerations of
-    :func:`rigid_env.core.kernels.accelerations`, the right-hand side a reference solver needs."""
-    c = header(p)
-    for i in range(state.shape[1]):
-        fb, tb = wrench(p, command, i)
-        _, v, q, w = load(state, i)
-        a, alpha = accelerations(v, q, w, fb, tb, body_model(model, i), c, True)
-        out[i, 0], out[i, 1], out[i, 2] = a
-        out[i, 3], out[i, 4], out[i, 5] = alpha
-
-
-# Three compiled entries per integrator, arguments and result as advance's: all bodies (the
-# serial step: two arguments fewer to dispatch), a range of them, and the range split over
-# Numba's threads (over_threads); the last two compile on first use. Numba resolves the
-# per-body function at compile time and caches the loop on disk; a function object from Python
-# would cost a slow type lookup per call, and a closure would not be cached.
-
-
-# fmt: off
+# ---- three compiled entries per method ---------------------------------------------------------
+# All bodies (the serial step: two arguments fewer to dispatch), a range of them, and the range
+# split over Numba's threads (over_threads); arguments as advance's, the world's arrays
+# (p, model, state, status, wrenches, command). Numba resolves the per-body function at compile
+# time and caches the loop on disk; a function object from Python would cost a slow type lookup
+# per call, and a closure would not be cached.
 @world_kernel
 def _explicit_euler(p, m, s, f, b, u):
-    return advance(explicit_euler, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(explicit_euler, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _explicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(explicit_euler, p, m, s, f, b, u, i, j)
+    return advance(explicit_euler, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _explicit_euler_threads(w, i, j, t): return over_threads(_explicit_euler_range, w, i, j, t)
+def _explicit_euler_threads(world, i, j, t):
+    return over_threads(_explicit_euler_range, world, i, j, t)
+
+
 @world_kernel
 def _symplectic_euler(p, m, s, f, b, u):
-    return advance(symplectic_euler, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(symplectic_euler, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _symplectic_euler_range(p, m, s, f, b, u, i, j):
-    return advance(symplectic_euler, p, m, s, f, b, u, i, j)
+    return advance(symplectic_euler, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _symplectic_euler_threads(w, i, j, t): return over_threads(_symplectic_euler_range, w, i, j, t)
+def _symplectic_euler_threads(world, i, j, t):
+    return over_threads(_symplectic_euler_range, world, i, j, t)
+
+
 @world_kernel
 def _implicit_euler(p, m, s, f, b, u):
-    return advance(implicit_euler, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(implicit_euler, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _implicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_euler, p, m, s, f, b, u, i, j)
+    return advance(implicit_euler, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _implicit_euler_threads(w, i, j, t): return over_threads(_implicit_euler_range, w, i, j, t)
+def _implicit_euler_threads(world, i, j, t):
+    return over_threads(_implicit_euler_range, world, i, j, t)
+
+
 @world_kernel
 def _leapfrog(p, m, s, f, b, u):
-    return advance(leapfrog, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(leapfrog, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _leapfrog_range(p, m, s, f, b, u, i, j):
-    return advance(leapfrog, p, m, s, f, b, u, i, j)
+    return advance(leapfrog, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _leapfrog_threads(w, i, j, t): return over_threads(_leapfrog_range, w, i, j, t)
+def _leapfrog_threads(world, i, j, t):
+    return over_threads(_leapfrog_range, world, i, j, t)
+
+
 @world_kernel
 def _midpoint(p, m, s, f, b, u):
-    return advance(midpoint, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(midpoint, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _midpoint_range(p, m, s, f, b, u, i, j):
-    return advance(midpoint, p, m, s, f, b, u, i, j)
+    return advance(midpoint, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _midpoint_threads(w, i, j, t): return over_threads(_midpoint_range, w, i, j, t)
+def _midpoint_threads(world, i, j, t):
+    return over_threads(_midpoint_range, world, i, j, t)
+
+
 @world_kernel
 def _rk4(p, m, s, f, b, u):
-    return advance(rk4, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(rk4, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _rk4_range(p, m, s, f, b, u, i, j):
-    return advance(rk4, p, m, s, f, b, u, i, j)
+    return advance(rk4, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _rk4_threads(w, i, j, t): return over_threads(_rk4_range, w, i, j, t)
+def _rk4_threads(world, i, j, t):
+    return over_threads(_rk4_range, world, i, j, t)
+
+
 @world_kernel
 def _implicit_gyro(p, m, s, f, b, u):
-    return advance(implicit_gyro, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(implicit_gyro, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _implicit_gyro_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_gyro, p, m, s, f, b, u, i, j)
+    return advance(implicit_gyro, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _implicit_gyro_threads(w, i, j, t): return over_threads(_implicit_gyro_range, w, i, j, t)
+def _implicit_gyro_threads(world, i, j, t):
+    return over_threads(_implicit_gyro_range, world, i, j, t)
+
+
 @world_kernel
 def _splitting(p, m, s, f, b, u):
-    return advance(splitting, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(splitting, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _splitting_range(p, m, s, f, b, u, i, j):
-    return advance(splitting, p, m, s, f, b, u, i, j)
+    return advance(splitting, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _splitting_threads(w, i, j, t): return over_threads(_splitting_range, w, i, j, t)
+def _splitting_threads(world, i, j, t):
+    return over_threads(_splitting_range, world, i, j, t)
+
+
 @world_kernel
 def _yoshida4(p, m, s, f, b, u):
-    return advance(yoshida4, p, m, s, f, b, u, 0, s.shape[1])
+    return advance(yoshida4, p, m, s, f, b, u, (0, s.shape[1]))
+
+
 @world_kernel
 def _yoshida4_range(p, m, s, f, b, u, i, j):
-    return advance(yoshida4, p, m, s, f, b, u, i, j)
+    return advance(yoshida4, p, m, s, f, b, u, (i, j))
+
+
 @threads_kernel
-def _yoshida4_threads(w, i, j, t): return over_threads(_yoshida4_range, w, i, j, t)
-# fmt: on
+def _yoshida4_threads(world, i, j, t):
+    return over_threads(_yoshida4_range, world, i, j, t)
 
 
 # ---- registry --------------------------------------------------------------------------------
@@ -634,11 +531,14 @@ class IntegratorInfo:
         name: registry key.
         order: global order of accuracy on smooth problems.
         note: one line for tables and ``--help``.
-        body: the per-body step ``(x, v, q, w, fb, tb, m, p, h) -> (x, v, q, w)``; None (as the
-            world steps) for an array integrator.
-        world_step: the compiled world step of all bodies, ``(*world) -> code`` (:func:`advance`).
-        world_step_threads: the same over Numba's threads, ``(world, start, stop, threads)``
-            (:func:`over_threads`).
+        body: the per-body step ``(x, v, q, w, act, m, p, h) -> (x, v, q, w)``; None for an
+            array integrator.
+        world_step: the world step of all bodies, ``(p, model, state, status, wrenches,
+            command) -> code`` (:func:`rigid_env.core.stepping.advance`).
+        world_step_range: the compiled world step of the bodies ``start <= i < stop``, the
+            same arguments and then ``start, stop``; None for an array integrator.
+        world_step_threads: the range over Numba's threads, ``(world, start, stop, threads)``
+            (:func:`rigid_env.core.stepping.over_threads`); None: never threaded.
         stability: largest stable ``h |w|`` [rad] about a principal axis, or None for no limit;
             a world warns once when a body goes beyond it.
     """
@@ -647,34 +547,111 @@ class IntegratorInfo:
     order: int
     note: str
     body: Callable | None
-    world_step: Callable | None
+    world_step: Callable
+    world_step_range: Callable | None
     world_step_threads: Callable | None
     stability: float | None = None
 
 
-_REGISTRY = (  # name, order, note, per-body step, world step, stable h |w|
-    ("explicit_euler", 1, "forward Euler; energy grows, kept to show the failure",
-     explicit_euler, _explicit_euler, None),
-    ("implicit_euler", 1, "backward Euler by Newton iteration; unconditionally stable, damps",
-     implicit_euler, _implicit_euler, None),
-    ("symplectic_euler", 1, "semi-implicit Euler: velocities first, then positions",
-     symplectic_euler, _symplectic_euler, None),
-    ("leapfrog", 2, "drift-kick-drift with mid-point velocities", leapfrog, _leapfrog, None),
-    ("midpoint", 2, "explicit midpoint (RK2)", midpoint, _midpoint, None),
-    ("rk4", 4, "classical Runge-Kutta, q as a vector in R^4, renormalised", rk4, _rk4, None),
-    ("implicit_gyro", 1, "one Newton step on the gyroscopic term (Bullet, Box2D); damps",
-     implicit_gyro, _implicit_gyro, None),
-    ("splitting", 2, "symplectic splitting into exact axis rotations; conserves |L| exactly",
-     splitting, _splitting, SPLITTING_STABLE),
-    ("yoshida4", 4, "Yoshida triple jump of splitting; symplectic, conserves |L| exactly",
-     yoshida4, _yoshida4, SPLITTING_STABLE / abs(YOSHIDA_C0)),
-    ("exact_free", 2,
-     "Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
-     None, None, EXACT_PHASE_LIMIT),
-)  # fmt: skip
-INTEGRATORS: dict[str, IntegratorInfo] = {  # with the threaded world step of each, by its name
-    r[0]: IntegratorInfo(*r[:5], globals().get(f"_{r[0]}_threads"), r[5]) for r in _REGISTRY
+INTEGRATORS: dict[str, IntegratorInfo] = {
+    m.name: m
+    for m in (
+        IntegratorInfo(
+            name="explicit_euler",
+            order=1,
+            note="forward Euler; energy grows, kept to show the failure",
+            body=explicit_euler,
+            world_step=_explicit_euler,
+            world_step_range=_explicit_euler_range,
+            world_step_threads=_explicit_euler_threads,
+        ),
+        IntegratorInfo(
+            name="implicit_euler",
+            order=1,
+            note="backward Euler by Newton iteration; unconditionally stable, damps",
+            body=implicit_euler,
+            world_step=_implicit_euler,
+            world_step_range=_implicit_euler_range,
+            world_step_threads=_implicit_euler_threads,
+        ),
+        IntegratorInfo(
+            name="symplectic_euler",
+            order=1,
+            note="semi-implicit Euler: velocities first, then positions",
+            body=symplectic_euler,
+            world_step=_symplectic_euler,
+            world_step_range=_symplectic_euler_range,
+            world_step_threads=_symplectic_euler_threads,
+        ),
+        IntegratorInfo(
+            name="leapfrog",
+            order=2,
+            note="drift-kick-drift with mid-point velocities",
+            body=leapfrog,
+            world_step=_leapfrog,
+            world_step_range=_leapfrog_range,
+            world_step_threads=_leapfrog_threads,
+        ),
+        IntegratorInfo(
+            name="midpoint",
+            order=2,
+            note="explicit midpoint (RK2)",
+            body=midpoint,
+            world_step=_midpoint,
+            world_step_range=_midpoint_range,
+            world_step_threads=_midpoint_threads,
+        ),
+        IntegratorInfo(
+            name="rk4",
+            order=4,
+            note="classical Runge-Kutta, q as a vector in R^4, renormalised",
+            body=rk4,
+            world_step=_rk4,
+            world_step_range=_rk4_range,
+            world_step_threads=_rk4_threads,
+        ),
+        IntegratorInfo(
+            name="implicit_gyro",
+            order=1,
+            note="one Newton step on the gyroscopic term (Bullet, Box2D); damps",
+            body=implicit_gyro,
+            world_step=_implicit_gyro,
+            world_step_range=_implicit_gyro_range,
+            world_step_threads=_implicit_gyro_threads,
+        ),
+        IntegratorInfo(
+            name="splitting",
+            order=2,
+            note="symplectic splitting into exact axis rotations; conserves |L| exactly",
+            body=splitting,
+            world_step=_splitting,
+            world_step_range=_splitting_range,
+            world_step_threads=_splitting_threads,
+            stability=SPLITTING_STABLE,
+        ),
+        IntegratorInfo(
+            name="yoshida4",
+            order=4,
+            note="Yoshida triple jump of splitting; symplectic, conserves |L| exactly",
+            body=yoshida4,
+            world_step=_yoshida4,
+            world_step_range=_yoshida4_range,
+            world_step_threads=_yoshida4_threads,
+            stability=SPLITTING_STABLE / abs(YOSHIDA_C0),
+        ),
+        IntegratorInfo(
+            name="exact_free",
+            order=2,
+            note="Strang: exact torque-free flow (elliptic functions) + force kicks; NumPy arrays",
+            body=None,
+            world_step=exact_free,
+            world_step_range=None,
+            world_step_threads=None,
+            stability=EXACT_PHASE_LIMIT,
+        ),
+    )
 }
+"""The integrators by name, each row naming its per-body function and its entries."""
 
 
 def get_integrator(name: str) -> IntegratorInfo:

@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.layout import Body
+
 FloatArray = NDArray[np.float64]
 
 # Relative spread below which the principal moments count as equal (isotropic body: the
@@ -61,12 +63,21 @@ class BodyModel:
         return max(self.mass.shape[0], self.inertia.shape[0])
 
     def rows(self) -> FloatArray:
-        """(N | 1, MODEL_WIDTH) model rows for the compiled kernels
-        (:mod:`rigid_env.core.kernels`): mass, principal moments, their reciprocals and an
-        isotropy flag (no gyroscopic term), one row per body or one shared."""
-        mass, iso = self.mass[:, None], isotropic_rows(self.inertia)[:, None]
-        cols = (mass, self.inertia, 1.0 / mass, 1.0 / self.inertia, iso.astype(np.float64))
-        return np.hstack([np.broadcast_to(c, (self.n, c.shape[1])) for c in cols])
+        """(N | 1, MODEL_WIDTH) model rows for the compiled kernels, the numbers of
+        :class:`rigid_env.core.layout.Body` in its order: mass, principal moments, their
+        reciprocals and an isotropy flag (no gyroscopic term), one row per body or one shared."""
+        n, inertia, inv_inertia = self.n, self.inertia, 1.0 / self.inertia
+        named = {
+            "mass": self.mass,
+            "inv_mass": 1.0 / self.mass,
+            "isotropic": isotropic_rows(inertia).astype(np.float64),
+        }
+        for k, axis in enumerate("xyz"):
+            named[f"inertia_{axis}"], named[f"inv_inertia_{axis}"] = (
+                inertia[:, k],
+                inv_inertia[:, k],
+            )
+        return np.stack([np.broadcast_to(named[name], (n,)) for name in Body._fields], axis=1)
 
     def columns(self, n: int) -> FloatArray:
         """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated)."""

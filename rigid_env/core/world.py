@@ -10,44 +10,26 @@ reports. A body whose state turns NaN or inf is never handed back silently (``on
 
 from __future__ import annotations
 
-import os
-import threading
 import warnings
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any, Literal
 
-import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core import kernels as K
 from rigid_env.core.effects import ForceEffect, StepMap, pack
-from rigid_env.core.exact import free_rotation_exact
-from rigid_env.core.integrators import clamp_bodies, derivatives, get_integrator, kicks
-from rigid_env.core.rotation import quat_normalize, quat_rotate
+from rigid_env.core.integrators import get_integrator
+from rigid_env.core.layout import FAILED, FROZEN, HEALTHY, Params, decode, unpack
+from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
+from rigid_env.core.stepping import derivatives
+from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
+
+__all__ = ["THREAD_MIN_BODIES", "NumericalInstabilityError", "World", "call_threaded", "threaded"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
-
-
-THREADS = max(1, len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1)
-"""Cores this process may use."""
 _FLOAT64 = np.dtype(np.float64)
-THREAD_MIN_BODIES = 1024
-"""Smallest batch split over Numba's threads (below it one thread beats the hand-over)."""
-_threads_lock = threading.Lock()  # one threaded pass at a time (not every Numba layer nests)
-
-
-def threaded(n: int) -> bool:
-    """Whether a compiled pass over ``n`` bodies or envs is split over the cores."""
-    return n >= THREAD_MIN_BODIES and THREADS > 1
-
-
-def call_threaded(call: Callable[[int], Any]) -> Any:
-    """``call(threads)``, a compiled pass over Numba's threads, one at a time in this process."""
-    with _threads_lock:
-        return call(numba.get_num_threads())
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -98,6 +80,7 @@ class World:
         integrator: str = "rk4",
         dt: float = 0.01,
         substeps: int = 1,
+        *,
         state: State | None = None,
         n: int = 1,
         max_angular_speed: float | None = None,
@@ -121,18 +104,18 @@ class World:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         self.effects = tuple(effects)
         self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
-        self.integrator = get_integrator(integrator)
-        self.dt = float(dt)
-        self.substeps = int(substeps)
-        self.h = self.dt / self.substeps
+        self._integrator = get_integrator(integrator)
+        self._dt = float(dt)
+        self._substeps = int(substeps)
+        self.h = self._dt / self._substeps
+        """The integrator's step ``dt / substeps`` [s]."""
         self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
         self.on_error = on_error
-        self.params = pack(
-            self.effects, self.h, self.substeps, self.max_angular_speed,
-            self.integrator.stability,
-        )  # fmt: skip
-        """The world's parameters for the compiled step (:mod:`rigid_env.core.kernels`)."""
-        self.action_dim = int(self.params[K.ACTIONS])
+        stability = self._integrator.stability
+        self.params = pack(self.effects, self.h, self._substeps, self.max_angular_speed, stability)
+        """The world's parameters for the compiled step: the named :class:`Params`
+        (:attr:`parameters`), then the actuators' maps (:mod:`rigid_env.core.layout`)."""
+        self.action_dim = int(self.parameters.actions)
         """Length of the command vector (all actuators, in scene order)."""
         if state is not None:
             check_state(state)
@@ -154,8 +137,42 @@ class World:
         self._warned = False
         self.step_count = 0
         self.set_model(model)
-        serial = self.integrator.world_step is not None and not threaded(self._n)
+        serial = self._integrator.world_step_threads is None or not threaded(self._n)
         self._direct = serial and not self._copy_before_step  # step() calls the kernel itself
+
+    # ---- settings, read-only: a new world for new ones --------------------------------------
+    def _read_only(name: str, doc: str) -> property:  # type: ignore[misc]
+        def get(self: World) -> Any:
+            return getattr(self, "_" + name)
+
+        def refuse(self: World, value: Any) -> None:
+            raise AttributeError(
+                f"World.{name} is read-only (the compiled step is set up for it); make a new "
+                f"world with it: world = world.with_settings({name}={value!r})"
+            )
+
+        return property(get, refuse, doc=doc)
+
+    dt = _read_only("dt", "Time per :meth:`step` [s] (read-only: :meth:`with_settings`).")
+    substeps = _read_only("substeps", "Integrator steps per :meth:`step` (read-only).")
+    integrator = _read_only("integrator", "The integrator's registry entry (read-only).")
+    del _read_only
+
+    def with_settings(
+        self, *, dt: float | None = None, substeps: int | None = None, integrator: str | None = None
+    ) -> World:
+        """A new world of this one's model, effects, bodies and state (copied) with another
+        ``dt``, ``substeps`` or ``integrator`` (each left out: kept), its step counter at 0."""
+        return World(
+            self.model,
+            self.effects,
+            self._integrator.name if integrator is None else integrator,
+            self._dt if dt is None else dt,
+            self._substeps if substeps is None else substeps,
+            state=self._state.copy(),
+            max_angular_speed=self.max_angular_speed,
+            on_error=self.on_error,
+        )
 
     # ---------------------------------------------------------------------------------------
     @property
@@ -190,6 +207,11 @@ class World:
     def failed(self) -> BoolArray:
         """(N,) bodies frozen by a failure (``on_error="freeze"``); writable, to clear them."""
         return self._status.view(np.bool_)
+
+    @property
+    def parameters(self) -> Params:
+        """The world's parameters by name (the head of :attr:`params`)."""
+        return unpack(self.params)
 
     @property
     def n(self) -> int:
@@ -231,12 +253,12 @@ class World:
     def __getstate__(self) -> dict[str, Any]:
         """Pickled with the integrator's name (its compiled step is looked up again)."""
         out = self.__dict__.copy()
-        out["integrator"] = self.integrator.name
+        out["_integrator"] = self._integrator.name
         return out
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        self.integrator = get_integrator(state["integrator"])
+        self._integrator = get_integrator(state["_integrator"])
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
 
@@ -260,7 +282,7 @@ class World:
         if self._direct and type(a) is np.ndarray and a.dtype is _FLOAT64:
             u = a[None] if a.shape == self._one_command else a if a.shape in self._shapes else None
             if u is not None and u.flags.c_contiguous and a.base is not self._cols:
-                code = self.integrator.world_step(*self._arrays, u)
+                code = self._integrator.world_step(*self._arrays, u)
                 if code == 0:
                     self.step_count += 1
                     return self._none_failed
@@ -279,77 +301,37 @@ class World:
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
         backup = self._cols.copy() if self._copy_before_step else None
-        step = self.integrator.world_step
-        if step is None:
-            code = self._step_arrays(u)
-        elif not threaded(self._n):
-            code = step(*self._arrays, u)
+        entry = self._integrator.world_step_threads
+        if entry is None or not threaded(self._n):
+            code = self._integrator.world_step(*self._arrays, u)
         else:
-            step, arrays = self.integrator.world_step_threads, (*self._arrays, u)
-            code = call_threaded(lambda t: step(arrays, 0, self._n, t))
+            arrays = (*self._arrays, u)
+            code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
         return self._outcome(code, backup)
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the compiled step's ``code`` (:func:`integrators.advance`)."""
-        if code < 0:
+        bad_command, failures, beyond = decode(code)
+        if bad_command:
             raise ValueError("action: contains NaN or inf; every command must be a finite number")
-        if code & 1 and not self._warned:
+        if beyond and not self._warned:
             self._warn_speed()
-        if code < 2:  # nothing failed
+        if not failures:
             self.step_count += 1
             return self._none_failed
-        bad = self._status == 2
+        bad = self._status == FAILED
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
         if self.on_error == "raise":
-            self._status[bad] = 0
+            self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
-            raise NumericalInstabilityError(
-                np.flatnonzero(bad).tolist(), self.step_count + 1, self.integrator.name,
-                self.dt, self._likely_cause(),
-            )  # fmt: skip
-        self._status[bad] = 1
+            bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
+            cause = self._likely_cause()
+            raise NumericalInstabilityError(bodies, step, self._integrator.name, self._dt, cause)
+        self._status[bad] = FROZEN
         self.step_count += 1
         return bad
-
-    def _step_arrays(self, u: FloatArray) -> int:
-        """The world step of the NumPy array integrator ``exact_free``: Strang splitting of the
-        compiled force kicks and the exact torque-free flow (:mod:`rigid_env.core.exact`),
-        then the same per-step maps, speed limit and guard as the compiled step."""
-        if not np.all(np.isfinite(u)):
-            return -1
-        cols, p, h = self._cols, self.params, self.h
-        before = cols.copy()
-        forces = p[K.ANY_FORCE] != 0.0
-        inertia = np.broadcast_to(self.model.inertia, (self._n, 3))
-        s = self._state
-        with np.errstate(all="ignore"):
-            for _ in range(self.substeps):
-                self._clamp()
-                if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
-                s.x[:] += h * s.v
-                s.q[:], s.w[:] = free_rotation_exact(s.q, s.w, inertia, h, self.model.isotropic)
-                if forces:
-                    kicks(p, self._model_cols, cols, u, 0.5 * h)
-                s.q[:] = quat_normalize(s.q)
-            self._clamp()
-            if p[K.LINEAR_DAMPING] != 0.0:
-                s.v[:] *= p[K.LINEAR_ALPHA]
-            if p[K.ANGULAR_DAMPING] != 0.0:
-                s.w[:] *= p[K.ANGULAR_ALPHA]
-            frozen = self._status != 0
-            cols[:, frozen] = before[:, frozen]
-            bad = ~np.isfinite(cols).all(axis=0) & ~frozen
-            cols[:, bad] = before[:, bad]
-            self._status[bad] = 2
-            over = bool(np.max(np.sum(s.w * s.w, axis=1)) > p[K.STABLE_SPEED] ** 2 > 0.0)
-        return 2 * int(bad.sum()) + over
-
-    def _clamp(self) -> None:
-        if self.max_angular_speed is not None:
-            clamp_bodies(self._cols, self.max_angular_speed)
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
         if action is None or self.action_dim == 0:
@@ -414,7 +396,7 @@ class World:
         """(N,) total mechanical energy [J]: kinetic plus the potential of conservative effects."""
         e = self.kinetic_energy()
         for eff in self.force_effects:
-            u = eff.potential_energy(self.model, self.state.x)
+            u = eff.potential_energy(self.model, self.state)
             if u is not None:
                 e = e + u
         return e

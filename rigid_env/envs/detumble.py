@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel
+from rigid_env.core.jit import kernel
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,

@@ -18,7 +18,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from rigid_env.core.kernels import body_model, kernel, kinetic_energy, rotate, split_range
+from rigid_env.core.dynamics import kinetic_energy
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import body_model
+from rigid_env.core.maths import rotate
+from rigid_env.core.threads import split_range
 
 # ---- task parameters: the common header ------------------------------------------------------
 DT = 0  # control step [s]

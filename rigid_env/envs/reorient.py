@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel, quat_mul
+from rigid_env.core.jit import kernel
+from rigid_env.core.maths import quat_mul
 from rigid_env.core.rotation import canonical, quat_angle_between
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (

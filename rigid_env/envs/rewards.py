@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.kernels import kernel
+from rigid_env.core.jit import kernel
 
 FloatArray = NDArray[np.float64]
 

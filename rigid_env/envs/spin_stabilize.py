@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel
+from rigid_env.core.jit import kernel
 from rigid_env.core.rotation import quat_from_axis_angle, quat_rotate
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (

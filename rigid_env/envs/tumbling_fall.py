@@ -7,7 +7,8 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.kernels import kernel, rotate_inv
+from rigid_env.core.jit import kernel
+from rigid_env.core.maths import rotate_inv
 from rigid_env.envs import kernels as T
 from rigid_env.envs.base import (
     RigidBodyEnv,

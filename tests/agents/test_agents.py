@@ -241,23 +241,6 @@ def test_training_smoke_run(tmp_path):
     assert "steps/s" in out.stdout and "ETA" in out.stdout
 
 
-def test_evaluation_leaves_out_a_recorded_training_randomisation(tmp_path):
-    """One rule for a user's run and a pretrained policy: the sidecar's env kwargs less
-    ``randomization`` (older sidecars recorded it), then --env-kwargs over them."""
-    from agents.evaluate import resolve_env_kwargs
-
-    model = tmp_path / "model.zip"
-    model.write_bytes(b"")
-    rand = {"inertia": 0.5, "thrust": 0.3}
-    side = {"env_id": "RigidEnv/Detumble-v0", "algo": "ppo", "vecnormalize": None}
-    (tmp_path / "model.json").write_text(
-        json.dumps({**side, "env_kwargs": {"fuel_weight": 2.0, "randomization": rand}})
-    )
-    assert resolve_env_kwargs(model) == {"fuel_weight": 2.0}
-    asked = {"randomization": {"inertia": 0.9}}
-    assert resolve_env_kwargs(model, asked) == {"fuel_weight": 2.0, **asked}
-
-
 def test_evaluate_cli_errors(tmp_path, capsys):
     assert evaluate_main([str(tmp_path / "missing.zip"), "--env", "RigidEnv/Detumble-v0"]) == 2
     err = capsys.readouterr().err
@@ -285,12 +268,14 @@ def test_model_for_another_env_is_refused(capsys):
 def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
     """A kill between SB3's write of a model and of its VecNormalize statistics leaves a newer
     model alone: --resume must take the newest checkpoint that has all its files."""
-    from agents.train import _latest_checkpoint
+    from agents.train import _snapshots
 
+    ckpt = tmp_path / "checkpoints"
+    ckpt.mkdir()
     for steps in (512, 1024):
-        (tmp_path / f"model_{steps}_steps.zip").write_bytes(b"z")
-    (tmp_path / "model_vecnormalize_512_steps.pkl").write_bytes(b"p")
-    assert _latest_checkpoint(tmp_path) == (tmp_path / "model_512_steps.zip", 512)
-    (tmp_path / "model_vecnormalize_1024_steps.pkl").write_bytes(b"p")
-    assert _latest_checkpoint(tmp_path)[1] == 1024
-    assert _latest_checkpoint(tmp_path / "missing") is None
+        (ckpt / f"model_{steps}_steps.zip").write_bytes(b"z")
+    (ckpt / "model_vecnormalize_512_steps.pkl").write_bytes(b"p")
+    assert [s.steps for s in _snapshots(tmp_path, norm_required=True)] == [512]
+    (ckpt / "model_vecnormalize_1024_steps.pkl").write_bytes(b"p")
+    assert [s.steps for s in _snapshots(tmp_path, norm_required=True)] == [1024, 512]
+    assert _snapshots(tmp_path / "missing", norm_required=True) == []

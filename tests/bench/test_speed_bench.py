@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from rigid_env.bench import speed, timing
+from rigid_env.bench import speed, speed_rows, timing
 from rigid_env.cli import main
 from rigid_env.core.integrators import INTEGRATORS
 
@@ -44,7 +44,7 @@ def test_smoke_run_writes_figure_and_tables(smoke_out: Path) -> None:
 
 def test_csv_has_the_columns_and_every_section(smoke_out: Path) -> None:
     header, rows = read_csv(smoke_out / "speed.csv")
-    assert tuple(header) == speed.CSV_COLUMNS
+    assert tuple(header) == speed_rows.CSV_COLUMNS
     assert {"section", "case", "n", "value", "unit", "median_s", "peer", "ratio"} <= set(header)
     assert {r["section"] for r in rows} == set(speed.SECTIONS)
     assert {r["clock"] for r in rows if r["note"] == ""} == {"wall"}

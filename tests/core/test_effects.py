@@ -149,7 +149,7 @@ def test_quadratic_drag_terminal_speed_and_tanh_fall() -> None:
 
 def test_drag_without_offset_makes_no_torque() -> None:
     drag = QuadraticDrag()
-    assert not drag.rotational
+    assert not drag.offset
     s = state(5)
     force, torque = wrench(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (drag,), s)
     assert np.abs(torque).max() < ONE_EVAL_TOL * 10  # Euler's equations undone: round-off
@@ -163,7 +163,7 @@ def test_drag_with_offset_centre_of_pressure_hand_computation() -> None:
     rho, cd, area = 1.2, 0.9, 0.3
     r_cp = np.array([0.1, -0.05, 0.2])
     drag = QuadraticDrag(rho=rho, cd=cd, area=area, center_of_pressure=r_cp)
-    assert drag.rotational
+    assert drag.offset
     x = np.array([1.0, 2.0, 3.0])
     v = np.array([3.0, -4.0, 1.5])
     q = np.array([0.7, 0.1, -0.5, 0.3]) / np.linalg.norm([0.7, 0.1, -0.5, 0.3])
@@ -242,7 +242,7 @@ def test_point_forces_torque_is_r_cross_f() -> None:
     rng = np.random.default_rng(3)
     points = rng.uniform(-1, 1, (3, 3))
     pf = PointForces(points=points, max_force=2.5)
-    assert pf.action_dim == 9
+    assert pf.force_map.shape[0] == 9  # command components
     n = 6
     u = rng.uniform(-1, 1, (n, 9))
     q = rng.standard_normal((n, 4))
@@ -263,7 +263,7 @@ def test_gravity_has_no_torque_and_its_potential() -> None:
     force, torque = wrench(model, (Gravity(G),), s)
     assert np.abs(torque).max() < ONE_EVAL_TOL * 10  # Euler's equations undone: round-off
     assert np.abs(force - model.mass[:, None] * G).max() < ONE_EVAL_TOL * 10
-    u = Gravity(G).potential_energy(model, s.x)
+    u = Gravity(G).potential_energy(model, s)
     assert np.abs(u - model.mass * 9.81 * s.x[:, 2]).max() < ONE_EVAL_TOL * 100
 
 

@@ -12,8 +12,8 @@ import pytest
 from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
-from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator
-from rigid_env.core import kernels as K
+from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator, layout
+from rigid_env.core.layout import Body
 from rigid_env.core.rotation import quat_angle_between, quat_mul, quat_rotate
 
 from roundoff import FUNC_RTOL, U
@@ -218,17 +218,17 @@ def test_per_body_function_is_the_world_step(name: str) -> None:
     r = world.rows[0].tolist()
     out = INTEGRATORS[name].body(
         tuple(r[0:3]), tuple(r[3:6]), tuple(r[6:10]), tuple(r[10:13]),
-        (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), world.model.rows()[0], world.params, world.h,
+        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), Body(*world.model.rows()[0]), world.parameters, world.h,
     )  # fmt: skip
     world.step()
     assert [c for part in out for c in part] == world.rows[0].tolist()
 
 
-def test_header_is_every_parameter_before_the_maps() -> None:
-    """The per-body steps read the parameters' header tuple: every number before the maps."""
+def test_named_parameters_are_every_number_before_the_maps() -> None:
+    """The per-body steps read the named parameters: every number before the maps."""
     world = World(BodyModel.single(1.0, [1, 2, 3]), [Thrusters([[1, 0, 0]], [[0, 1, 0]], [1.0])])
-    assert K.header(world.params) == tuple(world.params[: K.MAPS].tolist())
-    assert K.HEADER == K.MAPS
+    assert tuple(world.parameters) == tuple(world.params[: layout.MAPS].tolist())
+    assert world.params.size == layout.MAPS + 6  # one thruster's (force, torque) row
 
 
 def test_energy_behaviour_signatures() -> None:

@@ -1,4 +1,4 @@
-"""The compiled steps' sine and cosine (:func:`rigid_env.core.kernels.sincos`): a vectorisable
+"""The compiled steps' sine and cosine (:func:`rigid_env.core.maths.sincos`): a vectorisable
 polynomial, checked against libm."""
 
 import math
@@ -6,7 +6,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rigid_env.core.kernels import sincos
+from rigid_env.core.maths import sincos
 
 EPS = 2.0**-53  # unit roundoff of float64
 

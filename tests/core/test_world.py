@@ -23,7 +23,6 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core import kernels as K
 
 from roundoff import U
 
@@ -268,18 +267,18 @@ def test_unlisted_effect_has_no_flag_and_listed_one_does() -> None:
     not list gravity or drag carries zero flags for them (the line-by-line proof that the
     kernel never evaluates them is ``test_unlisted_effects_never_run_without_jit``)."""
     bare = World(BodyModel(MASS, INERTIA), (LinearDamping(0.99),), "rk4", 0.01, state=STATE0)
-    for flag in (K.GRAVITY, K.DRAG, K.ANGULAR_DAMPING, K.MAX_SPEED, K.ANY_FORCE):
-        assert bare.params[flag] == 0.0
-    assert bare.params[K.LINEAR_DAMPING] == 1.0
+    for flag in ("gravity", "drag", "angular_damping", "max_speed", "any_force"):
+        assert getattr(bare.parameters, flag) == 0.0
+    assert bare.parameters.linear_damping == 1.0
     listed = World(BodyModel(MASS, INERTIA), (Gravity(), QuadraticDrag()), "rk4", 0.01, n=N)
-    assert listed.params[K.GRAVITY] == listed.params[K.DRAG] == listed.params[K.ANY_FORCE] == 1.0
+    assert listed.parameters.gravity == listed.parameters.drag == listed.parameters.any_force == 1.0
 
 
 UNLISTED_PROBE = """
 import sys
 import numpy as np
-from rigid_env.core import BodyModel, Gravity, QuadraticDrag, World, kernels
-lines, code = set(), kernels.accelerations.__code__
+from rigid_env.core import BodyModel, Gravity, QuadraticDrag, World, dynamics
+lines, code = set(), dynamics.accelerations.__code__
 def trace(frame, event, arg):
     if frame.f_code is code:
         lines.add(frame.f_lineno - code.co_firstlineno)
@@ -295,16 +294,16 @@ def run(effects):
     return set(lines)
 bare, full = run(()), run((Gravity(), QuadraticDrag(center_of_pressure=[0.0, 0.0, 0.1])))
 import inspect
-source, first = inspect.getsourcelines(kernels.accelerations)
+source, first = inspect.getsourcelines(dynamics.accelerations)
 effect = {k + first - code.co_firstlineno for k, text in enumerate(source)
-          if "* p[G" in text or "DRAG_K" in text or "drag[" in text}
+          if "* p.gravity_" in text or "p.drag_k" in text or "drag[" in text}
 print((sorted(effect), sorted(bare), sorted(full)))
 """
 
 
 def test_unlisted_effects_never_run_without_jit() -> None:
     """With ``NUMBA_DISABLE_JIT=1`` the same kernels run as Python, and a line tracer shows
-    which lines of :func:`rigid_env.core.kernels.accelerations` ran: a world with no effects
+    which lines of :func:`rigid_env.core.dynamics.accelerations` ran: a world with no effects
     runs none of the gravity or drag lines that a world listing them runs (so they cost
     nothing but the skipped branch), and the rk4 step itself works without the compiler."""
     env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
@@ -444,7 +443,7 @@ def test_batch_split_over_threads_equals_one_thread_and_single_bodies(name, monk
     """A batch of at least ``THREAD_MIN_BODIES`` is stepped in row slices on several threads;
     every body is computed alone, so the result equals one thread's, and a body stepped alone,
     bit for bit (per-body mass properties and commands, every effect, two substeps)."""
-    from rigid_env.core import world as world_module
+    from rigid_env.core import threads as world_module
 
     n = world_module.THREAD_MIN_BODIES + 77
     gen = np.random.default_rng(5)
@@ -471,3 +470,63 @@ def test_batch_split_over_threads_equals_one_thread_and_single_bodies(name, monk
         for u in commands:
             alone.step(u[i])
         assert np.array_equal(alone.rows[0], split.rows[i])
+
+
+@pytest.mark.parametrize(
+    "name", [name for name, info in INTEGRATORS.items() if info.world_step_threads is not None]
+)
+def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
+    """Each compiled integrator's three entries (all bodies; a range of them; ranges over
+    Numba's threads, here more threads than cores) step a batch (per-body mass properties and
+    commands, every effect, two substeps) to the same numbers, bit for bit, as each other and
+    as each body stepped alone: every body is computed alone, whatever pass it is in."""
+    info = INTEGRATORS[name]
+    n = 23
+    gen = np.random.default_rng(17)
+    q = gen.standard_normal((n, 4))
+    state = State.from_arrays(
+        gen.uniform(-2, 2, (n, 3)), gen.uniform(-3, 3, (n, 3)),
+        q / np.linalg.norm(q, axis=1, keepdims=True), gen.uniform(-3, 3, (n, 3)),
+    )  # fmt: skip
+    model = BodyModel(gen.uniform(0.5, 3.0, n), gen.uniform(1.0, 2.0, (n, 3)))
+    commands = gen.uniform(-1, 1, (4, n, 2))
+    world = world_of(model, state, name)
+    serial, ranges, threads = (world.columns.copy() for _ in range(3))
+
+    def arrays(cols: FloatArray) -> tuple:
+        return (world.params, world.model_columns, cols, np.zeros(n, np.uint8), np.zeros((6, n)))
+
+    for u in commands:
+        assert info.world_step(*arrays(serial), u) == 0
+        for start, stop in ((0, 5), (5, 6), (6, n)):
+            assert info.world_step_range(*arrays(ranges), u, start, stop) == 0
+        assert info.world_step_threads((*arrays(threads), u), 0, n, 5) == 0
+    assert np.array_equal(ranges, serial)
+    assert np.array_equal(threads, serial)
+    for i in (0, 5, n - 1):
+        alone = world_of(
+            BodyModel(model.mass[i : i + 1], model.inertia[i : i + 1]), state.take([i]), name
+        )
+        for u in commands:
+            alone.step(u[i])
+        assert np.array_equal(alone.columns[:, 0], serial[:, i])
+
+
+def test_settings_are_read_only_and_with_settings_makes_a_new_world() -> None:
+    """Assigning dt, substeps or integrator would leave the compiled step on the old ones:
+    it is refused with a message naming the fix, which gives a world that steps as one built
+    with the new settings, bit for bit."""
+    world = world_of(BodyModel(MASS, INERTIA), STATE0, "rk4")
+    for name, value in (("dt", 0.05), ("substeps", 3), ("integrator", "splitting")):
+        with pytest.raises(AttributeError, match=rf"world.with_settings\({name}="):
+            setattr(world, name, value)
+    assert (world.dt, world.substeps, world.integrator.name) == (0.02, 2, "rk4")
+    world.step(ACTIONS[0])
+    other = world.with_settings(dt=0.05, integrator="splitting")
+    assert (other.dt, other.substeps, other.integrator.name) == (0.05, 2, "splitting")
+    assert other.step_count == 0 and np.array_equal(other.rows, world.rows)
+    fresh = World(BodyModel(MASS, INERTIA), effects(), "splitting", 0.05, 2, state=world.state)
+    for u in ACTIONS:
+        other.step(u)
+        fresh.step(u)
+    assert np.array_equal(other.rows, fresh.rows)

@@ -11,7 +11,6 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import rigid_env
-from rigid_env.core import kernels as K
 from rigid_env.envs.base import RigidBodyVectorEnv
 
 from roundoff import gamma
@@ -247,10 +246,10 @@ def test_scene_without_gravity_or_drag_never_evaluates_them():
     """Detumble's scene lists neither gravity nor drag: its world carries zero flags for them,
     so the compiled kernel skips both (tests/core/test_world.py traces the kernel's lines to
     show a zero flag runs none of an effect's code); the fall's scene sets both."""
-    detumble = gym.make("RigidEnv/Detumble-v0").unwrapped.task.world.params
-    fall = gym.make("RigidEnv/TumblingFall-v1").unwrapped.task.world.params
-    assert detumble[K.GRAVITY] == detumble[K.DRAG] == 0.0
-    assert fall[K.GRAVITY] == fall[K.DRAG] == fall[K.DRAG_OFFSET] == 1.0
+    detumble = gym.make("RigidEnv/Detumble-v0").unwrapped.task.world.parameters
+    fall = gym.make("RigidEnv/TumblingFall-v1").unwrapped.task.world.parameters
+    assert detumble.gravity == detumble.drag == 0.0
+    assert fall.gravity == fall.drag == fall.drag_offset == 1.0
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
@@ -386,7 +385,7 @@ def test_vector_env_split_over_threads_equals_one_thread(monkeypatch):
     """A vector env of at least ``THREAD_MIN_BODIES`` envs runs its world step and task pass
     in row slices on several threads: the same observations, rewards and flags as one thread,
     bit for bit (with randomisation and sensor noise)."""
-    from rigid_env.core import world as world_module
+    from rigid_env.core import threads as world_module
 
     n = world_module.THREAD_MIN_BODIES + 33
     rand = {"mass": 0.2, "inertia": 0.2, "thrust": 0.2, "sensor_noise": 0.01}

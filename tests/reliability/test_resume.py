@@ -18,7 +18,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from reliability_helpers import ROOT, assert_one_line_error, write_config
+import yaml
+from reliability_helpers import ROOT, TINY, assert_one_line_error, write_config
 
 from agents.train import main as train_main
 
@@ -290,3 +291,119 @@ def test_a_save_killed_after_its_commit_is_completed(finished_run, tmp_path, cap
     assert "staged" not in json.loads((ev / "best_model.json").read_text())
     assert list((runs / RUN).rglob(".tmp-*")) == []
     assert "finished" in capsys.readouterr().out
+
+
+# ---- issue 28, section 2: resume continues from nothing but what it says ----------------------
+
+
+def test_checkpoint_without_its_statistics_is_not_resumed_from(tmp_path, capsys):
+    """A newest checkpoint whose VecNormalize statistics are gone (its sidecar still there) is
+    not complete: one warning line, and training goes on from the previous checkpoint, whose
+    statistics' sample count continues (fresh statistics would start from 0)."""
+    config = write_config(tmp_path, total_timesteps=768)
+    runs = tmp_path / "runs"
+    assert _train(config, "--runs-dir", runs) == 0
+    ckpt = runs / RUN / "checkpoints"
+    (runs / RUN / "model.json").unlink()  # the run died after its last checkpoint
+    (ckpt / "model_vecnormalize_768_steps.pkl").unlink()
+    capsys.readouterr()
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 1024) == 0
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    assert "model_768_steps.zip lacks model_vecnormalize_768_steps.pkl" in err
+    assert "falling back" in err
+    count_512 = _obs_count(ckpt / "model_vecnormalize_512_steps.pkl")
+    # 512 new observations from step 512 to 1024, plus the first one of each of the 2 envs.
+    assert _obs_count(runs / RUN / "vecnormalize.pkl") == pytest.approx(count_512 + 512 + 2)
+
+
+def test_final_model_without_its_statistics_falls_back_to_its_checkpoint(
+    finished_run, tmp_path, capsys
+):
+    """The final model.zip without vecnormalize.pkl: more steps continue from the checkpoint of
+    the same step (which has its statistics), with a warning naming what is missing."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    (run / "vecnormalize.pkl").unlink()
+    count_512 = _obs_count(run / "checkpoints" / "model_vecnormalize_512_steps.pkl")
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 0
+    err = capsys.readouterr().err
+    assert "model.zip lacks vecnormalize.pkl" in err and err.count("\n") == 1, err
+    assert _obs_count(run / "vecnormalize.pkl") == pytest.approx(count_512 + 256 + 2)
+
+
+def test_no_complete_checkpoint_is_refused(finished_run, tmp_path, capsys):
+    """Every snapshot without its statistics: nothing can be resumed as saved; refused in one
+    line naming each, and nothing in the run is rewritten."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    for stats in [run / "vecnormalize.pkl", *(run / "checkpoints").glob("*vecnormalize*")]:
+        stats.unlink()
+    before = {p: p.read_bytes() for p in run.rglob("*") if p.is_file()}
+    code = _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 1024)
+    assert code == 2
+    err = capsys.readouterr().err
+    line = assert_one_line_error(err.splitlines()[-1], ERR, "no checkpoint is complete")
+    assert "model_256_steps.zip lacks" in line and "model.zip lacks" in line
+    assert {p: p.read_bytes() for p in run.rglob("*") if p.is_file()} == before
+
+
+def test_resume_checks_what_ran_when_config_yaml_is_gone(finished_run, tmp_path, capsys):
+    """Issue 28's example: config.yaml deleted, --resume with gamma 0.5 where the model was
+    trained with 0.99. Refused, naming the sidecar it compared against; config.yaml is not
+    written with a value the model never used. With the run's own config it resumes, and
+    config.yaml again records what runs."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    (run / "config.yaml").unlink()
+    hyper = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
+    changed = write_config(tmp_path, "changed.yaml", hyperparams={**hyper, "gamma": 0.5})
+    assert _train(changed, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 2
+    line = assert_one_line_error(capsys.readouterr().err, ERR, "hyperparams.gamma", "0.5")
+    assert "model.json" in line
+    assert not (run / "config.yaml").exists()
+    assert json.loads((run / "model.json").read_text())["num_timesteps"] == 512
+
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 0
+    recorded = yaml.safe_load((run / "config.yaml").read_text())
+    assert "gamma" not in recorded["hyperparams"]  # SB3's default 0.99, as trained
+    assert recorded["total_timesteps"] == 768
+    side = json.loads((run / "model.json").read_text())
+    assert side["config"] == recorded  # the sidecar records the same
+
+
+def test_resume_without_any_record_of_the_config_is_refused(finished_run, tmp_path, capsys):
+    """A run from before sidecars recorded configs, with config.yaml gone: nothing says what
+    the model was trained with, so resuming it is refused (one line), not guessed."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    (run / "config.yaml").unlink()
+    for side in run.rglob("*.json"):
+        data = json.loads(side.read_text())
+        data.pop("config", None)
+        side.write_text(json.dumps(data))
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 2
+    assert_one_line_error(capsys.readouterr().err, ERR, "no record of the config", "config.yaml")
+
+
+def test_resume_of_a_run_that_does_not_exist_is_refused(tmp_path, capsys):
+    """A wrong --seed or --runs-dir with --resume: refused in one line, nothing created;
+    --resume-or-start starts it, and later resumes it."""
+    config = write_config(tmp_path, total_timesteps=256)
+    runs = tmp_path / "runs"
+    assert _train(config, "--runs-dir", runs, "--resume") == 2
+    line = assert_one_line_error(capsys.readouterr().err, ERR, "no run to resume", "--seed")
+    assert "--resume-or-start" in line
+    assert not runs.exists()
+    assert _train(config, "--runs-dir", runs, "--resume", "--seed", 7) == 2  # a wrong seed
+    assert not runs.exists()
+    # Only config.yaml (an older failed start) is not a run either.
+    (runs / RUN).mkdir(parents=True)
+    (runs / RUN / "config.yaml").write_text(yaml.safe_dump(TINY))
+    assert _train(config, "--runs-dir", runs, "--resume") == 2
+    capsys.readouterr()
+
+    assert _train(config, "--runs-dir", runs, "--resume-or-start") == 0
+    assert json.loads((runs / RUN / "model.json").read_text())["num_timesteps"] == 256
+    assert _train(config, "--runs-dir", runs, "--resume-or-start", "--total-timesteps", 512) == 0
+    assert json.loads((runs / RUN / "model.json").read_text())["num_timesteps"] == 512

@@ -1,0 +1,127 @@
+"""The dynamics of one body, compiled: the actuators' wrench, the active effects' forces and
+torques, and Euler's equations, reading the body's model and the world's parameters by name
+(:mod:`rigid_env.core.layout`).
+
+Frames: forces on the centre of mass are world frame, torques and angular velocities body
+frame (principal axes), so the inertia is the constant diagonal ``I``.
+"""
+
+from __future__ import annotations
+
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import MAPS
+from rigid_env.core.maths import axpy, cross, norm, rotate, rotate_inv
+
+
+@kernel
+def gyroscopic(w, m):
+    """``w x (I w)`` [N m] for the principal moments of the body model ``m``."""
+    return (
+        w[1] * w[2] * (m.inertia_z - m.inertia_y),
+        w[2] * w[0] * (m.inertia_x - m.inertia_z),
+        w[0] * w[1] * (m.inertia_y - m.inertia_x),
+    )
+
+
+@kernel
+def gyro_jacobian(w, m):
+    """``d(w x I w)/dw = skew(w) I - skew(I w)``, row-major 9-tuple."""
+    i0, i1, i2 = m.inertia_x, m.inertia_y, m.inertia_z
+    l0, l1, l2 = i0 * w[0], i1 * w[1], i2 * w[2]
+    return (
+        0.0,
+        -w[2] * i1 + l2,
+        w[1] * i2 - l1,
+        w[2] * i0 - l2,
+        0.0,
+        -w[0] * i2 + l0,
+        -w[1] * i0 + l1,
+        w[0] * i1 - l0,
+        0.0,
+    )
+
+
+@kernel
+def wrench(p, command, i):
+    """Body-frame actuator force and torque of body ``i``'s command (row ``i`` of ``command``
+    (N, A), or its only row): ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a (r_a x F_a)``
+    (rows of :data:`MAPS`), summed in a fixed order."""
+    r = 0 if command.shape[0] == 1 else i
+    fx = fy = fz = tx = ty = tz = 0.0
+    for a in range(command.shape[1]):
+        k = MAPS + 6 * a
+        c = command[r, a]
+        fx += c * p[k]
+        fy += c * p[k + 1]
+        fz += c * p[k + 2]
+        tx += c * p[k + 3]
+        ty += c * p[k + 4]
+        tz += c * p[k + 5]
+    return (fx, fy, fz), (tx, ty, tz)
+
+
+@kernel
+def accelerations(x, v, q, w, act, m, p, gyro):
+    """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
+    [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuators' body wrench
+    ``act = (force, torque)`` and the active effects:
+
+    * gravity ``F = m g``;
+    * quadratic drag ``F = -k |v_p| v_p`` at the centre of pressure ``r`` (body frame), whose
+      velocity is ``v_p = v + R (w x r)``; off the centre of mass it adds ``tau = r x R^T F``;
+    * with ``gyro``, Euler's ``I w' = tau - w x I w`` (skipped for an isotropic body, where the
+      term vanishes).
+    """
+    fb, tb = act
+    fx = fy = fz = 0.0
+    if p.actuator_force != 0.0:
+        fx, fy, fz = rotate(q, fb)
+    tx, ty, tz = tb
+    if p.gravity != 0.0:
+        fx += m.mass * p.gravity_x
+        fy += m.mass * p.gravity_y
+        fz += m.mass * p.gravity_z
+    if p.drag != 0.0:
+        vp = v
+        cop = (p.cop_x, p.cop_y, p.cop_z)
+        if p.drag_offset != 0.0:
+            vp = axpy(v, 1.0, rotate(q, cross(w, cop)))
+        ks = -p.drag_k * norm(vp)
+        drag = (ks * vp[0], ks * vp[1], ks * vp[2])
+        fx += drag[0]
+        fy += drag[1]
+        fz += drag[2]
+        if p.drag_offset != 0.0:
+            tau = cross(cop, rotate_inv(q, drag))
+            tx += tau[0]
+            ty += tau[1]
+            tz += tau[2]
+    if gyro and m.isotropic == 0.0:
+        g = gyroscopic(w, m)
+        tx -= g[0]
+        ty -= g[1]
+        tz -= g[2]
+    inv_m = m.inv_mass
+    alpha = (tx * m.inv_inertia_x, ty * m.inv_inertia_y, tz * m.inv_inertia_z)
+    return (fx * inv_m, fy * inv_m, fz * inv_m), alpha
+
+
+@kernel
+def kinetic_energy(v, w, m):
+    """``1/2 (m |v|^2 + sum_k I_k w_k^2)`` [J]."""
+    trans = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
+    rot = m.inertia_x * w[0] * w[0] + m.inertia_y * w[1] * w[1] + m.inertia_z * w[2] * w[2]
+    return 0.5 * (m.mass * trans + rot)
+
+
+@kernel
+def kick(x, v, q, w, act, m, p, h):
+    """Flow of the external forces for time ``h`` with ``x, q`` frozen (gyroscopic term
+    excluded): exact in one evaluation when no force depends on velocity (a constant
+    acceleration), else the explicit midpoint rule, second order."""
+    a, alpha = accelerations(x, v, q, w, act, m, p, False)
+    if p.velocity_dependent != 0.0:
+        a, alpha = accelerations(
+            x, axpy(v, 0.5 * h, a), q, axpy(w, 0.5 * h, alpha), act, m, p, False
+        )
+    return axpy(v, h, a), axpy(w, h, alpha)

@@ -1,0 +1,173 @@
+"""Every array the compiled kernels share, declared once by name.
+
+* :class:`Body`: a body's model, one column of the world's model columns (``len(Body._fields)``,
+  N): what the per-body functions read as ``m.mass``, ``m.inv_inertia_x``.
+* :class:`Params`: the world's parameters, the head of one float64 array (:func:`pack` in
+  :mod:`rigid_env.core.effects` fills it by name), followed by the actuators' maps from
+  :data:`MAPS` on; the per-body functions read them as ``p.gravity``, ``p.drag_k``. An effect
+  the scene does not list has a 0 flag, skipped by one branch. Adding a field is adding a line
+  here: every offset follows from the order of the declaration.
+* the state columns (13, N) ``(x, v, q, w)`` (:func:`load`, :func:`store`).
+* the step's outcome: a body's status (:data:`HEALTHY`, :data:`FROZEN`, :data:`FAILED`) and the
+  code a world step returns (:func:`step_code`, decoded by :func:`decode`).
+
+Numba compiles a named tuple of floats as it compiles a plain tuple: numbers in registers, where
+an array would cost two atomic reference counts per call. :func:`unpack` and :func:`body_model`
+read one from an array by the declaration's order (a loop over the fields that the compiler
+unrolls); as plain Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
+
+Frames: forces on the centre of mass are world frame, torques and angular velocities body frame
+(principal axes), so the inertia is the constant diagonal ``I``.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+from numba.cpython.unsafe.tuple import tuple_setitem
+from numba.extending import overload
+from numpy.typing import NDArray
+
+from rigid_env.core.jit import kernel
+
+FloatArray = NDArray[np.float64]
+
+
+class Body(NamedTuple):
+    """A body's model numbers, in its principal axes."""
+
+    mass: float  # [kg]
+    inertia_x: float  # principal moments [kg m^2]
+    inertia_y: float
+    inertia_z: float
+    inv_mass: float  # 1 / mass [1/kg]
+    inv_inertia_x: float  # 1 / principal moments [1/(kg m^2)]
+    inv_inertia_y: float
+    inv_inertia_z: float
+    isotropic: float  # 1: three equal moments (no gyroscopic term), else 0
+
+
+class Params(NamedTuple):
+    """The world's parameters: the step, then each effect's flag (1 where the scene lists it,
+    else 0) and numbers, then the step's own settings. Vectors are world frame unless named."""
+
+    h: float  # integrator step dt / substeps [s]
+    substeps: float  # integrator steps per world step
+    gravity: float  # flag
+    gravity_x: float  # g [m/s^2]
+    gravity_y: float
+    gravity_z: float
+    drag: float  # flag
+    drag_k: float  # k = rho cd A / 2 [kg/m]
+    drag_offset: float  # flag: the centre of pressure is off the centre of mass
+    cop_x: float  # centre of pressure, body frame [m]
+    cop_y: float
+    cop_z: float
+    linear_damping: float  # flag
+    linear_alpha: float  # v <- alpha v each world step
+    angular_damping: float  # flag
+    angular_alpha: float  # w <- alpha w each world step
+    max_speed: float  # flag
+    max_speed_value: float  # the limit on |w| [rad/s]
+    actuator_force: float  # flag: some actuator pushes the centre of mass (not only couples)
+    any_force: float  # flag: some effect or actuator acts (else a splitting skips its kicks)
+    velocity_dependent: float  # flag: some force depends on v or w (kicks need more stages)
+    stable_speed: float  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
+    actions: float  # number A of command components
+
+
+MAPS = len(Params._fields)
+"""Offset of the actuators' maps in the parameter array: A rows of ``(force (3,), torque (3,))``,
+body frame, at ``|u| = 1``."""
+MODEL_WIDTH = len(Body._fields)
+STATE_WIDTH = 13
+"""Rows of the state columns: ``x`` (0:3), ``v`` (3:6), ``q`` (6:10), ``w`` (10:13)."""
+_PARAMS0 = Params(*([0.0] * MAPS))
+_BODY0 = Body(*([0.0] * MODEL_WIDTH))
+
+# ---- a body's status and the code of a world step -------------------------------------------
+HEALTHY, FROZEN, FAILED = 0, 1, 2
+"""A body's status: stepped; left alone after an earlier failure; its state turned non-finite in
+this step (left at its last finite state)."""
+BAD_COMMAND = -1
+"""The code of a world step that stepped nothing: the command has a NaN or inf."""
+
+
+@kernel
+def step_code(failures, beyond):
+    """The code of a world step: ``2 failures + beyond``, ``beyond`` 1 if a body ended the step
+    past the integrator's stable ``h |w|``, else 0."""
+    return 2 * failures + beyond
+
+
+@kernel
+def failures_of(code):
+    """Bodies that failed, from a world step's code (>= 0)."""
+    return code >> 1
+
+
+@kernel
+def beyond_of(code):
+    """1 if a body ended past the stable ``h |w|``, from a world step's code (>= 0)."""
+    return code & 1
+
+
+def decode(code: int) -> tuple[bool, int, bool]:
+    """``(bad_command, failures, beyond)`` of a world step's code."""
+    if code == BAD_COMMAND:
+        return True, 0, False
+    return False, int(failures_of(code)), bool(beyond_of(code))
+
+
+# ---- reading the arrays by the declaration ---------------------------------------------------
+def unpack(p: FloatArray) -> Params:
+    """The named parameters at the head of the world's parameter array ``p``."""
+    return Params(*p[:MAPS].tolist())
+
+
+def body_model(model: FloatArray, i: int) -> Body:
+    """Body ``i``'s model numbers from the model columns (MODEL_WIDTH, N)."""
+    return Body(*model[:, i].tolist())
+
+
+@overload(unpack, inline="always")
+def _unpack(p):
+    def impl(p):
+        out = _PARAMS0
+        for k in range(MAPS):
+            out = tuple_setitem(out, k, p[k])
+        return out
+
+    return impl
+
+
+@overload(body_model, inline="always")
+def _body_model(model, i):
+    def impl(model, i):
+        out = _BODY0
+        for k in range(MODEL_WIDTH):
+            out = tuple_setitem(out, k, model[k, i])
+        return out
+
+    return impl
+
+
+@kernel
+def load(state, i):
+    """Body ``i``'s ``(x, v, q, w)`` from the state columns (13, N), as tuples."""
+    return (
+        (state[0, i], state[1, i], state[2, i]),
+        (state[3, i], state[4, i], state[5, i]),
+        (state[6, i], state[7, i], state[8, i], state[9, i]),
+        (state[10, i], state[11, i], state[12, i]),
+    )
+
+
+@kernel
+def store(state, i, x, v, q, w):
+    """Write ``(x, v, q, w)`` into column ``i`` of the state columns (13, N)."""
+    state[0, i], state[1, i], state[2, i] = x
+    state[3, i], state[4, i], state[5, i] = v
+    state[6, i], state[7, i], state[8, i], state[9, i] = q
+    state[10, i], state[11, i], state[12, i] = w

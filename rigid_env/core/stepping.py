@@ -1,0 +1,224 @@
+"""The world step's passes over the bodies, compiled: one integrator's substeps, the speed
+limit, the damping maps after the last substep, and the guard that keeps a body's last finite
+state. Written once; the compiled integrators (:func:`advance`) and the array integrator
+``exact_free`` (:func:`limit_speed_pass`, :func:`kicks`, :func:`finish_pass`) share them.
+
+Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.layout`), the state
+columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
+``wrenches`` (6, N) and the ``command`` (N | 1, A).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from rigid_env.core.dynamics import accelerations, kick, wrench
+from rigid_env.core.jit import kernel, pass_kernel
+from rigid_env.core.layout import (
+    BAD_COMMAND,
+    FAILED,
+    HEALTHY,
+    beyond_of,
+    body_model,
+    failures_of,
+    load,
+    step_code,
+    store,
+    unpack,
+)
+from rigid_env.core.threads import split_range
+
+
+# ---- one body ---------------------------------------------------------------------------------
+@kernel
+def clamp(w, limit):
+    """PhysX's ``setMaxAngularVelocity``: ``w`` scaled down to ``|w| = limit`` when above it,
+    its direction kept (a non-finite ``w`` stays non-finite for the guard)."""
+    s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+    if s2 > limit * limit:
+        f = limit / math.sqrt(s2)
+        return (w[0] * f, w[1] * f, w[2] * f)
+    return w
+
+
+@kernel
+def limit_speed(w, c):
+    """``w`` under the world's speed limit, if it has one (``c``: the named parameters)."""
+    return clamp(w, c.max_speed_value) if c.max_speed != 0.0 else w
+
+
+@kernel
+def step_maps(v, w, c):
+    """The maps after a world step's last substep: the speed limit, then the seed's damping
+    ``v <- alpha v``, ``w <- alpha w`` of the effects listed."""
+    w = limit_speed(w, c)
+    if c.linear_damping != 0.0:
+        a = c.linear_alpha
+        v = (v[0] * a, v[1] * a, v[2] * a)
+    if c.angular_damping != 0.0:
+        a = c.angular_alpha
+        w = (w[0] * a, w[1] * a, w[2] * a)
+    return v, w
+
+
+@kernel
+def _finite(x, v, q, w):
+    """Whether every number of a body's state is finite, without a branch: ``a - a`` is 0 for a
+    finite ``a`` and NaN for an inf or a NaN."""
+    z = (x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (v[0] - v[0]) + (v[1] - v[1])
+    z += (v[2] - v[2]) + (q[0] - q[0]) + (q[1] - q[1]) + (q[2] - q[2]) + (q[3] - q[3])
+    return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
+
+
+@kernel
+def guard(state, status, i, new, old):
+    """Column ``i`` of ``state`` by selects: a healthy body (:data:`HEALTHY`) takes its finite
+    ``new`` state, else keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``.
+    Returns ``(ok, failed)``: whether ``new`` was taken, whether the body failed here."""
+    x, v, q, w = new
+    x0, v0, q0, w0 = old
+    healthy = status[i] == HEALTHY
+    ok = healthy & _finite(x, v, q, w)
+    failed = healthy & ~ok
+    status[i] = FAILED if failed else status[i]
+    store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
+    return ok, failed
+
+
+@kernel
+def beyond(w, c, ok):
+    """1 if a body that took its new state spins past the integrator's stable ``|w|``, else 0."""
+    fast = w[0] * w[0] + w[1] * w[1] + w[2] * w[2] > c.stable_speed * c.stable_speed
+    return 1 if ok & fast & (c.stable_speed != 0.0) else 0
+
+
+@pass_kernel
+def substep(step, c, model, wrenches, state, status, last, i):
+    """One integrator step of body ``i`` in place on its column of ``state``, after the speed
+    limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
+    Returns ``(failed, beyond)``, each 0 or 1."""
+    x0, v0, q0, w0 = load(state, i)
+    fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
+    tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+    act = (fb, tb)
+    x, v, q, w = step(x0, v0, q0, limit_speed(w0, c), act, body_model(model, i), c, c.h)
+    if last:
+        v, w = step_maps(v, w, c)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0))
+    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+
+
+# ---- the world step of a compiled integrator -------------------------------------------------
+@pass_kernel
+def advance(step, p, model, state, status, wrenches, command, bodies):
+    """One world step of the bodies ``start <= i < stop`` (``bodies``), in passes whose loops
+    the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
+    body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
+    any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`).
+
+    The world's arrays must not overlap (:data:`rigid_env.core.jit.world_kernel` compiles on
+    that promise); they come one by one, as a tuple they would cost atomic reference counts.
+    A failed body's column is left at its last finite state (before the world step for one
+    substep, else before the failing substep, which :class:`rigid_env.core.world.World`
+    replaces by the one before the world step); a frozen body is left alone.
+
+    Returns:
+        the step's code (:func:`rigid_env.core.layout.step_code`), or
+        :data:`~rigid_env.core.layout.BAD_COMMAND` (nothing stepped) if the command has a NaN
+        or inf.
+    """
+    for r in range(command.shape[0]):
+        for a in range(command.shape[1]):
+            if not math.isfinite(command[r, a]):
+                return BAD_COMMAND
+    start, stop = bodies
+    c = unpack(p)
+    if command.shape[1] > 0:
+        for i in range(start, stop):  # each body's wrench into its column of wrenches
+            fb, tb = wrench(p, command, i)
+            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
+            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+    failures = over = 0
+    substeps = int(c.substeps)
+    for k in range(substeps):
+        last = k == substeps - 1
+        for i in range(start, stop):
+            # An unsigned index: no wraparound of negative indices to compute, which would
+            # keep the compiler from vectorising the loop.
+            j = np.uint64(i)
+            failed, past = substep(step, c, model, wrenches, state, status, last, j)
+            failures += failed
+            over += past
+    return step_code(failures, min(over, 1))
+
+
+@pass_kernel
+def over_threads(entry, world, start, stop, threads):
+    """A world step ``entry(*world, start, stop)`` (one integrator's compiled :func:`advance`)
+    of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
+    (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
+    called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
+    Python): called in here it would keep the function from being cached."""
+    codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
+    for t in prange(threads):
+        codes[t] = entry(*world, *split_range(start, stop, t, threads))
+    failures = over = 0
+    for t in range(threads):
+        if codes[t] == BAD_COMMAND:
+            return BAD_COMMAND  # every range checks the command before it steps: nothing stepped
+        failures += failures_of(codes[t])
+        over = max(over, beyond_of(codes[t]))
+    return step_code(failures, over)
+
+
+# ---- passes of the array integrator exact_free and of a reference solver ---------------------
+@kernel
+def limit_speed_pass(p, state):
+    """:func:`limit_speed` of every body's ``w`` in the state columns, in place."""
+    c = unpack(p)
+    for i in range(state.shape[1]):
+        x, v, q, w = load(state, i)
+        store(state, i, x, v, q, limit_speed(w, c))
+
+
+@kernel
+def kicks(p, model, state, command, h):
+    """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``."""
+    c = unpack(p)
+    for i in range(state.shape[1]):
+        act = wrench(p, command, i)
+        x, v, q, w = load(state, i)
+        v, w = kick(x, v, q, w, act, body_model(model, i), c, h)
+        store(state, i, x, v, q, w)
+
+
+@kernel
+def finish_pass(p, state, before, status):
+    """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
+    of every body against its columns ``before`` the step. Returns the step's code."""
+    c = unpack(p)
+    failures = over = 0
+    for i in range(state.shape[1]):
+        x, v, q, w = load(state, i)
+        v, w = step_maps(v, w, c)
+        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i))
+        failures += 1 if failed else 0
+        over += beyond(w, c, ok)
+    return step_code(failures, min(over, 1))
+
+
+@kernel
+def derivatives(p, model, state, command, out):
+    """``(v', w')`` of every body's state column into ``out`` (N, 6): the linear (world) and
+    angular (body, Euler's equations included) accelerations of
+    :func:`rigid_env.core.dynamics.accelerations`, the right-hand side a reference solver needs."""
+    c = unpack(p)
+    for i in range(state.shape[1]):
+        act = wrench(p, command, i)
+        x, v, q, w = load(state, i)
+        a, alpha = accelerations(x, v, q, w, act, body_model(model, i), c, True)
+        out[i, 0], out[i, 1], out[i, 2] = a
+        out[i, 3], out[i, 4], out[i, 5] = alpha
