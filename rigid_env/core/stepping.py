@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import prange
 
-from rigid_env.core.dynamics import accelerations, kick, wrench
+from rigid_env.core.dynamics import accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
@@ -29,6 +29,7 @@ from rigid_env.core.layout import (
     store,
     unpack,
 )
+from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
 
 
@@ -73,15 +74,55 @@ def _finite(x, v, q, w):
     return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
+EXPLOSION_FACTOR = 10.0
+"""How far beyond the reach of the applied forces ``sqrt(E)`` may get in one step before the
+guard fails the body (its kinetic energy ``100 x`` beyond). Reach: with power ``P = F . v + tau
+. w`` (drag only dissipates, ``F . v_p <= 0``) and ``|v| <= sqrt(2 E / m)``, ``|w| <= sqrt(2 E /
+I_min)``, ``d sqrt(E) / dt = P / (2 sqrt(E)) <= B = (|F| / sqrt(m) + |tau| / sqrt(I_min)) /
+sqrt(2)`` with ``F`` the actuators' force and gravity's ``m g``: the exact flow ends with
+``sqrt(E1) <= sqrt(E0) + h B``. A method adds its own one-step error; the largest inside the
+stable ranges is forward Euler's, torque-free ``E1 = E0 + h^2 / 2 f . I f`` with Euler's rates
+``I_i f_i^2 = (I_j - I_k)^2 w_j^2 w_k^2 / I_i <= max(I_j, I_k) w_j^2 w_k^2 <= 2 E |w|^2`` for a
+real body (``|I_j - I_k| <= I_i``), so ``E1 / E0 <= 1 + 3 (h |w|)^2``: 13 (a factor 3.6 in
+``sqrt(E)``) at ``h |w| = 2``, the widest stated range (``splitting``). A factor 10 leaves room
+for that and trips only where the state explodes: the three-axis splitting's ``|w|`` 2.4 ->
+5e95 in one step of a needle of moment 1e-100, forward Euler past ``h |w| = 5.7``."""
+
+
 @kernel
-def guard(state, status, i, new, old):
+def reachable_energy(old, act, m, c, h):
+    """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
+    with under the wrench ``act``, the world's gravity and its gravity gradient
+    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
+    and ``dV`` the most kinetic energy the gravity-gradient torque can give: it is conservative,
+    with the potential ``V = mu / (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation
+    spans ``dV = 3 mu (I_max - I_min) / (2 |r|^3)`` (``|r|`` at the step's start)."""
+    x, v, _, w = old
+    fb, tb = act
+    g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
+    inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
+    reach = (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+    root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
+    if c.gravity_gradient != 0.0:
+        center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
+        r = norm(axpy(x, -1.0, center))
+        spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(
+            m.inertia_x, m.inertia_y, m.inertia_z
+        )
+        root += math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
+    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+
+
+@kernel
+def guard(state, status, i, new, old, m, reachable):
     """Column ``i`` of ``state`` by selects: a healthy body (:data:`HEALTHY`) takes its finite
-    ``new`` state, else keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``.
-    Returns ``(ok, failed)``: whether ``new`` was taken, whether the body failed here."""
+    ``new`` state whose kinetic energy is within ``reachable`` (:func:`reachable_energy`), else
+    keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``. Returns ``(ok,
+    failed)``: whether ``new`` was taken, whether the body failed here."""
     x, v, q, w = new
     x0, v0, q0, w0 = old
     healthy = status[i] == HEALTHY
-    ok = healthy & _finite(x, v, q, w)
+    ok = healthy & _finite(x, v, q, w) & (kinetic_energy(v, w, m) <= reachable)
     failed = healthy & ~ok
     status[i] = FAILED if failed else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
@@ -104,10 +145,13 @@ def substep(step, c, model, wrenches, state, status, last, i):
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
     act = (fb, tb)
-    x, v, q, w = step(x0, v0, q0, limit_speed(w0, c), act, body_model(model, i), c, c.h)
+    m = body_model(model, i)
+    w = limit_speed(w0, c)
+    reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
+    x, v, q, w = step(x0, v0, q0, w, act, m, c, c.h)
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0))
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -196,15 +240,19 @@ def kicks(p, model, state, command, h):
 
 
 @kernel
-def finish_pass(p, state, before, status):
+def finish_pass(p, model, state, before, status, command):
     """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
-    of every body against its columns ``before`` the step. Returns the step's code."""
+    of every body against its columns ``before`` the step (the energy it may reach over the
+    whole world step, ``substeps h``). Returns the step's code."""
     c = unpack(p)
     failures = over = 0
     for i in range(state.shape[1]):
         x, v, q, w = load(state, i)
         v, w = step_maps(v, w, c)
-        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i))
+        m = body_model(model, i)
+        old = load(before, i)
+        reachable = reachable_energy(old, wrench(p, command, i), m, c, c.h * c.substeps)
+        ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
     return step_code(failures, min(over, 1))
