@@ -101,7 +101,7 @@ def find_run(folder: Path) -> Run:
     meta = json.loads(meta_path.read_text())
     config = read_yaml(config_path)
     return Run(folder, meta["env_id"], meta["algo"], int(config["seed"]),
-               int(meta["num_timesteps"]), dict(meta.get("env_kwargs") or {}))  # fmt: skip
+               int(meta["num_timesteps"]), dict(config.get("env_kwargs") or {}))  # fmt: skip
 
 
 def _flat(kwargs: dict[str, Any], prefix: str = "") -> list[str]:

@@ -11,11 +11,14 @@ calls it before anything else reads the run). ``agents.evaluate`` reads the side
 the statistics of any model a run wrote (final, best or checkpoint).
 
 The evaluation history ``eval/evaluations.npz`` (SB3's ``timesteps``, ``results``,
-``ep_lengths``, plus ``successes``) and the best model survive resumes: on resume from a
-checkpoint at step S the entries of steps after S, which describe models that no longer
-exist, move to ``abandoned_timesteps`` / ``abandoned_results`` / ``abandoned_ep_lengths`` /
-``abandoned_successes`` (nothing is dropped, and the main arrays stay one increasing line for
-plotting); the best model is replaced only by a better one, whichever segment it came from.
+``ep_lengths``, plus per-episode ``successes`` and ``fuel`` [N s], the PD controller's mean
+``pd_fuel`` on the same episodes, ``seconds`` and ``cpu_seconds``, the training wall-clock and
+the process's CPU time since the segment started) and the best model survive resumes: on
+resume from a checkpoint at step S the entries of steps after S, which describe models that
+no longer exist, move to ``abandoned_timesteps`` / ``abandoned_results`` /
+``abandoned_ep_lengths`` / ``abandoned_successes`` (nothing is dropped, and the main arrays
+stay one increasing line for plotting); the best model is replaced only by a better one,
+whichever segment it came from.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import json
 import os
 import shutil
 import sys
+import time
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -31,10 +35,19 @@ from typing import Any
 
 import numpy as np
 from stable_baselines3.common.callbacks import BaseCallback
-from stable_baselines3.common.evaluation import evaluate_policy
-from stable_baselines3.common.vec_env import sync_envs_normalization
 
-HISTORY_KEYS = ("timesteps", "results", "ep_lengths", "successes")
+from .bar import BarEvaluation, live_policy
+
+HISTORY_KEYS = (
+    "timesteps",
+    "results",
+    "ep_lengths",
+    "successes",
+    "fuel",
+    "pd_fuel",
+    "seconds",
+    "cpu_seconds",
+)
 
 
 def warn(message: str) -> None:
@@ -165,15 +178,16 @@ class CheckpointSnapshots(BaseCallback):
 
 
 class DurableEvaluation(BaseCallback):
-    """Periodic deterministic evaluation (as SB3's ``EvalCallback``) whose history and best
-    model outlive kills and resumes; see the module docstring.
+    """Periodic deterministic evaluation against the bar (:mod:`agents.bar`) whose history and
+    best model outlive kills and resumes; see the module docstring. ``latest`` holds the last
+    evaluation's ``timesteps``, ``success_rate``, ``fuel_ratio`` and ``met``, and
+    ``first_met`` the ``(timesteps, seconds)`` of the first that met the bar in this segment.
 
     Args:
-        eval_env: the evaluation ``VecEnv`` (``VecNormalize`` statistics synced before each
-            evaluation).
+        evaluation: the held-out episodes (normalised with the training env's statistics as
+            they are at each evaluation).
         folder: ``eval/``: ``evaluations.npz`` and the ``best_model`` snapshot.
         eval_freq: calls between evaluations.
-        episodes: episodes per evaluation.
         meta: sidecar content of the best model.
         resumed_from: steps of the checkpoint this training segment starts from (``None`` for
             a fresh run); history entries after it are moved to the ``abandoned_*`` arrays.
@@ -181,16 +195,18 @@ class DurableEvaluation(BaseCallback):
 
     def __init__(
         self,
-        eval_env: Any,
+        evaluation: BarEvaluation,
         folder: Path,
         eval_freq: int,
-        episodes: int,
         meta: dict[str, Any],
         resumed_from: int | None,
     ) -> None:
         super().__init__()
-        self.eval_env, self.folder, self.meta = eval_env, folder, meta
-        self.eval_freq, self.episodes = eval_freq, episodes
+        self.evaluation, self.folder, self.meta = evaluation, folder, meta
+        self.eval_freq = eval_freq
+        self.latest: dict[str, Any] | None = None
+        self.first_met: tuple[int, float] | None = None
+        self._start, self._cpu_start = time.perf_counter(), time.process_time()
         self.history, self.abandoned = _read_history(folder / "evaluations.npz")
         times = self.history["timesteps"]
         cut = next((i for i, t in enumerate(times) if t > (resumed_from or 0)), len(times))
@@ -228,37 +244,38 @@ class DurableEvaluation(BaseCallback):
         self.folder.mkdir(parents=True, exist_ok=True)
         write_atomic({self.folder / "evaluations.npz": write})
 
+    def _on_training_start(self) -> None:
+        self._start, self._cpu_start = time.perf_counter(), time.process_time()
+
     def _on_step(self) -> bool:
         if self.n_calls % self.eval_freq != 0:
             return True
-        if self.model.get_vec_normalize_env() is not None:
-            sync_envs_normalization(self.training_env, self.eval_env)
-        successes: list[bool] = []
-
-        def record_success(local: dict[str, Any], _: dict[str, Any]) -> None:
-            if local["done"]:
-                info = local["info"]
-                successes.append(bool(info.get("success", info.get("is_success", False))))
-
-        rewards, lengths = evaluate_policy(
-            self.model,
-            self.eval_env,
-            n_eval_episodes=self.episodes,
-            deterministic=True,
-            return_episode_rewards=True,
-            callback=record_success,
-        )
-        self.history["timesteps"].append(self.num_timesteps)
-        self.history["results"].append(list(rewards))
-        self.history["ep_lengths"].append(list(lengths))
-        self.history["successes"].append(successes)
+        res = self.evaluation(live_policy(self.model))
+        seconds = time.perf_counter() - self._start
+        cpu_seconds = time.process_time() - self._cpu_start
+        entry = {
+            "timesteps": self.num_timesteps,
+            "results": res["return"].tolist(),
+            "ep_lengths": res["length"].tolist(),
+            "successes": res["success"].tolist(),
+            "fuel": res["fuel"].tolist(),
+            "pd_fuel": self.evaluation.pd_fuel,
+            "seconds": seconds,
+            "cpu_seconds": cpu_seconds,
+        }
+        for key, value in entry.items():
+            self.history[key].append(value)
         self._write_history()
-        mean = float(np.mean(rewards))
+        self.latest = {k: res[k] for k in ("success_rate", "fuel_ratio", "met")}
+        self.latest["timesteps"] = self.num_timesteps
+        if res["met"] and self.first_met is None:
+            self.first_met = (self.num_timesteps, seconds)
+        mean = float(np.mean(res["return"]))
         self.logger.record("eval/mean_reward", mean)
-        self.logger.record("eval/mean_ep_length", float(np.mean(lengths)))
-        self.logger.record("eval/success_rate", float(np.mean(successes)) if successes else 0.0)
-        self.logger.record("time/total_timesteps", self.num_timesteps, exclude="tensorboard")
-        self.logger.dump(self.num_timesteps)
+        self.logger.record("eval/mean_ep_length", float(np.mean(res["length"])))
+        self.logger.record("eval/success_rate", res["success_rate"])
+        self.logger.record("eval/fuel_ratio_to_pd", res["fuel_ratio"])
+        self.logger.record("eval/bar_met", float(res["met"]))
         if mean > self.best_mean_reward:
             folder = self.folder
             save_snapshot(

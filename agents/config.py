@@ -55,12 +55,14 @@ class NormalizeConfig(BaseModel):
 
 
 class EvalConfig(BaseModel):
-    """Periodic evaluation on seeds disjoint from training."""
+    """Periodic evaluation on seeds disjoint from training: the same ``episodes`` episodes
+    (episode ``k`` resets with ``seed + k``) every time, all at once in the native vector env,
+    on the task without the training randomisation, beside the PD controller's fuel."""
 
     model_config = _FROZEN
     freq: PositiveInt = 25_000
     """Environment steps between evaluations (summed over the training envs), >= 1."""
-    episodes: PositiveInt = 20
+    episodes: PositiveInt = 100
     """Episodes per evaluation, >= 1."""
     seed: NonNegativeInt = 1_000_000
     """Seed of the evaluation env, >= 0 (training uses seed .. seed + n_envs - 1)."""
@@ -98,6 +100,10 @@ class TrainConfig(BaseModel):
     """Environment steps between checkpoints (model, VecNormalize, replay buffer), >= 1."""
     device: str = "cpu"
     """Torch device: cpu, cuda, cuda:N, mps or auto."""
+    threads: PositiveInt = 1
+    """CPU threads of the run (torch's and Numba's), >= 1: one per run, so that two seeds train
+    at once on two cores (each run then as fast as alone, where two runs of two threads each
+    fight over the cores and take many times longer)."""
 
     @field_validator("env_id")
     @classmethod

@@ -7,10 +7,15 @@
 ``MODEL`` may also be ``none`` (controllers only). What a model was trained on comes from its
 JSON sidecar ``<model>.json`` (``agents.train`` writes one beside every model it saves: the
 final ``model.zip``, ``eval/best_model.zip``, each checkpoint): the env id, the ``env_kwargs``
-(the base that ``--env-kwargs`` is merged over; every policy runs with the merged set) and the
-file of its ``VecNormalize`` statistics. A model without a sidecar (from elsewhere) gets its
-statistics from ``<model>_vecnormalize.pkl``, ``model_vecnormalize_<N>_steps.pkl`` (checkpoint
-``model_<N>_steps.zip``) or ``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
+and the file of its ``VecNormalize`` statistics. One rule for every model, a user's run and a
+pretrained policy alike: it is evaluated on the sidecar's ``env_kwargs``, which
+``agents.train`` writes as the task it was trained on *without* the training randomisation
+(``trained_env_kwargs`` keeps what it trained under), with ``--env-kwargs`` merged over that (so
+``--env-kwargs '{"randomization": {"inertia": 0.9}}'`` evaluates under +-90 % inertia); every
+policy, the controllers too, runs with the merged set. A model without a sidecar (from
+elsewhere) gets its statistics from ``<model>_vecnormalize.pkl``,
+``model_vecnormalize_<N>_steps.pkl`` (checkpoint ``model_<N>_steps.zip``) or
+``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
 A sidecar that names statistics which are missing, corrupted or for another observation shape
 is an error, never a silent evaluation on raw observations. A save that a kill interrupted
 after its commit (sidecar with ``staged``) is evaluated from its staging folder.
@@ -54,10 +59,13 @@ class EvaluationError(ValueError):
     """A user mistake (missing model, model for another env, ...); one line."""
 
 
-def rollout(
+def run_episodes(
     env_id: str, policy: Policy, episodes: int, seed: int, env_kwargs: dict[str, Any] | None = None
-) -> dict[str, Any]:
-    """Run ``episodes`` episodes at once in the native vector env and summarise them."""
+) -> dict[str, np.ndarray]:
+    """Run ``episodes`` episodes at once in the native vector env (episode ``k`` resets with
+    ``seed + k``); per-episode arrays ``(episodes,)``: ``success``, ``final_angular_speed``
+    [rad/s], ``fuel`` [N s], ``return``, ``length`` [steps], ``time_to_success`` [s] (NaN
+    where the episode does not end in success) and ``numerical_error``."""
     env = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
@@ -66,6 +74,7 @@ def rollout(
     n = episodes
     returns = np.zeros(n)
     done = np.zeros(n, dtype=bool)
+    length = np.zeros(n, dtype=np.int64)
     final_speed = np.zeros(n)
     fuel = np.zeros(n)
     success = np.zeros(n, dtype=bool)
@@ -81,6 +90,7 @@ def rollout(
         hit = live & info["success"] & np.isnan(first_success)
         first_success[hit] = step * dt
         ended = live & (terminated | truncated)
+        length[ended] = step
         final_speed[ended] = info["angular_speed"][ended]
         fuel[ended] = info["fuel"][ended]
         success[ended] = info["success"][ended]
@@ -88,14 +98,34 @@ def rollout(
         done |= ended
     env.close()
     # An episode that touched success and lost it again has no time to success.
+    first_success[~success] = np.nan
     return {
-        "episodes": n,
+        "success": success,
+        "final_angular_speed": final_speed,
+        "fuel": fuel,
+        "return": returns,
+        "length": length,
+        "time_to_success": first_success,
+        "numerical_error": numerical,
+    }
+
+
+def rollout(
+    env_id: str, policy: Policy, episodes: int, seed: int, env_kwargs: dict[str, Any] | None = None
+) -> dict[str, Any]:
+    """The metrics of :func:`run_episodes`, averaged."""
+    ep = run_episodes(env_id, policy, episodes, seed, env_kwargs)
+    success = ep["success"]
+    return {
+        "episodes": episodes,
         "success_rate": float(success.mean()),
-        "mean_final_angular_speed": float(final_speed.mean()),
-        "mean_fuel": float(fuel.mean()),
-        "mean_return": float(returns.mean()),
-        "mean_time_to_success": float(first_success[success].mean()) if success.any() else None,
-        "numerical_errors": int(numerical.sum()),
+        "mean_final_angular_speed": float(ep["final_angular_speed"].mean()),
+        "mean_fuel": float(ep["fuel"].mean()),
+        "mean_return": float(ep["return"].mean()),
+        "mean_time_to_success": (
+            float(ep["time_to_success"][success].mean()) if success.any() else None
+        ),
+        "numerical_errors": int(ep["numerical_error"].sum()),
     }
 
 
@@ -269,8 +299,9 @@ def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
 def resolve_env_kwargs(
     model: Path | None, env_kwargs: dict[str, Any] | None = None
 ) -> dict[str, Any]:
-    """The env kwargs an evaluation runs with: the model's recorded ones (sidecar), with
-    ``env_kwargs`` merged over them."""
+    """The env kwargs an evaluation runs with: the model's recorded ones (its sidecar's
+    ``env_kwargs``: ``agents.train`` records the training ones less the randomisation, by
+    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them."""
     meta = read_sidecar(model) if model is not None and model.exists() else None
     return merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
 

@@ -65,10 +65,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 import yaml
 
 from ._cli import OneLineParser, folder_problem, path, positive_integer, positive_number
+from .bar import live_policy as live_policy  # re-exported (agents.sweep.live_policy)
 from .config import ConfigError, TrainConfig, load_config
 from .sweep_config import (
     METRICS,
@@ -105,20 +105,6 @@ class SweepError(RuntimeError):
 def _clean(metrics: dict[str, Any]) -> dict[str, Any]:
     """Tune-friendly values (no ``None``)."""
     return {k: (math.nan if v is None else v) for k, v in metrics.items()}
-
-
-def live_policy(model: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """The model's deterministic policy on raw observations, normalised as in training."""
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    env = model.get_env()
-
-    def policy(obs: np.ndarray) -> np.ndarray:
-        if isinstance(env, VecNormalize) and env.norm_obs:
-            obs = env.normalize_obs(obs)
-        return model.predict(obs, deterministic=True)[0]
-
-    return policy
 
 
 def make_report_callback(
@@ -175,7 +161,6 @@ def run_trial(
     Returns:
         The final metrics (also reported, with ``final: True``).
     """
-    import torch
 
     from .evaluate import evaluate
     from .train import train
@@ -184,9 +169,9 @@ def run_trial(
         from ray import tune  # Ray >= 2.41: tune.report (ray.train.report is Ray Train's)
 
         report = tune.report
-    torch.set_num_threads(int(spec["threads"]))
     point = _flatten_point(params, spec["axes"])
-    cfg = load_config(trial_data(spec["base"], point))
+    # The trial's CPUs are its threads (agents.train sets torch's and Numba's from them).
+    cfg = load_config(trial_data(spec["base"], point), {"threads": int(spec["threads"])})
     label = setting_label(spec["varying"], point)
     runs_dir = Path(spec["sweep_dir"]) / "runs" / setting_folder(label)
     run_dir = runs_dir / cfg.run_name

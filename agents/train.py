@@ -12,14 +12,19 @@ Every model comes with a JSON sidecar naming its statistics, its environment and
 config it was trained with, for ``agents.evaluate`` and ``--resume``; each set of files is
 written whole or not at all (see :mod:`agents.callbacks`).
 
+A run uses ``threads`` CPU threads (default 1: two seeds train at once on two cores). Every
+``eval.freq`` steps it evaluates the policy on the same held-out episodes against the bar
+(:mod:`agents.bar`), and prints a line with env-steps/s, that evaluation and an ETA
+(:mod:`agents.progress`; TensorBoard gets the same numbers).
+
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
 count, statistics and replay buffer; one that lacks a file its sidecar names (or statistics the
 config needs) or does not load is skipped with a warning, and with none left the resume is
 refused. The evaluation history and the best model are kept. A finished run is left alone
 unless ``--total-timesteps`` asks for more. A config that differs from the one the run was
 trained with (its newest sidecar's; ``config.yaml`` for older runs) in anything but
-``total_timesteps`` and ``device`` is refused. ``--resume`` of a run that does not exist is
-refused; ``--resume-or-start`` starts it.
+``total_timesteps``, ``device`` and ``threads`` is refused. ``--resume`` of a run that does not
+exist is refused; ``--resume-or-start`` starts it.
 """
 
 from __future__ import annotations
@@ -37,6 +42,7 @@ import yaml
 from rigid_env.config_files import load_model, read_yaml
 
 from ._cli import OneLineParser, folder_problem, integer, path
+from .bar import BarEvaluation, evaluation_env_kwargs
 from .callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
@@ -47,9 +53,21 @@ from .callbacks import (
     zip_timesteps,
 )
 from .config import ConfigError, TrainConfig, algorithm_class, load_config
+from .progress import TrainingProgress
 
-#: Keys a resumed run may change: the budget and where it runs (both recorded as they run).
-RESUMABLE_CHANGES = ("total_timesteps", "device")
+#: Keys a resumed run may change: the budget and where it runs (all recorded as they run).
+RESUMABLE_CHANGES = ("total_timesteps", "device", "threads")
+
+
+def limit_threads(threads: int) -> None:
+    """Run torch (its intra-op pool) and Numba on ``threads`` threads. Torch's default is one
+    per core: two runs at once on two cores then share both cores between four threads, which
+    took 309 s for two 100k-step Detumble runs against 25 s at one thread each (issue 24)."""
+    import numba
+    import torch
+
+    torch.set_num_threads(threads)
+    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
 def make_vec_env(
@@ -60,7 +78,8 @@ def make_vec_env(
 
     from .vec_adapter import RigidBodySB3VecEnv
 
-    venv = RigidBodySB3VecEnv(cfg.env_id, num_envs=n_envs, **cfg.env_kwargs)
+    # Infos at episode ends only: SB3 reads no other (a third of the adapter's time per step).
+    venv = RigidBodySB3VecEnv(cfg.env_id, num_envs=n_envs, step_infos=False, **cfg.env_kwargs)
     venv.seed(seed)
     venv = VecMonitor(venv)
     if cfg.normalize.obs or cfg.normalize.reward:
@@ -247,7 +266,7 @@ def _check_unchanged(cfg: TrainConfig, run_dir: Path, continues: bool) -> None:
             f"the config differs from the one the run was trained with ({where}) in "
             f"{'; '.join(changes)}",
             "resume with the run's own config.yaml, or start a new run with another --seed "
-            "or --runs-dir (only total_timesteps and device may change on resume)",
+            "or --runs-dir (only total_timesteps, device and threads may change on resume)",
         )
 
 
@@ -347,6 +366,8 @@ def train(
     Args:
         resume: continue the run in ``runs_dir`` (see the module docstring); a finished run
             with at least ``cfg.total_timesteps`` steps is left as it is.
+        progress: print progress lines (env-steps/s, latest evaluation, ETA; TensorBoard
+            gets the numbers either way).
         callbacks: extra SB3 callbacks, called after the built-in ones (checkpoints,
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
@@ -357,6 +378,7 @@ def train(
             ``or_start`` and no run; the config differs from the run's; no checkpoint of the
             run is complete and loads; ``runs_dir`` cannot hold a run.
     """
+    limit_threads(cfg.threads)
     run_dir = runs_dir / cfg.run_name
     check_runs_dir(runs_dir, run_dir)
     trained = _has_training(run_dir)
@@ -396,29 +418,34 @@ def train(
     else:
         env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
         model = _new_model(cfg, env, run_dir, verbose)
-    eval_env = make_vec_env(cfg, 1, cfg.eval.seed, training=False)
     # The run starts here, so a start-up failure above leaves no trace that blocks a rerun.
     run_dir.mkdir(parents=True, exist_ok=True)
     config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)
     write_atomic({run_dir / "config.yaml": lambda p: p.write_text(config_text)})
-    # Every sidecar records the config its model was trained with (what --resume checks).
+    # env_kwargs: the env the model is evaluated on (agents.bar's rule: the training ones less
+    # the randomisation); trained_env_kwargs: what it was trained on; config: the config it
+    # was trained with (what --resume checks).
     meta = {
         "env_id": cfg.env_id,
         "algo": cfg.algo,
-        "env_kwargs": cfg.env_kwargs,
+        "env_kwargs": evaluation_env_kwargs(cfg.env_kwargs),
+        "trained_env_kwargs": cfg.env_kwargs,
         "config": cfg.to_dict(),
     }
+    evaluation = DurableEvaluation(
+        BarEvaluation(cfg.env_id, cfg.env_kwargs, cfg.eval.episodes, cfg.eval.seed),
+        run_dir / "eval",
+        max(1, cfg.eval.freq // cfg.n_envs),
+        meta,
+        resumed_from=start[2].steps if start is not None else (0 if trained else None),
+    )
     builtin = [
         CheckpointSnapshots(
             run_dir / "checkpoints", max(1, cfg.checkpoint_freq // cfg.n_envs), meta
         ),
-        DurableEvaluation(
-            eval_env,
-            run_dir / "eval",
-            max(1, cfg.eval.freq // cfg.n_envs),
-            cfg.eval.episodes,
-            meta,
-            resumed_from=start[2].steps if start is not None else (0 if trained else None),
+        evaluation,
+        TrainingProgress(
+            cfg.run_name, cfg.total_timesteps, evaluation, stream=sys.stdout if progress else None
         ),
     ]
     remaining = cfg.total_timesteps - model.num_timesteps
@@ -426,7 +453,6 @@ def train(
         model.learn(
             total_timesteps=remaining,
             callback=[*builtin, *callbacks],
-            progress_bar=progress,
             reset_num_timesteps=start is None,
             tb_log_name="run",
         )
@@ -439,7 +465,6 @@ def train(
         meta,
     )
     env.close()
-    eval_env.close()
     return run_dir
 
 
@@ -465,7 +490,9 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="as --resume, but start the run when there is none (for scripts and job queues)",
     )
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    parser.add_argument(
+        "--no-progress", action="store_true", help="no progress lines (TensorBoard keeps them)"
+    )
     parser.add_argument("--verbose", type=int, default=0)
     args = parser.parse_args(argv)
     resume = args.resume or args.resume_or_start
@@ -488,18 +515,11 @@ def main(argv: list[str] | None = None) -> int:
             if record is not None and "total_timesteps" in record[0]:
                 budget = {"total_timesteps": record[0]["total_timesteps"]}
                 cfg = load_config(args.config, {**overrides, **budget})
-        progress = not args.no_progress
-        if progress:
-            try:
-                import rich  # noqa: F401
-                import tqdm  # noqa: F401
-            except ImportError:
-                progress = False
         run_dir = train(
             cfg,
             args.runs_dir,
             resume=resume,
-            progress=progress,
+            progress=not args.no_progress,
             verbose=args.verbose,
             or_start=args.resume_or_start,
         )

@@ -51,6 +51,12 @@ class RigidBodySB3VecEnv(VecEnv):
         num_envs: number of sub-environments.
         max_episode_steps: time limit in steps, an integer >= 1; the registry's value if None.
         render_mode: None or ``"rgb_array"`` (:meth:`get_images` draws every sub-env).
+        step_infos: True: every env's info dict every step (as ``DummyVecEnv``); False: only
+            an env whose episode ended in this step gets its info, the others an empty dict.
+            SB3 reads infos only at an episode's end (``terminal_observation``,
+            ``TimeLimit.truncated``, ``is_success``, ``VecMonitor``'s ``episode``), and
+            building dicts for every env is most of the adapter's own time per step (see
+            ``agents.train``, which trains with False).
         **kwargs: passed to the task, as to ``gym.make(env_id, **kwargs)``.
 
     Raises:
@@ -64,6 +70,7 @@ class RigidBodySB3VecEnv(VecEnv):
         num_envs: int = 1,
         max_episode_steps: int | None = None,
         render_mode: str | None = None,
+        step_infos: bool = True,
         **kwargs: Any,
     ) -> None:
         import rigid_env  # noqa: F401  (registers the ids)
@@ -88,6 +95,7 @@ class RigidBodySB3VecEnv(VecEnv):
             else episode_limit(max_episode_steps)
         )
         self.render_mode = render_mode
+        self.step_infos = step_infos
         self._renderer: Any = None
         super().__init__(
             num_envs, self.task.single_observation_space, self.task.single_action_space
@@ -135,13 +143,7 @@ class RigidBodySB3VecEnv(VecEnv):
             truncated |= self.task.steps >= self.max_episode_steps
         done = terminated | truncated
         obs = self.task.observe()
-        raw = self.task.infos()
-        # One conversion per key (not per env and key): Python scalars from ``tolist``, rows of
-        # the (fresh, per-step) vector arrays as they are.
-        columns = {k: (list(v) if v.ndim > 1 else v.tolist()) for k, v in raw.items()}
-        infos: list[dict[str, Any]] = [
-            dict(zip(columns, row, strict=True)) for row in zip(*columns.values(), strict=True)
-        ]
+        infos = self._infos(done)
         if done.any():
             idx = np.flatnonzero(done)
             for i in idx:
@@ -151,6 +153,19 @@ class RigidBodySB3VecEnv(VecEnv):
             self.task.reset_envs(idx, rngs)
             obs[idx] = self.task.observe(idx)
         return obs, reward, done, infos
+
+    def _infos(self, done: np.ndarray) -> list[dict[str, Any]]:
+        """Every env's info dict (``step_infos``), or only the done envs' (others empty)."""
+        raw = self.task.infos()
+        if not self.step_infos:
+            infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+            for i in np.flatnonzero(done).tolist():
+                infos[i] = {k: v[i] if v.ndim > 1 else v[i].item() for k, v in raw.items()}
+            return infos
+        # One conversion per key (not per env and key): Python scalars from ``tolist``, rows of
+        # the (fresh, per-step) vector arrays as they are.
+        columns = {k: (list(v) if v.ndim > 1 else v.tolist()) for k, v in raw.items()}
+        return [dict(zip(columns, row, strict=True)) for row in zip(*columns.values(), strict=True)]
 
     def close(self) -> None:
         """Close the renderer, if any."""

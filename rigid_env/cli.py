@@ -49,6 +49,7 @@ BENCHMARKS = {
     "accuracy": "work-precision: error against cost for every integrator (figure + tables)",
     "speed": "throughput: body-steps per second against batch size, peers in the same run",
     "stability": "hard cases at full length (flips, fast spin, thin bodies, separatrix)",
+    "learn": "time to the bar: the shipped PPO configs beside the previous ones, per task and seed",
 }
 
 

@@ -55,7 +55,8 @@ class Config:
     ppo_warmup: bool = True
     """Run one untimed rollout-and-update first."""
     ppo_n_envs: tuple[int, ...] = (8, 16)
-    """Sub-environments of the PPO variants; 16 is what our Detumble baseline trains with."""
+    """Sub-environments of the PPO variants; 16 is what the previous Detumble config trained
+    with (configs/agents/previous/; ``rigid-env bench learn`` measures the shipped ones)."""
     ppo_n_steps: int = 256
     """PPO ``n_steps`` (per sub-environment)."""
     ppo_batch_size: int = 512

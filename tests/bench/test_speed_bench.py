@@ -208,12 +208,14 @@ def test_cpu_clock_reports_process_cpu_time() -> None:
 
 
 def test_ppo_is_measured_at_the_baselines_n_envs() -> None:
-    """PPO is measured at the n_envs our Detumble PPO baseline trains with (the README's
-    target is read there), in every configuration but the smoke run's."""
+    """PPO is measured at the n_envs of the Detumble PPO config it was written for, the
+    previous one (16 envs x 256 steps; the README's target is read there), in every
+    configuration but the smoke run's. The shipped configs' training speed is
+    ``rigid-env bench learn``'s (issue 24), beside this one."""
     from agents.config import load_config
 
     repo = Path(__file__).resolve().parents[2]
-    baseline = load_config(repo / "configs" / "agents" / "ppo_detumble.yaml")
+    baseline = load_config(repo / "configs" / "agents" / "previous" / "ppo_detumble.yaml")
     for cfg in (speed.FULL, speed.QUICK):
         assert baseline.n_envs in cfg.ppo_n_envs
 

@@ -1,0 +1,316 @@
+"""Time to the bar: how long the shipped PPO configs take to train each task, beside the
+previous configs, in the same run.
+
+    rigid-env bench learn [--tasks detumble ...] [--seeds 0 1 2] [--jobs 2]
+                          [--previous-limit 240] [--previous-seeds 0 ...] [--out DIR] [--force]
+
+For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
+run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
+budget) and, as the peer, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
+issue 24), shortened: it stops at its first evaluation that meets the bar, or after
+``--previous-limit`` seconds of CPU time. Both evaluate every ``eval.freq`` steps on the same
+100 held-out episodes (:mod:`rigid_env.agents.bar`: at least 95 % success and at most 1.5x
+the PD controller's fuel), so *time to bar* is the wall-clock (and process CPU time) and the
+env-steps from the start of training to that evaluation. Each final model is then evaluated on
+100 further episodes (seeds 12345 + k, which no training or training-time evaluation used).
+env-steps/s is over the whole run, evaluations included.
+
+Writes ``results.md`` (tables), ``results.csv`` (one row per run) and ``time_to_bar.png``
+(success of each evaluation against training wall-clock, one curve per run) to ``--out``
+(default ``runs/bench_learn``), and the runs themselves under ``--out``/runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import multiprocessing as mp
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rigid_env.bench import report
+from rigid_env.resources import data_path
+
+TASKS = ("detumble", "spin_stabilize", "reorient", "tumbling_fall")
+OUTPUTS = ("results.md", "results.csv", "time_to_bar.png")
+FINAL_SEED = 12_345
+FINAL_EPISODES = 100
+
+
+@dataclass(frozen=True)
+class LearnRow:
+    """One training run's time to bar and final result."""
+
+    task: str
+    config: str  # "shipped" | "previous"
+    seed: int
+    steps: int  # env-steps trained
+    seconds: float  # training wall-clock
+    cpu_seconds: float  # process CPU time of the training
+    steps_per_s: float
+    bar_steps: float  # env-steps at the first evaluation at the bar (nan: never)
+    bar_seconds: float
+    bar_cpu_seconds: float
+    success: float  # final model, 100 unseen episodes
+    fuel_ratio: float  # its mean fuel / PD's on the same episodes
+    stopped: str  # "budget" | "bar" | "limit"
+    history: str  # the run's eval/evaluations.npz
+
+
+def _count(low: int) -> Any:
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
+        return value
+
+    return parse
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0 seconds, got {text}")
+    return value
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The benchmark's flags."""
+    parser.add_argument("--tasks", nargs="+", choices=TASKS, default=list(TASKS))
+    parser.add_argument("--seeds", nargs="+", type=_count(0), default=[0, 1, 2])
+    parser.add_argument("--jobs", type=_count(1), default=2, help="runs at once (one thread each)")
+    parser.add_argument(
+        "--previous-limit",
+        type=_seconds,
+        default=240.0,
+        help="CPU seconds after which a previous-config run stops if it has not met the bar",
+    )
+    parser.add_argument(
+        "--previous-seeds",
+        nargs="*",
+        type=_count(0),
+        help="seeds of the previous configs (default: --seeds; none: the shipped configs only)",
+    )
+    parser.add_argument("--out", type=Path, default=Path("runs/bench_learn"))
+    parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
+
+
+def config_path(task: str, previous: bool) -> Path:
+    """The shipped (or previous) PPO config of ``task``."""
+    return data_path(f"configs/agents/{'previous/' if previous else ''}ppo_{task}.yaml")
+
+
+def train_one(
+    task: str,
+    seed: int,
+    previous: bool,
+    runs_dir: Path,
+    limit_s: float,
+    config: Path | None = None,
+) -> dict[str, Any]:
+    """Train one run (in a worker process) and evaluate its final model; a row's fields.
+    ``config`` replaces the task's config (for searches)."""
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    from rigid_env.agents.callbacks import DurableEvaluation
+    from rigid_env.agents.config import load_config
+    from rigid_env.agents.evaluate import evaluate
+    from rigid_env.agents.train import train
+
+    cfg = load_config(config or config_path(task, previous), {"seed": seed})
+    stopped = ["budget"]
+
+    class StopAtBar(BaseCallback):
+        """The shortened peer: stops at the bar or after ``limit_s`` seconds of CPU time (the
+        process's: on a shared machine wall-clock says more about the neighbours)."""
+
+        def _on_training_start(self) -> None:
+            self.t0 = time.process_time()
+            self.evaluation = next(
+                c for c in self.locals["callback"].callbacks if isinstance(c, DurableEvaluation)
+            )
+
+        def _on_step(self) -> bool:
+            if self.evaluation.first_met is not None:
+                stopped[0] = "bar"
+                return False
+            if time.process_time() - self.t0 > limit_s:
+                stopped[0] = "limit"
+                return False
+            return True
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    stop = [StopAtBar()] if previous or math.isfinite(limit_s) else []
+    run_dir = train(cfg, runs_dir, progress=False, callbacks=stop)
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
+    side = json.loads((run_dir / "model.json").read_text())
+    with np.load(run_dir / "eval" / "evaluations.npz") as h:
+        hist = {k: h[k] for k in h.files}
+    bar = _first_at_bar(hist)
+    res = evaluate(
+        run_dir / "model.zip", cfg.env_id, FINAL_EPISODES, FINAL_SEED, only=["model", "pd"]
+    )
+    steps = int(side["num_timesteps"])
+    return asdict(
+        LearnRow(
+            task=task,
+            config="previous" if previous else "shipped",
+            seed=seed,
+            steps=steps,
+            seconds=seconds,
+            cpu_seconds=cpu,
+            steps_per_s=steps / seconds,
+            bar_steps=bar[0],
+            bar_seconds=bar[1],
+            bar_cpu_seconds=bar[2],
+            success=res["model"]["success_rate"],
+            fuel_ratio=res["model"]["mean_fuel"] / res["pd"]["mean_fuel"],
+            stopped=stopped[0],
+            history=str(run_dir / "eval" / "evaluations.npz"),
+        )
+    )
+
+
+def _first_at_bar(hist: dict[str, np.ndarray]) -> tuple[float, float, float]:
+    """(env-steps, seconds, CPU seconds) of the first evaluation at the bar; NaNs if none."""
+    from rigid_env.agents.bar import fuel_ratio, meets_bar
+
+    for k in range(len(hist["timesteps"])):
+        success = float(np.mean(hist["successes"][k]))
+        ratio = fuel_ratio(float(np.mean(hist["fuel"][k])), float(hist["pd_fuel"][k]))
+        if meets_bar(success, ratio):
+            return (
+                float(hist["timesteps"][k]),
+                float(hist["seconds"][k]),
+                float(hist["cpu_seconds"][k]),
+            )
+    return math.nan, math.nan, math.nan
+
+
+def _worker(job: tuple[str, int, bool, str, float]) -> dict[str, Any]:
+    task, seed, previous, runs_dir, limit_s = job
+    return train_one(task, seed, previous, Path(runs_dir), limit_s)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark; 0 on success."""
+    out = report.prepare_out(args.out, OUTPUTS, args.force)
+    runs_dir = out / "runs"
+    if runs_dir.exists() and any(runs_dir.iterdir()):
+        import shutil
+
+        shutil.rmtree(runs_dir)  # prepare_out asked for --force before earlier results go
+    previous_seeds = args.seeds if args.previous_seeds is None else args.previous_seeds
+    jobs = [
+        (task, seed, previous, str(runs_dir / ("previous" if previous else "shipped")), lim)
+        for task in args.tasks
+        for previous, lim, seeds in (
+            (False, math.inf, args.seeds),
+            (True, args.previous_limit, previous_seeds),
+        )
+        for seed in seeds
+    ]
+    t0 = time.perf_counter()
+    rows: list[LearnRow] = []
+    with mp.get_context("spawn").Pool(args.jobs, maxtasksperchild=1) as pool:
+        for r in pool.imap_unordered(_worker, jobs):
+            row = LearnRow(**r)
+            rows.append(row)
+            print(
+                f"{row.task} {row.config} seed {row.seed}: bar at {row.bar_steps:,.0f} steps, "
+                f"{row.bar_seconds:.1f} s; final success {row.success:.2f}, fuel "
+                f"{row.fuel_ratio:.2f}x PD; {row.steps_per_s:,.0f} steps/s",
+                flush=True,
+            )
+    rows.sort(key=lambda r: (TASKS.index(r.task), r.config, r.seed))
+    (out / "results.md").write_text(_markdown(rows, args, time.perf_counter() - t0))
+    report.write_csv(out / "results.csv", rows)
+    _figure(rows, out / "time_to_bar.png")
+    print(f"wrote {out / 'results.md'}, results.csv, time_to_bar.png")
+    return 0
+
+
+def _median(values: list[float]) -> float:
+    return float(np.median(values)) if values else math.nan
+
+
+def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) -> str:
+    lines = [
+        "# Time to the bar (rigid-env bench learn)",
+        "",
+        f"{report.machine()}; {report.versions('torch', 'stable-baselines3', 'numba')}; "
+        f"load at the end: {report.load()}. {args.jobs} runs at once, one thread each; "
+        f"{total_s / 60:.1f} min in all. Previous configs stop at the bar or after "
+        f"{args.previous_limit:.0f} s.",
+        "",
+        "| task | config | seed | time to bar [s] | CPU to bar [s] | env-steps to bar | "
+        "trained [s] | env-steps | env-steps/s | final success | fuel / PD | stopped |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        lines.append(
+            f"| {r.task} | {r.config} | {r.seed} | {r.bar_seconds:.1f} | {r.bar_cpu_seconds:.1f}"
+            f" | {r.bar_steps:,.0f} | {r.seconds:.1f} | {r.steps:,} | {r.steps_per_s:,.0f} | "
+            f"{r.success:.2f} | {r.fuel_ratio:.2f} | {r.stopped} |"
+        )
+    lines += [
+        "",
+        "| task | shipped: median (worst) time to bar [s] | previous: median time to bar [s] | "
+        "env-steps/s shipped / previous |",
+        "|---|---|---|---|",
+    ]
+    for task in TASKS:
+        new = [r for r in rows if r.task == task and r.config == "shipped"]
+        old = [r for r in rows if r.task == task and r.config == "previous"]
+        if not new:
+            continue
+        bar = [r.bar_seconds for r in new]
+        worst = max(bar) if not any(math.isnan(b) for b in bar) else math.nan
+        ratio = (
+            _median([r.steps_per_s for r in new]) / _median([r.steps_per_s for r in old])
+            if old
+            else math.nan
+        )
+        old_bar = _median([r.bar_seconds for r in old]) if old else math.nan
+        lines.append(
+            f"| {task} | {_median(bar):.1f} ({worst:.1f}) | {old_bar:.1f} | {ratio:.2f}x |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def _figure(rows: list[LearnRow], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = [t for t in TASKS if any(r.task == t for r in rows)]
+    fig, axes = plt.subplots(1, len(tasks), figsize=(4 * len(tasks), 3.4), sharey=True)
+    for ax, task in zip(np.atleast_1d(axes), tasks, strict=True):
+        for r in (r for r in rows if r.task == task):
+            with np.load(r.history) as h:
+                x = h["seconds"]
+                y = [float(np.mean(s)) for s in h["successes"]]
+            style = "-" if r.config == "shipped" else ":"
+            color = f"C{r.seed}"
+            ax.plot(x, y, style, color=color, marker=".", label=f"{r.config} seed {r.seed}")
+        ax.axhline(0.95, color="grey", lw=0.8)
+        ax.set_title(task)
+        ax.set_xlabel("training wall-clock [s]")
+        ax.set_xscale("log")
+    np.atleast_1d(axes)[0].set_ylabel("success, 100 held-out episodes")
+    np.atleast_1d(axes)[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
