@@ -30,6 +30,7 @@ from rigid_env.core.layout import (
     unpack,
 )
 from rigid_env.core.threads import split_range
+from rigid_env.core.thrusters import next_switch, segment_wrench
 
 
 # ---- one body ---------------------------------------------------------------------------------
@@ -111,6 +112,44 @@ def substep(step, c, model, wrenches, state, status, last, i):
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
+@pass_kernel
+def hardware_substep(step, p, c, model, command, state, status, k, last, i):
+    """:func:`substep` ``k`` of body ``i`` with thrusters as hardware
+    (:mod:`rigid_env.core.thrusters`): the speed limit, then one ``step`` per segment of the
+    substep ``[k h, (k + 1) h]`` (split at the on/off switch times inside it), each with the
+    thrusters' wrench held over it; on the ``last`` substep (which ends at ``dt``) also
+    :func:`step_maps`; then the :func:`guard`. Returns ``(failed, beyond)``."""
+    x0, v0, q0, w0 = load(state, i)
+    m = body_model(model, i)
+    x, v, q, w = x0, v0, q0, limit_speed(w0, c)
+    t = k * c.h
+    t1 = c.dt if last else (k + 1) * c.h
+    while t < t1:
+        end = next_switch(p, c, command, i, t, t1)
+        act = segment_wrench(p, c, command, state, i, t, end - t)
+        x, v, q, w = step(x, v, q, w, act, m, c, end - t)
+        t = end
+    if last:
+        v, w = step_maps(v, w, c)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0))
+    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+
+
+@pass_kernel
+def hardware_advance(step, p, c, model, state, status, command, start, stop):
+    """:func:`advance` of bodies ``start <= i < stop`` whose thrusters are hardware: each
+    body's substeps by :func:`hardware_substep`. Returns the step's code."""
+    failures = over = 0
+    substeps = int(c.substeps)
+    for i in range(start, stop):
+        for k in range(substeps):
+            last = k == substeps - 1
+            failed, past = hardware_substep(step, p, c, model, command, state, status, k, last, i)
+            failures += failed
+            over += past
+    return step_code(failures, min(over, 1))
+
+
 # ---- the world step of a compiled integrator -------------------------------------------------
 @pass_kernel
 def advance(step, p, model, state, status, wrenches, command, bodies):
@@ -136,6 +175,8 @@ def advance(step, p, model, state, status, wrenches, command, bodies):
                 return BAD_COMMAND
     start, stop = bodies
     c = unpack(p)
+    if c.hardware != 0.0:
+        return hardware_advance(step, p, c, model, state, status, command, start, stop)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench into its column of wrenches
             fb, tb = wrench(p, command, i)
@@ -193,6 +234,43 @@ def kicks(p, model, state, command, h):
         x, v, q, w = load(state, i)
         v, w = kick(x, v, q, w, act, body_model(model, i), c, h)
         store(state, i, x, v, q, w)
+
+
+@kernel
+def segments_pass(p, state, command, t, t1, lengths, wrenches):
+    """The next segment of every body with thrusters as hardware (``exact_free``'s
+    :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
+    switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
+    the body has reached ``t1``) and its thrusters' wrench into ``wrenches`` (6, N), lagging
+    levels advanced in ``state``. Returns whether some body has a segment."""
+    c = unpack(p)
+    more = False
+    for i in range(state.shape[1]):
+        lengths[i] = 0.0
+        if t[i] < t1:
+            end = next_switch(p, c, command, i, t[i], t1)
+            fb, tb = segment_wrench(p, c, command, state, i, t[i], end - t[i])
+            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
+            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+            lengths[i] = end - t[i]
+            t[i] = end
+            more = True
+    return more
+
+
+@kernel
+def segment_kicks(p, model, state, wrenches, lengths, fraction):
+    """:func:`kick` of every body for ``fraction`` of its segment ``lengths[i]`` (none where
+    0) under its wrench in ``wrenches`` (6, N), in place on ``v, w``."""
+    c = unpack(p)
+    for i in range(state.shape[1]):
+        if lengths[i] > 0.0:
+            fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
+            tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+            x, v, q, w = load(state, i)
+            m = body_model(model, i)
+            v, w = kick(x, v, q, w, (fb, tb), m, c, fraction * lengths[i])
+            store(state, i, x, v, q, w)
 
 
 @kernel
