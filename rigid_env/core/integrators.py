@@ -406,7 +406,7 @@ def _exact_free_hardware(
         limit_speed_pass(p, state)
         t[:] = k * c.h
         t1 = c.dt if k == substeps - 1 else (k + 1) * c.h
-        while segments_pass(p, state, command, t, t1, lengths, wrenches):
+        while segments_pass(p, model, state, command, t, t1, lengths, wrenches):
             moving = lengths > 0.0
             segment_kicks(p, model, state, wrenches, lengths, 0.5)
             x += np.where(moving[:, None], lengths[:, None] * v, 0.0)

@@ -81,12 +81,17 @@ class Params(NamedTuple):
     hardware: float  # flag: some thruster has a hardware model (lag, min impulse, on/off, noise)
     lagged: float  # flag: the thrust levels are state, rows from THRUST on (some thruster lags)
     noisy: float  # flag: the command carries A thrust factors after its A components
+    body_maps: float  # flag: each body has its own actuator maps, model rows from MODEL_WIDTH on
 
 
 MAPS = len(Params._fields)
 """Offset of the actuators' maps in the parameter array: A rows of ``(force (3,), torque (3,))``,
 body frame, at ``|u| = 1``."""
 MODEL_WIDTH = len(Body._fields)
+"""Rows of a body's model numbers in the model columns; where the bodies have their own
+actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH + 6 a`` ..
+``+ 5`` hold component ``a``'s ``(force, torque)`` at ``|u| = 1`` (body frame), as the rows of
+:data:`MAPS` do for all bodies."""
 STATE_WIDTH = 13
 """Rows of the state columns: ``x`` (0:3), ``v`` (3:6), ``q`` (6:10), ``w`` (10:13)."""
 THRUST = STATE_WIDTH
@@ -195,6 +200,21 @@ def _body_model(model, i):
         return out
 
     return impl
+
+
+@kernel
+def map_row(p, c, model, a, i):
+    """Command component ``a``'s body-frame ``(force, torque)`` at ``|u| = 1`` for body ``i``:
+    the body's own (model rows from :data:`MODEL_WIDTH`) or the world's (from :data:`MAPS`)."""
+    if c.body_maps != 0.0:
+        k = MODEL_WIDTH + 6 * a
+        return (model[k, i], model[k + 1, i], model[k + 2, i]), (
+            model[k + 3, i],
+            model[k + 4, i],
+            model[k + 5, i],
+        )
+    k = MAPS + 6 * a
+    return (p[k], p[k + 1], p[k + 2]), (p[k + 3], p[k + 4], p[k + 5])
 
 
 @kernel

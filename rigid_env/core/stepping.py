@@ -126,7 +126,7 @@ def hardware_substep(step, p, c, model, command, state, status, k, last, i):
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
         end = next_switch(p, c, command, i, t, t1)
-        act = segment_wrench(p, c, command, state, i, t, end - t)
+        act = segment_wrench(p, c, model, command, state, i, t, end - t)
         x, v, q, w = step(x, v, q, w, act, m, c, end - t)
         t = end
     if last:
@@ -179,7 +179,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies):
         return hardware_advance(step, p, c, model, state, status, command, start, stop)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench into its column of wrenches
-            fb, tb = wrench(p, command, i)
+            fb, tb = wrench(p, c, model, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
     failures = over = 0
@@ -230,14 +230,14 @@ def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``."""
     c = unpack(p)
     for i in range(state.shape[1]):
-        act = wrench(p, command, i)
+        act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
         v, w = kick(x, v, q, w, act, body_model(model, i), c, h)
         store(state, i, x, v, q, w)
 
 
 @kernel
-def segments_pass(p, state, command, t, t1, lengths, wrenches):
+def segments_pass(p, model, state, command, t, t1, lengths, wrenches):
     """The next segment of every body with thrusters as hardware (``exact_free``'s
     :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
     switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
@@ -249,7 +249,7 @@ def segments_pass(p, state, command, t, t1, lengths, wrenches):
         lengths[i] = 0.0
         if t[i] < t1:
             end = next_switch(p, c, command, i, t[i], t1)
-            fb, tb = segment_wrench(p, c, command, state, i, t[i], end - t[i])
+            fb, tb = segment_wrench(p, c, model, command, state, i, t[i], end - t[i])
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
             lengths[i] = end - t[i]
@@ -295,7 +295,7 @@ def derivatives(p, model, state, command, out):
     :func:`rigid_env.core.dynamics.accelerations`, the right-hand side a reference solver needs."""
     c = unpack(p)
     for i in range(state.shape[1]):
-        act = wrench(p, command, i)
+        act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
         a, alpha = accelerations(x, v, q, w, act, body_model(model, i), c, True)
         out[i, 0], out[i, 1], out[i, 2] = a

@@ -38,7 +38,7 @@ from __future__ import annotations
 import math
 
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import MAPS, THRUST, thruster
+from rigid_env.core.layout import THRUST, map_row, thruster
 
 
 @kernel
@@ -72,10 +72,11 @@ def next_switch(p, c, command, i, t, t1):
 
 
 @kernel
-def segment_wrench(p, c, command, state, i, t, s):
+def segment_wrench(p, c, model, command, state, i, t, s):
     """Body-frame ``(force, torque)`` of body ``i``'s thrusters held over the segment ``[t, t +
     s]`` (no switch inside): each component's level (its mean over the segment where it lags,
-    whose state in ``state`` advances to the segment's end) times its map row."""
+    whose state in ``state`` advances to the segment's end) times its map row
+    (:func:`rigid_env.core.layout.map_row`)."""
     fx = fy = fz = tx = ty = tz = 0.0
     actions = int(c.actions)
     for a in range(actions):
@@ -89,11 +90,11 @@ def segment_wrench(p, c, command, state, i, t, s):
             # (1 - e^{-x}) / x by expm1: no cancellation for a segment short against TAU.
             g = target + (g0 - target) * (-math.expm1(-x) / x)
             state[THRUST + a, i] = target + (g0 - target) * math.exp(-x)
-        k = MAPS + 6 * a
-        fx += g * p[k]
-        fy += g * p[k + 1]
-        fz += g * p[k + 2]
-        tx += g * p[k + 3]
-        ty += g * p[k + 4]
-        tz += g * p[k + 5]
+        f, tq = map_row(p, c, model, a, i)
+        fx += g * f[0]
+        fy += g * f[1]
+        fz += g * f[2]
+        tx += g * tq[0]
+        ty += g * tq[1]
+        tz += g * tq[2]
     return (fx, fy, fz), (tx, ty, tz)

@@ -23,6 +23,7 @@ from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
+    MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
     Params,
@@ -195,6 +196,9 @@ class World:
             on_error=self.on_error,
         )
         world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]  # the thrust levels, if they lag
+        maps = self.body_maps
+        if maps is not None:
+            world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])
         return world
 
     # ---------------------------------------------------------------------------------------
@@ -287,8 +291,38 @@ class World:
         if model.n not in (1, self._n):
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
+        maps = getattr(self, "_model_cols", None)
         self._model_cols = model.columns(self._n)
+        if maps is not None and maps.shape[0] > MODEL_WIDTH:  # keep the bodies' own maps
+            self._model_cols = np.vstack([self._model_cols, maps[MODEL_WIDTH:]])
         # the compiled step's arrays but the command (whose place is last)
+        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+
+    @property
+    def body_maps(self) -> FloatArray | None:
+        """(N, A, 6) each body's own actuator maps ``(force, torque)`` at ``|u| = 1`` (body
+        frame) once :meth:`set_body_maps` gave them (a view: editable), else None (the world's
+        maps for every body)."""
+        if self._model_cols.shape[0] == MODEL_WIDTH:
+            return None
+        return self._model_cols[MODEL_WIDTH:].T.reshape(self._n, self.action_dim, 6)
+
+    def set_body_maps(self, force_map: ArrayLike, torque_map: ArrayLike) -> None:
+        """Give every body its own actuator maps (e.g. a misaligned thruster per episode):
+        ``force_map``, ``torque_map`` (N, A, 3) body-frame force and torque of each command
+        component at ``|u| = 1`` [N], [N m]. The hardware model (lag, pulse width, ...) stays
+        the world's."""
+        f = np.asarray(force_map, dtype=np.float64)
+        t = np.asarray(torque_map, dtype=np.float64)
+        shape = (self._n, self.action_dim, 3)
+        if f.shape != shape or t.shape != shape or not (np.isfinite(f).all() & np.isfinite(t).all()):
+            raise ValueError(
+                f"force_map, torque_map: expected finite arrays of shape {shape}, got "
+                f"{f.shape} and {t.shape}"
+            )
+        rows = np.concatenate([f, t], axis=2).reshape(self._n, 6 * self.action_dim).T
+        self._model_cols = np.ascontiguousarray(np.vstack([self._model_cols[:MODEL_WIDTH], rows]))
+        self.params[Params._fields.index("body_maps")] = 1.0
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
 
     def reset(self, state: State) -> None:
@@ -449,7 +483,10 @@ class World:
         world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A):
         the right-hand side ``v' = F / m``, ``I w' = tau - w x I w`` of the compiled step."""
         cols = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]).T)
-        model = self.model.columns(cols.shape[1])
+        n = cols.shape[1]
+        model = self._model_cols if n == self._n else self.model.columns(n)
+        if model.shape[0] > MODEL_WIDTH and n != self._n:
+            raise ValueError(f"x, v, q, w: the bodies have their own maps, give {self._n} rows")
         u = self._check_action(action)
         out = np.empty((cols.shape[1], 6))
         derivatives(self.params, model, cols, self._no_command if u is None else u, out)

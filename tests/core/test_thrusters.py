@@ -336,3 +336,29 @@ def test_scene_hardware_keys_reach_the_world() -> None:
     np.testing.assert_array_equal(world.thrust_noise, [0.0, 0.05])
     ideal = load_scene({"name": "i", "body": {"mass": 1.0, "inertia": [1.0, 2.0, 3.0]}})
     assert World(ideal.body_model(), ideal.effects()).parameters.hardware == 0.0
+
+
+# ---- per-body maps: a misaligned thruster --------------------------------------------------
+def test_body_maps_equal_to_the_worlds_change_nothing_and_a_tilt_turns_the_torque() -> None:
+    """A world whose bodies get the world's own maps steps bit for bit as before; a body whose
+    thruster is tilted by 90 degrees (direction y -> z at r = (0.5, 0, 0)) gets the torque
+    ``r x f z = (0, -0.5 f, 0)`` instead of ``(0, 0, 0.5 f)`` (isotropic body: ``w = tau dt /
+    I`` exactly); the other body of the batch is untouched."""
+    for hardware in ({}, {"lag": [0.02], "on_off": [True]}):
+        plain = thruster_world(inertia=(1.0, 1.0, 1.0), n=2, **hardware)
+        mapped = thruster_world(inertia=(1.0, 1.0, 1.0), n=2, **hardware)
+        fmap = np.tile([[[0.0, 2.0, 0.0]]], (2, 1, 1))
+        tmap = np.tile([[[0.0, 0.0, 1.0]]], (2, 1, 1))
+        mapped.set_body_maps(fmap, tmap)
+        for _ in range(3):
+            plain.step(np.array([0.6]))
+            mapped.step(np.array([0.6]))
+        np.testing.assert_array_equal(plain.rows, mapped.rows)
+    world = thruster_world(inertia=(1.0, 1.0, 1.0), n=2)
+    fmap = np.array([[[0.0, 2.0, 0.0]], [[0.0, 0.0, 2.0]]])
+    world.set_body_maps(fmap, np.cross([0.5, 0.0, 0.0], fmap))
+    world.step(np.array([0.6]))
+    np.testing.assert_array_equal(world.state.w[0], [0.0, 0.0, 0.6 * 1.0 * DT])
+    np.testing.assert_array_equal(world.state.w[1], [0.0, -0.6 * 1.0 * DT, 0.0])
+    with pytest.raises(ValueError, match=r"force_map, torque_map: expected finite arrays"):
+        world.set_body_maps(fmap[:1], fmap[:1])
