@@ -9,7 +9,7 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 from __future__ import annotations
 
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import MAPS, map_row
+from rigid_env.core.layout import map_row
 from rigid_env.core.maths import axpy, cross, norm, rotate, rotate_inv
 
 

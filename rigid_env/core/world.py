@@ -315,7 +315,8 @@ class World:
         f = np.asarray(force_map, dtype=np.float64)
         t = np.asarray(torque_map, dtype=np.float64)
         shape = (self._n, self.action_dim, 3)
-        if f.shape != shape or t.shape != shape or not (np.isfinite(f).all() & np.isfinite(t).all()):
+        finite = np.isfinite(f).all() and np.isfinite(t).all()
+        if f.shape != shape or t.shape != shape or not finite:
             raise ValueError(
                 f"force_map, torque_map: expected finite arrays of shape {shape}, got "
                 f"{f.shape} and {t.shape}"
