@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
+from pathlib import Path
 from typing import NoReturn
 
 
@@ -30,3 +32,46 @@ def integer(text: str) -> int:
     if not (math.isfinite(x) and x.is_integer()):
         raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}")
     return int(x)
+
+
+def positive_integer(text: str) -> int:
+    """An integer flag value >= 1 (exponent notation allowed, as :func:`integer`)."""
+    n = integer(text)
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return n
+
+
+def positive_number(text: str) -> float:
+    """A finite number > 0."""
+    try:
+        x = float(text)
+    except ValueError:
+        x = math.nan
+    if not (math.isfinite(x) and x > 0):
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return x
+
+
+def path(text: str) -> Path:
+    """A path flag value; an empty one (an unset shell variable) would mean the current folder,
+    so it is refused."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError(
+            "empty path; give a folder or file name (an unset variable?)"
+        )
+    return Path(text)
+
+
+def folder_problem(folder: Path) -> str | None:
+    """Why ``folder`` cannot hold what a command writes (it, or the nearest existing folder
+    above it, is a file or not writable), or ``None``."""
+    for candidate in (folder, *folder.resolve().parents):
+        if not candidate.exists():
+            continue
+        if not candidate.is_dir():
+            return f"{candidate} is a file, not a folder"
+        if not os.access(candidate, os.W_OK | os.X_OK):
+            return f"{candidate} is not writable"
+        return None
+    return None

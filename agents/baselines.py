@@ -37,7 +37,7 @@ import numpy as np
 
 from rigid_env.config_files import read_yaml
 
-from ._cli import OneLineParser, integer
+from ._cli import OneLineParser, folder_problem, integer, path
 from .evaluate import EvaluationError, evaluate
 
 _OFF = {"mass": 0.0, "inertia": 0.0, "thrust": 0.0, "sensor_noise": 0.0}
@@ -183,19 +183,29 @@ def main(argv: list[str] | None = None) -> int:
         description="Evaluate trained runs over seeds beside the controllers, with robustness.",
     )
     parser.add_argument("runs", nargs="+", type=Path, help="run folders agents.train wrote")
-    parser.add_argument("--out", type=Path, default=Path("runs/baselines"))
+    parser.add_argument("--out", type=path, default=Path("runs/baselines"))
     parser.add_argument("--episodes", type=integer, default=100)
     parser.add_argument("--seed", type=integer, default=12345, help="episode k uses seed + k")
     parser.add_argument("--force", action="store_true", help="overwrite an existing --out")
     args = parser.parse_args(argv)
     md, table = args.out / "results.md", args.out / "results.csv"
     try:
+        problem = folder_problem(args.out)  # found now, not after the evaluation
+        if problem is not None:
+            raise EvaluationError(f"--out: {problem}; give a folder you can write to")
         if (md.exists() or table.exists()) and not args.force:
             raise EvaluationError(f"--out: {args.out} holds results; pass --force to replace them")
         runs = [find_run(p) for p in args.runs]
         records = evaluate_runs(runs, args.episodes, args.seed)
     except EvaluationError as exc:
         print(f"agents.baselines: error: {exc}", file=sys.stderr)
+        return 2
+    except MemoryError:  # each evaluation runs its episodes at once
+        print(
+            f"agents.baselines: error: --episodes: {args.episodes} episodes at once do not fit "
+            "in memory; give fewer",
+            file=sys.stderr,
+        )
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
     text = summary_table(records)

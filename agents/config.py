@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import os
 import re
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import gymnasium as gym
 from pydantic import (
@@ -35,6 +35,8 @@ from .algorithms import algorithm_class as algorithm_class  # re-exported
 from .env_kwargs import check_env_kwargs
 
 ALGOS = ("ppo", "sac", "td3", "tqc")
+MAX_ENVS = 65_536
+"""The most training envs: the largest batch the core's benchmarks measure (DESIGN.md)."""
 ConfigError = ConfigFileError
 """A training configuration is wrong; the message names the file, the field and the fix."""
 _FROZEN = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
@@ -74,10 +76,12 @@ class TrainConfig(BaseModel):
     """The algorithm (tqc needs sb3-contrib)."""
     total_timesteps: PositiveInt
     """Environment steps to train for (summed over envs), >= 1."""
-    seed: NonNegativeInt = 0
-    """Seed of the policy, the algorithm and the training envs, >= 0."""
-    n_envs: PositiveInt = 8
-    """Parallel environments in the native SB3 adapter, >= 1."""
+    seed: Annotated[NonNegativeInt, Field(le=2**32 - 1)] = 0
+    """Seed of the policy, the algorithm and the training envs, 0 .. 2**32 - 1 (SB3 seeds
+    NumPy's global generator with it, which takes no more)."""
+    n_envs: Annotated[PositiveInt, Field(le=MAX_ENVS)] = 8
+    """Parallel environments in the native SB3 adapter, 1 .. 65536 (the batch the core is
+    built and measured for)."""
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
     """Keyword arguments of the environment (as for gym.make); checked by building it once."""
     policy: Literal["MlpPolicy"] = "MlpPolicy"

@@ -43,7 +43,7 @@ import numpy as np
 import rigid_env  # noqa: F401  (registers the ids)
 from rigid_env.resources import find_data
 
-from ._cli import OneLineParser, integer
+from ._cli import OneLineParser, integer, path
 from .controllers import CONTROLLERS
 from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
@@ -352,6 +352,8 @@ def check_video_path(path: Path, force: bool) -> None:
         raise EvaluationError(f"--video: {path}: give a .gif or .mp4 file name")
     if path.is_dir():
         raise EvaluationError(f"--video: {path} is a folder; give a file name such as out.gif")
+    if path.is_symlink() or (path.exists() and not path.is_file()):  # renamed over, not into
+        raise EvaluationError(f"--video: {path} is a link, device or pipe; give a file name")
     if path.exists() and not force:
         raise EvaluationError(f"--video: {path} exists; pass --force to overwrite it")
     try:
@@ -420,7 +422,7 @@ def main(argv: list[str] | None = None) -> int:
         "--seed", type=integer, default=12345, help="episode k uses seed + k (>= 0)"
     )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--video", type=Path, help="record one episode (.gif or .mp4)")
+    parser.add_argument("--video", type=path, help="record one episode (.gif or .mp4)")
     parser.add_argument("--force", action="store_true", help="overwrite an existing --video")
     parser.add_argument("--only", help="comma-separated subset of: model,pd,zero,random")
     args = parser.parse_args(argv)

@@ -51,7 +51,6 @@ Sweep file (unknown keys are errors; relative ``base`` is relative to the sweep 
 
 from __future__ import annotations
 
-import argparse
 import json
 import logging
 import math
@@ -69,6 +68,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ._cli import OneLineParser, folder_problem, path, positive_integer, positive_number
 from .config import ConfigError, TrainConfig, load_config
 from .sweep_config import (
     METRICS,
@@ -470,9 +470,7 @@ def _finished(sweep: SweepConfig, results: Any, log: Callable[[str], None]) -> l
 
 def main(argv: list[str] | None = None) -> int:
     """Command-line entry point."""
-    parser = argparse.ArgumentParser(
-        prog="python -m agents.sweep", description=__doc__.split("\n")[0]
-    )
+    parser = OneLineParser(prog="python -m agents.sweep", description=__doc__.split("\n")[0])
     parser.add_argument("sweep", help="sweep YAML (configs/sweeps/*.yaml)")
     parser.add_argument(
         "--address",
@@ -485,13 +483,13 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="continue an interrupted sweep; finished trials are kept",
     )
-    parser.add_argument("--storage", type=Path, help="override the sweep file's storage folder")
+    parser.add_argument("--storage", type=path, help="override the sweep file's storage folder")
     parser.add_argument(
-        "--num-cpus", type=int, help="CPUs of the local Ray instance (default: all)"
+        "--num-cpus", type=positive_integer, help="CPUs of the local Ray instance (default: all)"
     )
     parser.add_argument(
         "--connect-timeout",
-        type=float,
+        type=positive_number,
         default=5.0,
         help="seconds to wait for --address (default 5)",
     )
@@ -500,6 +498,13 @@ def main(argv: list[str] | None = None) -> int:
     prog = "agents.sweep"
     try:
         sweep = load_sweep(args.sweep, storage=args.storage)
+        local = (args.address or os.environ.get("RAY_ADDRESS") or "local") == "local"
+        problem = folder_problem(sweep.directory) if local else None  # else: the nodes' disks
+        if problem is not None:
+            raise SweepError(
+                f"{sweep.directory}: storage: {problem}; give a folder every node can write "
+                "(--storage or the sweep file's storage)"
+            )
         try:
             import ray  # noqa: F401
             from ray import tune  # noqa: F401

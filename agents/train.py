@@ -1,27 +1,30 @@
 """Train an SB3 agent on a RigidEnv task from a YAML config.
 
     python -m agents.train configs/agents/ppo_detumble.yaml [--seed S] [--total-timesteps N]
-                           [--n-envs K] [--runs-dir runs] [--resume] [--no-progress]
+                           [--n-envs K] [--runs-dir runs] [--resume | --resume-or-start]
+                           [--no-progress]
 
 A run goes to ``runs/<task>__<algo>__<seed>/``: ``config.yaml`` (the full resolved config, as
 it runs), ``tb/`` (TensorBoard), ``checkpoints/`` (model, ``VecNormalize`` statistics and replay
 buffer every ``checkpoint_freq`` steps), ``eval/`` (evaluation history ``evaluations.npz`` and
 the best model) and the final ``model.zip`` + ``vecnormalize.pkl`` (+ ``replay_buffer.pkl``).
-Every model comes with a JSON sidecar naming its statistics and environment, for
-``agents.evaluate``; each set of files is written whole or not at all (see
-:mod:`agents.callbacks`).
+Every model comes with a JSON sidecar naming its statistics, its environment and the resolved
+config it was trained with, for ``agents.evaluate`` and ``--resume``; each set of files is
+written whole or not at all (see :mod:`agents.callbacks`).
 
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
-count, statistics and replay buffer; a checkpoint that does not load is skipped with a warning.
-The evaluation history and the best model are kept. A finished run is left alone unless
-``--total-timesteps`` asks for more. A config that differs from the run's ``config.yaml`` in
-anything but ``total_timesteps`` and ``device`` is refused.
+count, statistics and replay buffer; one that lacks a file its sidecar names (or statistics the
+config needs) or does not load is skipped with a warning, and with none left the resume is
+refused. The evaluation history and the best model are kept. A finished run is left alone
+unless ``--total-timesteps`` asks for more. A config that differs from the one the run was
+trained with (its newest sidecar's; ``config.yaml`` for older runs) in anything but
+``total_timesteps`` and ``device`` is refused. ``--resume`` of a run that does not exist is
+refused; ``--resume-or-start`` starts it.
 """
 
 from __future__ import annotations
 
 import json
-import os
 import re
 import sys
 from collections.abc import Sequence
@@ -33,7 +36,7 @@ import yaml
 
 from rigid_env.config_files import load_model, read_yaml
 
-from ._cli import OneLineParser, integer
+from ._cli import OneLineParser, folder_problem, integer, path
 from .callbacks import (
     CheckpointSnapshots,
     DurableEvaluation,
@@ -320,24 +323,14 @@ def check_runs_dir(runs_dir: Path, run_dir: Path) -> None:
         ConfigError: it, or the nearest existing folder above it, is not a folder or not
             writable.
     """
-    for path in (run_dir, runs_dir, *runs_dir.resolve().parents):
-        if not path.exists():
-            continue
-        if not path.is_dir():
-            raise ConfigError(
-                str(runs_dir),
-                "--runs-dir",
-                f"{path} is a file, not a folder",
-                "give a folder for the runs (it is created if missing)",
-            )
-        if not os.access(path, os.W_OK | os.X_OK):
-            raise ConfigError(
-                str(runs_dir),
-                "--runs-dir",
-                f"{path} is not writable",
-                "give a folder you can write to",
-            )
-        return
+    problem = folder_problem(run_dir)
+    if problem is not None:
+        raise ConfigError(
+            str(runs_dir),
+            "--runs-dir",
+            problem,
+            "give a folder you can write to (created if missing)",
+        )
 
 
 def train(
@@ -458,7 +451,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--total-timesteps", type=integer, help="override total_timesteps")
     parser.add_argument("--n-envs", type=integer, help="override n_envs")
     parser.add_argument(
-        "--runs-dir", type=Path, default=Path("runs"), help="where runs go (default runs/)"
+        "--runs-dir", type=path, default=Path("runs"), help="where runs go (default runs/)"
     )
     how = parser.add_mutually_exclusive_group()
     how.add_argument(
@@ -513,6 +506,13 @@ def main(argv: list[str] | None = None) -> int:
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print(
+            "agents.train: error: out of memory; give fewer --n-envs (or a smaller "
+            "buffer_size / n_steps), then continue with --resume if the run had started",
+            file=sys.stderr,
+        )
+        return 1
     except OSError as exc:  # the disk filled up, a folder was removed under the run, ...
         where = f"{exc.filename}: " if exc.filename else ""
         print(

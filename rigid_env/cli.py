@@ -326,6 +326,8 @@ _NUMBERS_PER_STEP = 21
 #: Steps simulated per call while filling the trajectory, so that memory holds the trajectory's
 #: arrays and one chunk of the core's per-step records, never a list of the whole run.
 _CHUNK_STEPS = 65_536
+#: Seconds between progress lines of a long simulation (and the most one chunk takes).
+_PROGRESS_EVERY_S = 10.0
 
 
 def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
@@ -337,6 +339,14 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
         raise UsageError(
             f"--out: {out} is a directory; give a file name such as {out / 'trajectory.npz'}"
         )
+    # The file is written beside --out and renamed over it: that would replace a device, a
+    # pipe or a link (not write through it).
+    if out.is_symlink():
+        raise UsageError(
+            f"--out: {out} is a symbolic link; give the file it points to, or another name"
+        )
+    if out.exists() and not out.is_file():
+        raise UsageError(f"--out: {out} is not a regular file; give a file name such as run.npz")
     if out.exists() and not args.force:
         raise UsageError(
             f"--out: {out} exists; pass --force to overwrite it, or choose another file"
@@ -351,23 +361,60 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     # A diverging run may overflow the recorded energy a step before the state itself turns
     # non-finite; the world's guard then reports it in one line, without NumPy warnings.
     with np.errstate(over="ignore", invalid="ignore"):
-        arrays = _simulate_chunked(world, args.steps, action)
+        arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps))
     wall = time.perf_counter() - start
     _write_npz(out, arrays)
     print(_summary(scene.name, world.integrator.name, world.dt, world.substeps, arrays, wall, out))
     return 0
 
 
+class _Progress:
+    """Chunk sizes that keep each call to about a second, and, for a run longer than
+    :data:`_PROGRESS_EVERY_S`, its expected time up front and a line with the time left every
+    :data:`_PROGRESS_EVERY_S` seconds."""
+
+    def __init__(self, steps: int) -> None:
+        self.steps = steps
+        self.timed_from: tuple[int, float] | None = None  # (steps done, time) after compiling
+        self.last_line: float | None = None
+
+    def next_chunk(self, done: int) -> int:
+        """Steps for the next call: 1 (it compiles), 16 (timed), then a second's worth."""
+        now = time.perf_counter()
+        left_steps = self.steps - done
+        if done == 0:
+            return 1
+        if self.timed_from is None:
+            self.timed_from = (done, now)
+            return min(16, left_steps)
+        rate = (done - self.timed_from[0]) / max(now - self.timed_from[1], 1e-9)  # steps/s
+        left_s = left_steps / rate
+        if self.last_line is None:
+            if left_s > _PROGRESS_EVERY_S:
+                print(f"simulating {self.steps} steps: about {left_s:.0f} s", flush=True)
+            self.last_line = now
+        elif now - self.last_line >= _PROGRESS_EVERY_S:
+            print(f"  {done}/{self.steps} steps, about {left_s:.0f} s left", flush=True)
+            self.last_line = now
+        return int(min(_CHUNK_STEPS, left_steps, max(1.0, rate)))
+
+
 def _simulate_chunked(
-    world: Any, steps: int, action: NDArray[np.float64] | None
+    world: Any,
+    steps: int,
+    action: NDArray[np.float64] | None,
+    progress: _Progress | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """:func:`simulate` of body 0 into arrays allocated once at their final size ``(steps + 1,
-    ...)``, ``_CHUNK_STEPS`` steps at a time (the same steps as one call, bit for bit)."""
+    ...)``, ``_CHUNK_STEPS`` steps at a time or as ``progress`` sizes them (the same steps as
+    one call, bit for bit)."""
     t0 = world.time
     arrays: dict[str, NDArray[np.float64]] = {}
     done = 0
     while True:
         n = min(_CHUNK_STEPS, steps - done)
+        if progress is not None:
+            n = progress.next_chunk(done)
         chunk = simulate(world, n, action)
         rows = slice(0, n + 1) if done == 0 else slice(1, n + 1)  # row 0 repeats the last one
         for key, val in chunk.items():

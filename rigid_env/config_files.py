@@ -272,10 +272,10 @@ def load_model(
 # --------------------------------------------------------------------------------------------
 
 _PROBLEMS: dict[str, Callable[[dict[str, Any]], str]] = {
-    "greater_than": lambda c: f"must be greater than {c['gt']:g}",
-    "greater_than_equal": lambda c: f"must be greater than or equal to {c['ge']:g}",
-    "less_than": lambda c: f"must be less than {c['lt']:g}",
-    "less_than_equal": lambda c: f"must be less than or equal to {c['le']:g}",
+    "greater_than": lambda c: f"must be greater than {_bound(c['gt'])}",
+    "greater_than_equal": lambda c: f"must be greater than or equal to {_bound(c['ge'])}",
+    "less_than": lambda c: f"must be less than {_bound(c['lt'])}",
+    "less_than_equal": lambda c: f"must be less than or equal to {_bound(c['le'])}",
     "finite_number": lambda c: "must be finite",
     "int_from_float": lambda c: "must be an integer",
     "int_type": lambda c: "expected an integer",
@@ -293,6 +293,11 @@ _PROBLEMS: dict[str, Callable[[dict[str, Any]], str]] = {
     "string_too_short": lambda c: f"expected at least {c['min_length']} character(s)",
 }
 """Problem texts for pydantic's error types (the rest keep pydantic's own message)."""
+
+
+def _bound(x: float) -> str:
+    """A constraint's bound as written: an integer in full (``4294967295``), a float short."""
+    return str(x) if isinstance(x, int) else f"{x:g}"
 
 
 def error_line(exc: ValidationError, model: type[BaseModel], source: str) -> ConfigFileError:

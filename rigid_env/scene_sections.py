@@ -33,6 +33,7 @@ from rigid_env.core.effects import (
     AngularDamping,
     ForceEffect,
     Gravity,
+    GravityGradient,
     LinearDamping,
     QuadraticDrag,
     StepMap,
@@ -359,6 +360,32 @@ class QuadraticDragSpec(EffectSpec):
         return QuadraticDrag(self.rho, self.cd, self.area, cop_body)
 
 
+class GravityGradientSpec(EffectSpec):
+    """The gravity-gradient torque of a point mass (a planet) on the body."""
+
+    mu: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("m^3/s^2")]
+    """Gravitational parameter ``G M`` [m^3/s^2], > 0 (Earth: 3.986e14)."""
+    center: Position
+    """The point mass's position, world frame [m]."""
+
+    def effect(self, to_body: ToBody) -> GravityGradient:
+        return GravityGradient(self.mu, np.array(self.center))
+
+    def check(self, scene: Any) -> None:
+        # The torque is the leading term of an expansion in (body size / |r|): it needs the body
+        # far from the centre, and is infinite at it. The body's size: its radius of gyration
+        # sqrt(tr I / m) (0.13 m for a 0.3 x 0.2 x 0.1 m box).
+        size = math.sqrt(float(np.sum(scene.inertia)) / scene.body.mass)
+        distance = math.dist(scene.initial.position, self.center)
+        if not distance > size:
+            raise FieldError(
+                "effects.gravity_gradient.center",
+                f"lies at {distance:g} m from the body's initial position, within its radius of "
+                f"gyration {size:g} m (the torque holds only far outside the body)",
+                "put the centre far from initial.position (e.g. the planet's centre)",
+            )
+
+
 class DampingSpec(EffectSpec):
     """The seed's per-step damping ``u <- alpha u``."""
 
@@ -391,6 +418,10 @@ class EffectsSpec(Spec):
         QuadraticDragSpec | None, _present("{rho: 1.225, cd: 1.05, area: 0.06}")
     ] = None
     """Quadratic air drag."""
+    gravity_gradient: Annotated[
+        GravityGradientSpec | None, _present("{mu: 3.986e14, center: [0, 0, 0]}")
+    ] = None
+    """Gravity-gradient torque of a point mass ``mu`` at ``center``."""
     linear_damping: Annotated[LinearDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``v <- alpha v`` each step."""
     angular_damping: Annotated[AngularDampingSpec | None, _present("{alpha: 0.999}")] = None

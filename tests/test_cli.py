@@ -283,6 +283,7 @@ def run_cli(*args: str, cwd: Path = ROOT) -> subprocess.CompletedProcess[str]:
     )
 
 
+@pytest.mark.slow
 def test_subprocess_simulate_example(tmp_path):
     out = tmp_path / "traj.npz"
     proc = run_cli(
@@ -296,6 +297,7 @@ def test_subprocess_simulate_example(tmp_path):
         assert np.all(np.isfinite(data["position"]))
 
 
+@pytest.mark.slow
 def test_subprocess_bad_input_one_line_no_traceback(tmp_path):
     scene = tmp_path / "typo.yaml"
     scene.write_text("body: {mass: 1.0, shape: {box: [0.3, 0.2, 0.1]}}\nintegrater: rk4\n")
@@ -309,6 +311,7 @@ def test_subprocess_bad_input_one_line_no_traceback(tmp_path):
     assert_one_line_error(proc.stderr, "--action")
 
 
+@pytest.mark.slow
 def test_simulate_does_not_import_benchmark_dependencies(tmp_path):
     code = (
         "import sys\n"

@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 import rigid_env
+from agents.shipped import ENV_IDS as SHIPPED_IDS
 from rigid_env.resources import SCENE_DIR, data_path, data_roots, pretrained_path, scene_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,6 +39,7 @@ import numpy as np
 import rigid_env
 from rigid_env.agents.config import load_config
 from rigid_env.agents.evaluate import load_policy
+from rigid_env.agents.shipped import ENV_IDS
 from rigid_env.agents.vec_adapter import RigidBodySB3VecEnv
 from rigid_env.resources import SCENE_DIR, data_path
 
@@ -51,7 +53,7 @@ pretrained = {json.loads(p.read_text())["env_id"]: p.with_suffix(".zip")
               for p in sorted(data_path("agents/pretrained").glob("*.json"))}
 out["pretrained"] = sorted(str(p) for p in pretrained.values())
 steps = {}
-for env_id in rigid_env.envs.ENV_IDS:
+for env_id in ENV_IDS:
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     policy = load_policy(pretrained[env_id], env_id)
@@ -100,6 +102,7 @@ def installed(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return target
 
 
+@pytest.mark.slow
 def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> None:
     top_level = {p.name for p in installed.iterdir() if not p.name.endswith(".dist-info")}
     assert top_level - {"bin"} == {"rigid_env"}  # no top-level `agents`, `configs`, ...
@@ -117,6 +120,7 @@ def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> No
     assert (installed / "rigid_env" / "py.typed").is_file()
 
 
+@pytest.mark.slow
 def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     installed: Path, tmp_path: Path
 ) -> None:
@@ -136,12 +140,13 @@ def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     assert Path(out["rigid_env"]).is_relative_to(installed)
     assert Path(out["scene_dir"]).is_relative_to(installed)
     assert out["top_level_agents"] is None
-    assert out["steps"] == dict.fromkeys(rigid_env.envs.ENV_IDS, True)
-    assert len(out["pretrained"]) == len(rigid_env.envs.ENV_IDS)
+    assert out["steps"] == dict.fromkeys(SHIPPED_IDS, True)
+    assert len(out["pretrained"]) == len(SHIPPED_IDS)
     assert all(Path(p).is_relative_to(installed) for p in out["pretrained"])
     assert len(out["configs"]) == len(list(ROOT.glob("configs/agents/*.yaml")))
 
 
+@pytest.mark.slow
 def test_installed_commands_find_the_shipped_data(installed: Path, tmp_path: Path) -> None:
     """``python -m rigid_env.cli scenes`` lists the wheel's scenes; ``python -m
     rigid_env.agents.evaluate`` runs a shipped policy."""

@@ -79,7 +79,8 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core.world import THREAD_MIN_BODIES
+from rigid_env.core.effects import GravityGradient
+from rigid_env.core.threads import THREAD_MIN_BODIES
 from rigid_env.envs import ENV_IDS
 from rigid_env.resources import scene_path
 from rigid_env.scene import load_scene
@@ -426,6 +427,7 @@ def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:
     drag = QuadraticDrag()
     drag_cp = QuadraticDrag(center_of_pressure=np.array([0.0, 0.0, 0.05]))
     lin, ang = LinearDamping(0.999), AngularDamping(0.999)
+    gradient = GravityGradient(3.986e14, np.array([0.0, 0.0, -7.0e6]))  # the bodies in orbit
     return {
         NO_EFFECTS: [],
         NOISE_FLOOR: [],
@@ -434,6 +436,7 @@ def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:
         "quadratic_drag (offset CoP)": [drag_cp],
         "linear_damping": [lin],
         "angular_damping": [ang],
+        "gravity_gradient": [gradient],
         "thrusters (command)": [thrusters],
         **{f"thrusters + {name}": [hw] for name, hw in thruster_hardware(thrusters).items()},
         "all of them": [gravity, drag_cp, lin, ang, thrusters],

@@ -26,6 +26,7 @@ from rigid_env.bench.report import Section, Table
 from rigid_env.bench.stability_cases import (
     ENERGY_GAIN_RTOL,
     EXP_MAP_TOL,
+    EXPLICIT_EULER_GROWTH,
     FLIP_TIME_RTOL,
     FORWARD_EULER_W,
     HARD_DT,
@@ -36,8 +37,11 @@ from rigid_env.bench.stability_cases import (
     SEPARATRIX_W_TOL,
     SPLITTING_ENERGY_BELOW_LIMIT,
     THIN_BODIES,
+    THIN_KINDS,
+    THIN_RATIOS,
     UNIT_Q_TOL,
     SeparatrixResult,
+    ThinRun,
     dzhanibekov,
     energy,
     explicit_euler_growth,
@@ -48,16 +52,20 @@ from rigid_env.bench.stability_cases import (
     record,
     scale_invariance,
     separatrix,
+    thin_bodies,
     torque_free_world,
 )
 from rigid_env.core.integrators import INTEGRATORS
 
 OUTPUTS = ("stability.md", "stability.csv")
+EXACT_ON_SYMMETRIC = ("splitting", "yoshida4", "exact_free")
+"""Integrators whose step is the exact flow of a symmetric body (a needle)."""
 
 FULL_LENGTHS = {
     "dzhanibekov_s": 60.0,
     "hard_steps": 20_000,
     "thin_steps": 10_000,
+    "thin_ratio_steps": 2_000,
     "long_steps": 100_000,
     "scale_steps": 300,
 }
@@ -66,6 +74,7 @@ CI_LENGTHS = {
     "dzhanibekov_s": 6.5,
     "hard_steps": 1_000,
     "thin_steps": 1_000,
+    "thin_ratio_steps": 200,
     "long_steps": 10_000,
     "scale_steps": 50,
 }
@@ -105,8 +114,13 @@ def _fmt(x: float | str) -> str:
     return f"{x:.3g}" if 1e-3 <= abs(x) < 1e4 else f"{x:.2e}"
 
 
-def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print) -> list[Row]:
-    """Run every case at ``lengths`` (:data:`FULL_LENGTHS` or :data:`CI_LENGTHS`)."""
+def stability_rows(
+    lengths: dict[str, float],
+    log: Callable[[str], None] = print,
+    thin_runs: list[ThinRun] | None = None,
+) -> list[Row]:
+    """Run every case at ``lengths`` (:data:`FULL_LENGTHS` or :data:`CI_LENGTHS`); the needle
+    and plate runs are also appended to ``thin_runs`` if given (for :func:`thin_table`)."""
     rows: list[Row] = []
     t_end = float(lengths["dzhanibekov_s"])
     for name in ("rk4", "splitting"):
@@ -153,8 +167,8 @@ def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print
             e = hr.energy("fast_spin", hard_steps)
             rows.append(
                 Row(
-                    "Fast spin splitting: max |E - E0| / E0 (reported: h|w| = 2 is past "
-                    "splitting's linear stability limit, ~1.95 about this major axis)",
+                    "Fast spin splitting: max |E - E0| / E0 (reported: h|w| = 2, inside "
+                    "splitting's linear stability limit about this major axis, 2.195)",
                     float(np.max(np.abs(e - e[0])) / e[0]),
                     "-",
                     "report",
@@ -196,13 +210,18 @@ def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print
                     L_NORM_RTOL,
                 )
             )
+        log(f"needles and plates {name} {int(lengths['thin_ratio_steps'])} steps")
+        thin = thin_bodies(name, int(lengths["thin_ratio_steps"]))
+        rows.extend(thin_rows(thin))
+        if thin_runs is not None:
+            thin_runs.append(thin)
     log("explicit euler growth")
     g = explicit_euler_growth()
     rows.append(
         Row(
             "explicit_euler, unstable spin: energy growth E_last / E0 before the error",
             g.growth,
-            1.0e10,
+            EXPLICIT_EULER_GROWTH,
             ">=",
         )
     )
@@ -280,6 +299,58 @@ def stability_rows(lengths: dict[str, float], log: Callable[[str], None] = print
         )
     )
     return rows
+
+
+def thin_rows(run: ThinRun) -> list[Row]:
+    """The needles' and plates' rows of one integrator: the worst ``|w - w_exact|`` over the
+    ratios against twice that at ratio 1e-2 (:data:`THIN_GROWTH`), and for the methods exact on
+    a symmetric body the needles' error against round-off."""
+    ratios = f"{THIN_RATIOS[0]:.0e} .. 1e-12 and 1e-100"
+    rows = []
+    for kind in THIN_KINDS:
+        rows.append(
+            Row(
+                f"{kind.capitalize()}s {ratios}, {run.integrator}: worst max |w - w_exact| "
+                "[rad/s] (bound: 2 x ratio 1e-2's + round-off)",
+                float(np.max(run.errors(kind))),
+                run.growth_bound(kind),
+            )
+        )
+    if run.integrator in EXACT_ON_SYMMETRIC:
+        rows.append(
+            Row(
+                f"Needles, {run.integrator}: exact for a symmetric body, max |w - w_exact| [rad/s]",
+                float(np.max(run.errors("needle"))),
+                run.roundoff,
+            )
+        )
+    return rows
+
+
+def thin_table(runs: Sequence[ThinRun], steps: int) -> Section:
+    """Every integrator's ``max |w - w_exact|`` [rad/s] on the needle / plate of each ratio."""
+    shown = (1.0e-2, 1.0e-4, 1.0e-6, 1.0e-8, 1.0e-10, 1.0e-12, 1.0e-100)
+    rows, drift = [], []
+    for run in runs:
+        cells, needle = [run.integrator], [run.integrator]
+        for r in shown:
+            k = THIN_RATIOS.index(r)
+            cells.append(f"{_fmt(run.errors('needle')[k])} / {_fmt(run.errors('plate')[k])}")
+            b = run.bodies.index(("needle", r))
+            needle.append(f"{_fmt(run.wx_drift[b])} / {_fmt(run.speed_drift[b])}")
+        rows.append(cells)
+        drift.append(needle)
+    head = ["integrator", *(f"{r:.0e}" for r in shown)]
+    return Section(
+        "Needles and plates",
+        [
+            f"Torque-free needles (r, 1, 1) / plates (r, 1, 1 + r), w0 = (0.3, 2, 0.1) body, "
+            f"dt 0.01, {steps} steps: largest |w - w_exact| [rad/s] (body frame; exact: "
+            "Jacobi elliptic functions) for each ratio r; then the needles' largest "
+            "|w_x - w_x0| / | |w| - |w0| | [rad/s], both 0 for the exact motion."
+        ],
+        [Table(head, rows, "l" * len(head)), Table(head, drift, "l" * len(head))],
+    )
 
 
 def separatrix_report(
@@ -364,11 +435,13 @@ def run(args: argparse.Namespace) -> int:
     def log(msg: str) -> None:
         print(f"[{time.perf_counter() - start:7.1f} s] {msg}", file=sys.stderr, flush=True)
 
-    rows = stability_rows(CI_LENGTHS if args.quick else FULL_LENGTHS, log)
+    lengths = CI_LENGTHS if args.quick else FULL_LENGTHS
+    thin: list[ThinRun] = []
+    rows = stability_rows(lengths, log, thin)
+    sections = tables(rows, separatrix_report(log=log), args.quick)
+    sections.append(thin_table(thin, int(lengths["thin_ratio_steps"])))
     text = report.markdown(
-        "Stability benchmark",
-        [f"Machine: {report.machine()}, {report.versions()}."],
-        tables(rows, separatrix_report(log=log), args.quick),
+        "Stability benchmark", [f"Machine: {report.machine()}, {report.versions()}."], sections
     )
     print(text)
     if out is not None:

@@ -8,6 +8,8 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 
 from __future__ import annotations
 
+import math
+
 from rigid_env.core.jit import kernel
 from rigid_env.core.layout import map_row
 from rigid_env.core.maths import axpy, cross, norm, rotate, rotate_inv
@@ -70,6 +72,11 @@ def accelerations(x, v, q, w, act, m, p, gyro):
     * gravity ``F = m g``;
     * quadratic drag ``F = -k |v_p| v_p`` at the centre of pressure ``r`` (body frame), whose
       velocity is ``v_p = v + R (w x r)``; off the centre of mass it adds ``tau = r x R^T F``;
+    * the gravity-gradient torque of a point mass ``mu = G M`` at ``c``, ``tau = 3 mu / |r|^5
+      (r_b x I r_b)`` with ``r_b = R^T (x - c)`` (body axes): the torque of the potential
+      ``mu / (2 |r|^3) (3 r_b . I r_b / |r|^2 - tr I)``, MacCullagh's formula, the leading term
+      of the body's potential in powers of its size over ``|r|`` (Hughes, "Spacecraft Attitude
+      Dynamics", Sec. 8.1);
     * with ``gyro``, Euler's ``I w' = tau - w x I w`` (skipped for an isotropic body, where the
       term vanishes).
     """
@@ -97,6 +104,16 @@ def accelerations(x, v, q, w, act, m, p, gyro):
             tx += tau[0]
             ty += tau[1]
             tz += tau[2]
+    if p.gravity_gradient != 0.0:
+        c = (p.gradient_center_x, p.gradient_center_y, p.gradient_center_z)
+        rb = rotate_inv(q, (x[0] - c[0], x[1] - c[1], x[2] - c[2]))
+        r2 = rb[0] * rb[0] + rb[1] * rb[1] + rb[2] * rb[2]
+        k = 3.0 * p.gradient_mu / (r2 * r2 * math.sqrt(r2))
+        i_rb = (m.inertia_x * rb[0], m.inertia_y * rb[1], m.inertia_z * rb[2])
+        tau = cross(rb, i_rb)
+        tx += k * tau[0]
+        ty += k * tau[1]
+        tz += k * tau[2]
     if gyro and m.isotropic == 0.0:
         g = gyroscopic(w, m)
         tx -= g[0]

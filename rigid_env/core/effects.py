@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 
 from rigid_env.core.inertia import checked_floats
 from rigid_env.core.layout import THRUSTER_WIDTH, Params, Thruster
-from rigid_env.core.rotation import cross
+from rigid_env.core.rotation import cross, quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
@@ -143,6 +143,51 @@ class QuadraticDrag(ForceEffect):
 
 
 @dataclass(frozen=True)
+class GravityGradient(ForceEffect):
+    """The gravity-gradient torque of a point mass ``mu = G M`` at ``center`` (an orbited planet)
+    on the body's mass distribution: ``tau_body = 3 mu / |r|^5 (r_b x I r_b)``, ``r_b`` the
+    vector from ``center`` to the centre of mass in body axes. It turns the minimum-inertia
+    axis towards ``r``, about which the body librates (passive stabilisation of satellites).
+    Torque only: the central force ``-m mu r / |r|^3`` is left to a gravity effect.
+
+    Attributes:
+        mu: gravitational parameter ``G M`` [m^3/s^2], > 0 (Earth: 3.986e14).
+        center: (3,) the point mass's position, world frame [m].
+    """
+
+    mu: float = 3.986004418e14
+    center: FloatArray = field(default_factory=lambda: np.zeros(3))
+    name: ClassVar[str] = "gravity_gradient"
+
+    def __post_init__(self) -> None:
+        if not (np.isfinite(self.mu) and self.mu > 0.0):
+            raise ValueError(
+                f"gravity_gradient.mu: must be finite and > 0 [m^3/s^2], got {self.mu}"
+            )
+        center = checked_floats("gravity_gradient.center", self.center, (3,))
+        object.__setattr__(self, "center", center)
+
+    def parameters(self) -> dict[str, float]:
+        cx, cy, cz = self.center.tolist()
+        return {"gravity_gradient": 1.0, "gradient_mu": float(self.mu)} | {
+            "gradient_center_x": cx,
+            "gradient_center_y": cy,
+            "gradient_center_z": cz,
+        }
+
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray:
+        """``V = mu / (2 |r|^3) (3 r_b . I r_b / |r|^2 - tr I)`` [J]: MacCullagh's term of the
+        body's potential, whose torque ``-dV/dtheta`` is this effect's (a turn ``dtheta`` of
+        the body moves ``r_b`` by ``-dtheta x r_b``)."""
+        r = state.x - self.center
+        rb = quat_rotate_inv(state.q, r)
+        r2 = np.sum(r * r, axis=1)
+        inertia = model.inertia
+        i_rr = np.sum(inertia * rb * rb, axis=1) / r2
+        return self.mu / (2.0 * r2 * np.sqrt(r2)) * (3.0 * i_rr - np.sum(inertia, axis=1))
+
+
+@dataclass(frozen=True)
 class _Damping(StepMap):
     """A velocity scaled by ``alpha`` once per world step.
 
@@ -188,6 +233,11 @@ class LinearActuator(ForceEffect):
     name: ClassVar[str] = "actuator"
     force_map: FloatArray
     torque_map: FloatArray
+
+    @property
+    def action_dim(self) -> int:
+        """Number of command components."""
+        return self.force_map.shape[0]
 
     def parameters(self) -> dict[str, float]:
         """None by name: :func:`pack` puts every actuator's rows into one table of maps."""

@@ -15,8 +15,8 @@
 
 Numba compiles a named tuple of floats as it compiles a plain tuple: numbers in registers, where
 an array would cost two atomic reference counts per call. :func:`unpack` and :func:`body_model`
-read one from an array by the declaration's order (a loop over the fields that the compiler
-unrolls); as plain Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
+read one from an array in the declaration's order, one load per field (:func:`_read`); as plain
+Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
 
 Frames: forces on the centre of mass are world frame, torques and angular velocities body frame
 (principal axes), so the inertia is the constant diagonal ``I``.
@@ -27,8 +27,9 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba.cpython.unsafe.tuple import tuple_setitem
-from numba.extending import overload
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload, register_jitable
 from numpy.typing import NDArray
 
 from rigid_env.core.jit import kernel
@@ -66,6 +67,11 @@ class Params(NamedTuple):
     cop_x: float  # centre of pressure, body frame [m]
     cop_y: float
     cop_z: float
+    gravity_gradient: float  # flag
+    gradient_mu: float  # mu = G M of the attracting body [m^3/s^2]
+    gradient_center_x: float  # its centre, world frame [m]
+    gradient_center_y: float
+    gradient_center_z: float
     linear_damping: float  # flag
     linear_alpha: float  # v <- alpha v each world step
     angular_damping: float  # flag
@@ -125,20 +131,22 @@ BAD_COMMAND = -1
 """The code of a world step that stepped nothing: the command has a NaN or inf."""
 
 
-@kernel
+# Plain Python where Python calls them (no dispatch to compiled code), compiled where compiled
+# code does (Numba's register_jitable): one definition of the code for both.
+@register_jitable
 def step_code(failures, beyond):
     """The code of a world step: ``2 failures + beyond``, ``beyond`` 1 if a body ended the step
     past the integrator's stable ``h |w|``, else 0."""
     return 2 * failures + beyond
 
 
-@kernel
+@register_jitable
 def failures_of(code):
     """Bodies that failed, from a world step's code (>= 0)."""
     return code >> 1
 
 
-@kernel
+@register_jitable
 def beyond_of(code):
     """1 if a body ended past the stable ``h |w|``, from a world step's code (>= 0)."""
     return code & 1
@@ -162,6 +170,38 @@ def body_model(model: FloatArray, i: int) -> Body:
     return Body(*model[:, i].tolist())
 
 
+@intrinsic
+def _read(typingctx, array, i, like):
+    """The named tuple of ``like``'s type read from ``array``: field ``k`` from ``array[k, i]``
+    (a column of a 2-D array) or ``array[i + k]`` (1-D), one load each, no copies."""
+
+    def codegen(context, builder, sig, args):
+        array_type, index_type, tuple_type = sig.args
+        ary = context.make_array(array_type)(context, builder, args[0])
+        col = context.cast(builder, args[1], index_type, types.intp)
+        out = context.get_constant_undef(tuple_type)
+        for k in range(tuple_type.count):
+            row = context.get_constant(types.intp, k)
+            at = [row, col] if array_type.ndim == 2 else [builder.add(row, col)]
+            ptr = cgutils.get_item_pointer(
+                context, builder, array_type, ary, at, wraparound=False, boundscheck=False
+            )
+            out = builder.insert_value(out, builder.load(ptr), k)
+        return out
+
+    return like(array, i, like), codegen
+
+
+@overload(unpack, inline="always")
+def _unpack(p):
+    return lambda p: _read(p, 0, _PARAMS0)
+
+
+@overload(body_model, inline="always")
+def _body_model(model, i):
+    return lambda model, i: _read(model, i, _BODY0)
+
+
 def thruster(p: FloatArray, actions: int, a: int) -> Thruster:
     """Command component ``a``'s hardware numbers, after the ``actions`` rows of maps."""
     k = MAPS + 6 * actions + THRUSTER_WIDTH * a
@@ -170,36 +210,7 @@ def thruster(p: FloatArray, actions: int, a: int) -> Thruster:
 
 @overload(thruster, inline="always")
 def _thruster(p, actions, a):
-    def impl(p, actions, a):
-        k = MAPS + 6 * actions + THRUSTER_WIDTH * a
-        out = _THRUSTER0
-        for j in range(THRUSTER_WIDTH):
-            out = tuple_setitem(out, j, p[k + j])
-        return out
-
-    return impl
-
-
-@overload(unpack, inline="always")
-def _unpack(p):
-    def impl(p):
-        out = _PARAMS0
-        for k in range(MAPS):
-            out = tuple_setitem(out, k, p[k])
-        return out
-
-    return impl
-
-
-@overload(body_model, inline="always")
-def _body_model(model, i):
-    def impl(model, i):
-        out = _BODY0
-        for k in range(MODEL_WIDTH):
-            out = tuple_setitem(out, k, model[k, i])
-        return out
-
-    return impl
+    return lambda p, actions, a: _read(p, MAPS + 6 * actions + THRUSTER_WIDTH * a, _THRUSTER0)
 
 
 @kernel

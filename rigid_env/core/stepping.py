@@ -15,7 +15,7 @@ import math
 import numpy as np
 from numba import prange
 
-from rigid_env.core.dynamics import accelerations, kick, wrench
+from rigid_env.core.dynamics import accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
@@ -29,6 +29,7 @@ from rigid_env.core.layout import (
     store,
     unpack,
 )
+from rigid_env.core.maths import norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
 
@@ -74,15 +75,50 @@ def _finite(x, v, q, w):
     return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
 
 
+EXPLOSION_FACTOR = 10.0
+"""How far beyond the reach of the applied forces ``sqrt(E)`` may get in one step before the
+guard fails the body (its kinetic energy ``100 x`` beyond). Reach: with power ``P = F . v + tau
+. w`` (drag only dissipates, ``F . v_p <= 0``) and ``|v| <= sqrt(2 E / m)``, ``|w| <= sqrt(2 E /
+I_min)``, ``d sqrt(E) / dt = P / (2 sqrt(E)) <= B = (|F| / sqrt(m) + |tau| / sqrt(I_min)) /
+sqrt(2)`` with ``F`` the actuators' force and gravity's ``m g``: the exact flow ends with
+``sqrt(E1) <= sqrt(E0) + h B``. A method adds its own one-step error; the largest inside the
+stable ranges is forward Euler's, torque-free ``E1 = E0 + h^2 / 2 f . I f`` with Euler's rates
+``I_i f_i^2 = (I_j - I_k)^2 w_j^2 w_k^2 / I_i <= max(I_j, I_k) w_j^2 w_k^2 <= 2 E |w|^2`` for a
+real body (``|I_j - I_k| <= I_i``), so ``E1 / E0 <= 1 + 3 (h |w|)^2``: 13 (a factor 3.6 in
+``sqrt(E)``) at ``h |w| = 2``, the widest stated range (``splitting``). A factor 10 leaves room
+for that and trips only where the state explodes: the three-axis splitting's ``|w|`` 2.4 ->
+5e95 in one step of a needle of moment 1e-100, forward Euler past ``h |w| = 5.7``."""
+
+
 @kernel
-def guard(state, status, i, new, old):
+def reachable_energy(v, w, act, m, c, h):
+    """The largest kinetic energy [J] a body at ``(v, w)`` may end a step of ``h`` with under
+    the wrench ``act`` and the world's gravity (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h
+    B))^2``, ``B`` the forces' reach."""
+    root = math.sqrt(kinetic_energy(v, w, m)) + h * force_reach(act, m, c) * math.sqrt(0.5)
+    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+
+
+@kernel
+def force_reach(act, m, c):
+    """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the world's
+    gravity: ``(|F| + m |g|) / sqrt(m) + |tau| / sqrt(I_min)``."""
+    fb, tb = act
+    g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
+    inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
+    return (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+
+
+@kernel
+def guard(state, status, i, new, old, m, reachable):
     """Column ``i`` of ``state`` by selects: a healthy body (:data:`HEALTHY`) takes its finite
-    ``new`` state, else keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``.
-    Returns ``(ok, failed)``: whether ``new`` was taken, whether the body failed here."""
+    ``new`` state whose kinetic energy is within ``reachable`` (:func:`reachable_energy`), else
+    keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``. Returns ``(ok,
+    failed)``: whether ``new`` was taken, whether the body failed here."""
     x, v, q, w = new
     x0, v0, q0, w0 = old
     healthy = status[i] == HEALTHY
-    ok = healthy & _finite(x, v, q, w)
+    ok = healthy & _finite(x, v, q, w) & (kinetic_energy(v, w, m) <= reachable)
     failed = healthy & ~ok
     status[i] = FAILED if failed else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
@@ -105,10 +141,13 @@ def substep(step, c, model, wrenches, state, status, last, i):
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
     act = (fb, tb)
-    x, v, q, w = step(x0, v0, q0, limit_speed(w0, c), act, body_model(model, i), c, c.h)
+    m = body_model(model, i)
+    w = limit_speed(w0, c)
+    reachable = reachable_energy(v0, w, act, m, c, c.h)
+    x, v, q, w = step(x0, v0, q0, w, act, m, c, c.h)
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0))
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -122,16 +161,19 @@ def hardware_substep(step, p, c, model, command, state, status, k, last, i):
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     x, v, q, w = x0, v0, q0, limit_speed(w0, c)
+    root = math.sqrt(kinetic_energy(v, w, m))  # sqrt(E) may grow by s B a segment
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
         end = next_switch(p, c, command, i, t, t1)
         act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
         x, v, q, w = step(x, v, q, w, act, m, c, end - t)
         t = end
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0))
+    reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -237,12 +279,13 @@ def kicks(p, model, state, command, h):
 
 
 @kernel
-def segments_pass(p, model, state, command, t, t1, lengths, wrenches):
+def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
     """The next segment of every body with thrusters as hardware (``exact_free``'s
     :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
     switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
     the body has reached ``t1``) and its thrusters' wrench into ``wrenches`` (6, N), lagging
-    levels advanced in ``state``. Returns whether some body has a segment."""
+    levels advanced in ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether
+    some body has a segment."""
     c = unpack(p)
     more = False
     for i in range(state.shape[1]):
@@ -253,9 +296,37 @@ def segments_pass(p, model, state, command, t, t1, lengths, wrenches):
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
             lengths[i] = end - t[i]
+            roots[i] += lengths[i] * force_reach((fb, tb), body_model(model, i), c) * math.sqrt(0.5)
             t[i] = end
             more = True
     return more
+
+
+@kernel
+def energy_roots(model, state):
+    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)]."""
+    out = np.empty(state.shape[1])
+    for i in range(state.shape[1]):
+        _, v, _, w = load(state, i)
+        out[i] = math.sqrt(kinetic_energy(v, w, body_model(model, i)))
+    return out
+
+
+@kernel
+def hardware_finish_pass(p, model, state, before, status, roots):
+    """:func:`finish_pass` of thrusters as hardware, each body's reach ``roots`` (N,) summed
+    over its segments (``sqrt(E0) + sum_k s_k B_k``, :data:`EXPLOSION_FACTOR`)."""
+    c = unpack(p)
+    failures = over = 0
+    for i in range(state.shape[1]):
+        x, v, q, w = load(state, i)
+        v, w = step_maps(v, w, c)
+        m = body_model(model, i)
+        reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (roots[i] * roots[i])
+        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reachable)
+        failures += 1 if failed else 0
+        over += beyond(w, c, ok)
+    return step_code(failures, min(over, 1))
 
 
 @kernel
@@ -274,15 +345,20 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
 
 
 @kernel
-def finish_pass(p, state, before, status):
+def finish_pass(p, model, state, before, status, command):
     """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
-    of every body against its columns ``before`` the step. Returns the step's code."""
+    of every body against its columns ``before`` the step (the energy it may reach over the
+    whole world step, ``substeps h``). Returns the step's code."""
     c = unpack(p)
     failures = over = 0
     for i in range(state.shape[1]):
         x, v, q, w = load(state, i)
         v, w = step_maps(v, w, c)
-        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i))
+        m = body_model(model, i)
+        old = load(before, i)
+        act = wrench(p, c, model, command, i)
+        reachable = reachable_energy(old[1], old[3], act, m, c, c.h * c.substeps)
+        ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
     return step_code(failures, min(over, 1))

@@ -12,9 +12,9 @@ import pytest
 
 from agents import demo
 from agents.evaluate import evaluate
+from agents.shipped import TASKS
 from agents.side_by_side import PANEL, record_side_by_side
 from rigid_env.cli import main
-from rigid_env.envs import TASKS
 
 ROOT = Path(__file__).resolve().parents[2]
 EPISODES = 2
@@ -53,6 +53,7 @@ def demo_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, str]:
     return out, proc.stdout
 
 
+@pytest.mark.slow
 def test_demo_writes_table_and_animations(demo_run):
     out, stdout = demo_run
     with open(out / "results.csv") as fh:
@@ -77,6 +78,7 @@ def test_demo_writes_table_and_animations(demo_run):
             assert im.size[0] == 2 * PANEL and im.n_frames > 5
 
 
+@pytest.mark.slow
 def test_demo_pd_row_equals_a_direct_evaluation(demo_run):
     """The table's PD row on Detumble is what `agents.evaluate` gives for the PD controller on
     the same seeds, computed independently (all episodes at once in one vector env)."""
@@ -95,6 +97,7 @@ def test_demo_pd_row_equals_a_direct_evaluation(demo_run):
     assert float(row["time_to_success_s"]) == pytest.approx(ref["mean_time_to_success"])
 
 
+@pytest.mark.slow
 def test_second_run_without_force_refuses(demo_run):
     out, _ = demo_run
     before = (out / "results.md").read_text()
@@ -111,6 +114,7 @@ def test_second_run_without_force_refuses(demo_run):
         (("--episodes", "two"), ("--episodes", "integer")),
     ],
 )
+@pytest.mark.slow
 def test_bad_flags_are_one_line_errors(args, words, tmp_path):
     proc = run_demo(*args, "--out", str(tmp_path / "d"))
     assert_one_line_error(proc, *words)
@@ -131,6 +135,7 @@ def test_help_states_the_default_episodes(capsys):
     assert f"(default: {demo.DEFAULT_EPISODES})" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_animated_episode_is_episode_zero_of_the_table(tmp_path):
     """The GIF's episode (a single env, rendered) is the table's episode 0 (a rollout)."""
     pd = demo.pd_policy("Detumble")

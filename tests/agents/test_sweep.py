@@ -142,6 +142,7 @@ def _spec(sweep_dir: Path) -> dict:
     return spec(load_sweep(_sweep_file(sweep_dir)), sweep_dir)
 
 
+@pytest.mark.slow
 def test_trial_trains_with_agents_train_reports_and_skips_when_done(tmp_path):
     """A trial (without Ray) reports after each evaluation and at the end, writes the same
     run folder as agents.train, and called again evaluates without training again."""
@@ -231,6 +232,7 @@ def _assert_run_folder(run_dir: Path) -> None:
 
 
 @needs_ray
+@pytest.mark.slow
 def test_local_sweep_writes_run_folders_and_summary(tmp_path, local_ray, capsys):
     p = _sweep_file(tmp_path)
     assert main([str(p)]) == 0, capsys.readouterr().err
@@ -266,6 +268,7 @@ class _InterruptAfterFirstTrial:
 
 
 @needs_ray
+@pytest.mark.slow
 def test_interrupted_sweep_resumes_only_unfinished_trials(tmp_path, local_ray, capsys):
     p = _sweep_file(tmp_path, max_concurrent=1)
     sweep = load_sweep(p)

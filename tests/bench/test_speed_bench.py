@@ -35,6 +35,7 @@ def read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
         return list(reader.fieldnames or []), list(reader)
 
 
+@pytest.mark.slow
 def test_smoke_run_writes_figure_and_tables(smoke_out: Path) -> None:
     png = smoke_out / "speed.png"
     assert png.read_bytes()[:8] == PNG_MAGIC
@@ -42,6 +43,7 @@ def test_smoke_run_writes_figure_and_tables(smoke_out: Path) -> None:
         assert (smoke_out / name).stat().st_size > 0
 
 
+@pytest.mark.slow
 def test_csv_has_the_columns_and_every_section(smoke_out: Path) -> None:
     header, rows = read_csv(smoke_out / "speed.csv")
     assert tuple(header) == speed_rows.CSV_COLUMNS
@@ -56,6 +58,7 @@ def test_csv_has_the_columns_and_every_section(smoke_out: Path) -> None:
         assert math.isfinite(float(r["ratio"])), r
 
 
+@pytest.mark.slow
 def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
     _, rows = read_csv(smoke_out / "speed.csv")
     cases = {(r["section"], r["case"]) for r in rows}
@@ -84,6 +87,7 @@ def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
         assert (n in speed.SMOKE.sync_sizes) == (note == ""), (n, note)
 
 
+@pytest.mark.slow
 def test_markdown_has_header_and_sections(smoke_out: Path) -> None:
     text = (smoke_out / "speed.md").read_text(encoding="utf-8")
     for key in (
@@ -219,6 +223,7 @@ def test_quick_core_measures_every_integrator() -> None:
     assert speed.QUICK.core_sizes == (1, 256, 4096)
 
 
+@pytest.mark.slow
 def test_heavy_extras_are_imported_only_when_used() -> None:
     """Importing the benchmarks loads neither MuJoCo nor matplotlib (the [bench] extras)."""
     code = (

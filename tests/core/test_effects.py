@@ -242,7 +242,7 @@ def test_point_forces_torque_is_r_cross_f() -> None:
     rng = np.random.default_rng(3)
     points = rng.uniform(-1, 1, (3, 3))
     pf = PointForces(points=points, max_force=2.5)
-    assert pf.force_map.shape[0] == 9  # command components
+    assert pf.action_dim == 9
     n = 6
     u = rng.uniform(-1, 1, (n, 9))
     q = rng.standard_normal((n, 4))

@@ -301,6 +301,7 @@ print((sorted(effect), sorted(bare), sorted(full)))
 """
 
 
+@pytest.mark.slow
 def test_unlisted_effects_never_run_without_jit() -> None:
     """With ``NUMBA_DISABLE_JIT=1`` the same kernels run as Python, and a line tracer shows
     which lines of :func:`rigid_env.core.dynamics.accelerations` ran: a world with no effects

@@ -11,11 +11,19 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import rigid_env
-from rigid_env.envs.base import RigidBodyVectorEnv
+from rigid_env.envs.environments import RigidBodyVectorEnv
 
 from roundoff import gamma
 
 ENV_IDS = rigid_env.envs.ENV_IDS
+# The shipped tasks, whose episodes the scenarios below are written around (a task added later
+# runs every other contract test through ENV_IDS).
+BUILT_IN = [
+    "RigidEnv/Detumble-v0",
+    "RigidEnv/SpinStabilize-v1",
+    "RigidEnv/Reorient-v1",
+    "RigidEnv/TumblingFall-v1",
+]
 
 
 def rollout_single(env_id: str, seed: int, actions: np.ndarray, **kwargs):
@@ -183,9 +191,12 @@ FLOAT_INFO = ("angular_speed", "energy", "angular_velocity_world")
 
 
 def test_infos_stay_finite_while_a_body_diverges():
-    """A diverging body's |w|^2 and energy overflow (its state, ~1e228, is still finite) a step
-    before the world freezes it: its info then repeats its last finite values, never inf, in
-    the vector env, the single env and the SB3 adapter; the other bodies report their own."""
+    """A diverging body's infos stay finite until and after the world freezes it, in the vector
+    env, the single env and the SB3 adapter; the other bodies report their own. Before the
+    explosion guard (issue 28) forward Euler ran this body on to ~1e228 rad/s, where |w|^2 and
+    the energy overflow, and its infos repeated their last finite values; the guard now freezes
+    it at the first step that multiplies its energy more than 100x (|w| ~ 20 rad/s at dt 0.5),
+    so that branch is no longer reached here (it is checked whenever |w|^2 overflows)."""
     from agents.vec_adapter import RigidBodySB3VecEnv
 
     kwargs = dict(integrator="explicit_euler", dt=0.5)
@@ -227,7 +238,7 @@ def test_infos_stay_finite_while_a_body_diverges():
         last = info
         if trunc[3]:
             break
-    assert trunc[3] and s_trunc and info["numerical_error"][3] and overflowed >= 1
+    assert trunc[3] and s_trunc and info["numerical_error"][3] and overflowed == 0
 
 
 def test_single_env_reports_numerical_error_as_truncation():
@@ -300,7 +311,7 @@ def test_overrides_and_options():
 
 
 def test_scene_override_as_dict():
-    base = rigid_env.scene.load_scene(rigid_env.envs.base.default_scene_path("detumble")).to_dict()
+    base = rigid_env.scene.load_scene(rigid_env.resources.scene_path("detumble")).to_dict()
     base["body"]["mass"] = 4.0
     env = gym.make("RigidEnv/Detumble-v0", scene=base)
     assert env.unwrapped.task.world.model.mass[0] == 4.0
@@ -418,7 +429,7 @@ def _assert_same_reset(ours: tuple, ref: tuple) -> None:
         assert info[key].dtype == value.dtype and np.array_equal(info[key], value), key
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", BUILT_IN)  # no episode of these ends in the first 5 steps
 def test_reset_mask_equals_sync_vector_env(env_id):
     """``reset(options={"reset_mask": m})`` resets only the masked sub-envs, as Gymnasium's
     SyncVectorEnv over single envs does: the same observations (the masked rows new, the others

@@ -111,3 +111,54 @@ def test_force_lets_the_benchmark_overwrite(tmp_path):
         prepare_out(tmp_path, ["speed.md", "speed.csv"], force=False)
     assert prepare_out(tmp_path, ["speed.md", "speed.csv"], force=True) == tmp_path
     prepare_out(tmp_path, ["new.md"], force=False)  # nothing there: nothing to ask
+
+
+# ---- issue 28: nothing replaced that is not a file, nothing that runs without a word ---------
+
+
+@pytest.mark.parametrize("kind", ["fifo", "symlink"])
+def test_out_that_is_not_a_regular_file_is_refused_and_left_alone(tmp_path, capsys, kind):
+    """The trajectory is written beside --out and renamed over it, which would replace a
+    device (as root, `--out /dev/full --force` replaced /dev/full with an npz), a pipe or a
+    link instead of writing through it."""
+    out = tmp_path / "out.npz"
+    if kind == "fifo":
+        os.mkfifo(out)
+    else:
+        (tmp_path / "target.npz").write_bytes(b"keep")
+        out.symlink_to(tmp_path / "target.npz")
+    argv = ["simulate", str(SCENE), "--steps", "3", "--out", str(out), "--force"]
+    assert cli.main(argv) == 2
+    words = ("symbolic link",) if kind == "symlink" else ("not a regular file",)
+    assert_one_line_error(capsys.readouterr().err, ERR, "--out", *words)
+    assert out.is_symlink() if kind == "symlink" else not out.is_file()
+    if kind == "symlink":
+        assert (tmp_path / "target.npz").read_bytes() == b"keep"
+
+
+def test_substeps_beyond_the_bound_are_refused(tmp_path, capsys):
+    """--substeps 1e12 ran for ever without a line (one world step never ended)."""
+    argv = ["simulate", str(SCENE), "--steps", "3", "--substeps", "1e12", "--out", "x.npz"]
+    assert cli.main([*argv[:-1], str(tmp_path / "x.npz")]) == 2
+    assert_one_line_error(capsys.readouterr().err, ERR, "substeps", "1000000", "smaller dt")
+
+
+def test_a_long_simulation_says_its_time_up_front_and_reports_progress(
+    tmp_path, capsys, monkeypatch
+):
+    """With the progress period set to 0 every chunk after the timed one prints a line: the
+    expected time first, then steps done; the trajectory is the one simulate() records in one
+    call, bit for bit (chunks of a second's worth of steps change nothing)."""
+    monkeypatch.setattr(cli, "_PROGRESS_EVERY_S", 0.0)
+    out = tmp_path / "traj.npz"
+    assert cli.main(["simulate", str(SCENE), "--steps", "300", "--out", str(out)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("simulating 300 steps: about ")
+    progress = [line for line in lines if line.startswith("  ") and "steps, about" in line]
+    for line in progress:
+        done = int(line.split("/")[0])
+        assert 17 <= done < 300
+    want = simulate(load_scene(SCENE).build_world(1), 300)
+    with np.load(out) as got:
+        for key, value in want.items():
+            assert np.array_equal(got[key], value if key == "t" else value[:, 0]), key

@@ -70,6 +70,7 @@ def test_statistics_are_found_for_every_model_a_run_writes(
     assert evaluate(model, DETUMBLE, EPISODES, SEED, only=["model"]) == reference
 
 
+@pytest.mark.slow
 def test_without_statistics_it_is_an_error_or_a_warning(tmp_path, capsys):
     """Item 6. A sidecar that names missing statistics is an error; a foreign model without
     any is evaluated on raw observations with a warning line. The issue's case shows why:
@@ -86,6 +87,7 @@ def test_without_statistics_it_is_an_error_or_a_warning(tmp_path, capsys):
     assert raw["success_rate"] < shipped["model"]["success_rate"]
 
 
+@pytest.mark.slow
 def test_recorded_env_kwargs_are_honoured_and_merged(tmp_path):
     """Item 6/7. The sidecar's env_kwargs are the env the model is evaluated on (and so the
     controllers beside it); --env-kwargs merges over them key by key."""
@@ -244,6 +246,7 @@ def test_video_failure_keeps_the_results(tmp_path, capsys, monkeypatch):
     assert_one_line_error(captured.err, ERR, "--video", "No space left")
 
 
+@pytest.mark.slow
 def test_cli_error_is_one_line_in_a_fresh_process(tmp_path):
     """Item 9 end to end: exit status 2, one stderr line, no traceback."""
     model = _stats_case(tmp_path, "truncated")

@@ -23,6 +23,8 @@ from reliability_helpers import ROOT, TINY, assert_one_line_error, write_config
 
 from agents.train import main as train_main
 
+pytestmark = pytest.mark.slow  # every case trains (one is a SIGKILLed subprocess)
+
 RUN = "Detumble__ppo__0"
 ERR = "agents.train: error: "
 

@@ -115,6 +115,7 @@ def test_every_shipped_config_loads():
         assert cfg.run_name.endswith("__0"), path
 
 
+@pytest.mark.slow
 def test_a_learning_rate_of_1e_minus_4_trains(tmp_path):
     """The value the user meant reaches the model."""
     path = tmp_path / "cfg.yaml"
@@ -129,6 +130,7 @@ def test_a_learning_rate_of_1e_minus_4_trains(tmp_path):
     assert model.learning_rate == 1e-4
 
 
+@pytest.mark.slow
 def test_config_error_in_a_fresh_process_is_one_line(tmp_path):
     """The issue's SceneError traceback, end to end: exit 2, one stderr line."""
     path = tmp_path / "cfg.yaml"

@@ -4,8 +4,11 @@ numbers in (command, state, scene) are clear errors; the triangle inequality of 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
+import yaml
 
 from rigid_env.bench.stability_cases import HARD_BODIES, torque_free_world
 from rigid_env.core import (
@@ -69,7 +72,8 @@ def _commands(steps: int, n: int) -> np.ndarray:
 
 def test_error_names_body_step_integrator_and_advice():
     """Three bodies, the middle one spinning at |w| dt = 2 under forward Euler (the others
-    calm): the overflow at step 19 raises, naming body 1, the step, the integrator and the fix;
+    calm): step 12 raises its energy over 100x what a step can (EXPLOSION_FACTOR; before the
+    guard, the overflow of step 19 did), naming body 1, the step, the integrator and the fix;
     the world keeps its last finite state."""
     w0 = np.array([[0.1, 0.2, 0.3], FAST_SPIN_W, [0.3, -0.1, 0.2]])
     inertia = np.array([FAST_SPIN_INERTIA] * 3)
@@ -79,18 +83,18 @@ def test_error_names_body_step_integrator_and_advice():
             world.step()
     err = info.value
     assert isinstance(err, FloatingPointError)
-    assert (err.bodies, err.step, err.integrator, err.dt) == ([1], 19, "explicit_euler", 0.01)
+    assert (err.bodies, err.step, err.integrator, err.dt) == ([1], 12, "explicit_euler", 0.01)
     msg = str(err)
     for part in (
         "body 1",
-        "step 19",
+        "step 12",
         "'explicit_euler'",
         "smaller dt",
         "'implicit_gyro'",
         "'splitting'",
     ):
         assert part in msg
-    assert world.step_count == 18
+    assert world.step_count == 11
     for a in (world.state.x, world.state.v, world.state.q, world.state.w):
         assert np.isfinite(a).all()
 
@@ -355,3 +359,148 @@ def test_scene_accepts_a_flat_plate_on_the_triangle_inequality(inertia):
 def test_scene_rejects_inertia_that_breaks_the_triangle_inequality(inertia):
     with pytest.raises(SceneError, match="triangle inequality"):
         load_scene(_inertia_scene(inertia))
+
+
+# --------------------------------------------------------------------------------------------
+# A state that explodes in one step is a failure, like a non-finite one (EXPLOSION_FACTOR)
+# --------------------------------------------------------------------------------------------
+
+NEEDLE = (1.0e-100, 1.0, 1.0)  # the thinnest moment a scene accepts: a real (symmetric) body
+# Moments a scene accepts (its triangle tolerance is 1e-9 of the sum) that no real body has:
+# I_z - I_y = 1e-9 is 1e91 times I_x, so Euler's equations turn w_x 1e91 times faster than
+# |w|^2 and every integrator but exact_free errs without bound in one step of 0.05 s.
+UNREAL = (1.0e-100, 1.0, 1.0 + 1.0e-9)
+
+
+def test_explosion_factor_covers_forward_eulers_legitimate_steps():
+    """The derivation of EXPLOSION_FACTOR: torque-free, forward Euler's one-step energy factor
+    1 + h^2 f.I f / (2 E) is at most 1 + 3 (h|w|)^2 for any real body (moments within the
+    triangle inequality), checked on 10,000 random bodies and rates; at h|w| = 2 (the widest
+    stated stable range) that is 13 < EXPLOSION_FACTOR^2 = 100."""
+    from rigid_env.core.integrators import SPLITTING_STABLE
+    from rigid_env.core.stepping import EXPLOSION_FACTOR
+
+    rng = np.random.default_rng(0)
+    # Real bodies: I1 <= I2, I2 <= I3 <= I1 + I2 (every moment within the sum of the others),
+    # thin ones included, the axes shuffled.
+    i1 = 10.0 ** rng.uniform(-12, 0, 10_000)
+    i2 = i1 + rng.uniform(0.0, 1.0, 10_000)
+    inertia = np.stack([i1, i2, i2 + i1 * rng.uniform(0.0, 1.0, 10_000)], axis=1)
+    inertia = rng.permuted(inertia, axis=1)
+    w = rng.normal(size=(10_000, 3)) * 10.0 ** rng.uniform(-3, 3, (10_000, 1))
+    i0, i1, i2 = inertia.T
+    f = np.stack(
+        [(i1 - i2) * w[:, 1] * w[:, 2] / i0, (i2 - i0) * w[:, 2] * w[:, 0] / i1,
+         (i0 - i1) * w[:, 0] * w[:, 1] / i2], axis=1,
+    )  # fmt: skip
+    energy = 0.5 * np.sum(inertia * w * w, axis=1)
+    speed2 = np.sum(w * w, axis=1)
+    # E1 - E0 = h^2/2 f.I f <= 3 h^2 |w|^2 E0, i.e. f.I f <= 6 |w|^2 E (up to rounding).
+    assert np.all(np.sum(inertia * f * f, axis=1) <= 6.0 * speed2 * energy * (1 + 1e-12))
+    assert 1.0 + 3.0 * SPLITTING_STABLE**2 < EXPLOSION_FACTOR**2
+
+
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_thinnest_needle_keeps_its_spin_in_a_world(integrator):
+    """The issue's body: a needle of moment 1e-100, w = (0.3, 2, 0.1), one step of 0.05 s.
+    Torque-free it must keep w_x and |w| (the three-axis splitting took |w| from 2.0 to 1e95);
+    under a torque of 0.03 N m about its axis, w_x gains 0.03 * 0.05 / 1e-100 = 1.5e97 rad/s:
+    physics, within the forces' reach, so no integrator's guard may call it a failure (one
+    that cannot follow it, such as rk4 at h|w| = 1e95, fails the body instead: never a wrong
+    state handed back)."""
+    w0 = np.array([0.3, 2.0, 0.1])
+    world = torque_free_world(NEEDLE, w0, integrator, 0.05, on_error="freeze")
+    world.step()
+    assert not world.failed[0]
+    w1 = world.state.w[0]
+    # w_x' = (I_y - I_z) / I_x w_y w_z = 0 exactly; (w_y, w_z) turn at |f| = w_x |w_yz| = 0.6
+    # rad/s^2, and one step moves |w| by at most forward Euler's h^2 |f|^2 / (2 |w|) = 2.2e-4
+    # (1.1e-4 relative), by round-off for the methods exact on a symmetric body.
+    assert w1[0] == pytest.approx(0.3, abs=1e-12)
+    exact = integrator in ("splitting", "yoshida4", "exact_free")
+    assert np.linalg.norm(w1) == pytest.approx(np.linalg.norm(w0), rel=1e-12 if exact else 1.2e-4)
+    model = BodyModel(np.ones(1), np.array([NEEDLE]))
+    couple = Thrusters(  # two 0.1 N thrusters 0.15 m off the axis: 0.03 N m about body x
+        points=np.array([[0.0, 0.15, 0.0], [0.0, -0.15, 0.0]]),
+        directions=np.array([[0.0, 0.0, 1.0], [0.0, 0.0, -1.0]]),
+        max_force=np.array([0.1, 0.1]),
+    )
+    state = State.zeros(1)
+    state.w[:] = w0
+    world = World(model, [couple], integrator, 0.05, state=state, on_error="freeze")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # beyond the stable h|w|
+        world.step(np.ones(2))
+    if integrator in ("splitting", "yoshida4", "exact_free"):  # exact for a symmetric body
+        assert not world.failed[0]
+        assert world.state.w[0, 0] == pytest.approx(0.3 + 0.03 * 0.05 / 1.0e-100, rel=1e-12)
+    if not world.failed[0]:
+        assert np.isfinite(world.state.w).all()
+
+
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_world_fails_a_state_that_explodes_in_one_step(integrator):
+    """UNREAL, torque-free: energy is conserved, so no state may hold 100x the energy it began
+    with. Every integrator either keeps the body within that (exact_free, exactly: its w_x
+    reaches 1e45 rad/s as the energy moves onto the thin axis, the true motion) or the world
+    raises, naming body and step, the state left as it was; building the world warns that the
+    moments break the triangle inequality, naming exact_free."""
+    w0 = np.array([0.3, 2.0, 0.1])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        world = torque_free_world(UNREAL, w0, integrator, 0.05)
+    moments = [w for w in caught if "triangle inequality" in str(w.message)]
+    assert len(moments) == (0 if integrator == "exact_free" else 1)
+    if moments:
+        assert f"'{integrator}'" in str(moments[0].message)
+        assert "'exact_free'" in str(moments[0].message)
+    e0 = float(world.kinetic_energy()[0])
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            for _ in range(5):
+                world.step()
+                assert float(world.kinetic_energy()[0]) <= 100.0 * e0
+    except NumericalInstabilityError as err:
+        assert err.bodies == [0] and "blew up" in str(err)
+        assert np.isfinite(world.state.w).all()
+        assert float(world.kinetic_energy()[0]) <= 100.0 * e0
+    if integrator == "splitting":  # the default: it cannot follow this body
+        assert world.step_count < 5
+
+
+def test_detumble_env_reports_an_explosion_and_truncates():
+    """The issue's env case: Detumble with body UNREAL under its default integrator
+    (splitting). One step with no thrust cannot raise the energy, so the explosion is reported:
+    info["numerical_error"] and truncated, the state left finite. With the real needle of
+    moment 1e-100 the same step keeps |w| (the three-axis splitting took it from 2.4 to 5e95
+    with no report); with full thrust the needle's w_x jumps by 1.5e97 rad/s, the physics of a
+    0.03 N m torque on I_x = 1e-100, and nothing is reported."""
+    import gymnasium as gym
+
+    import rigid_env  # noqa: F401  (registers the envs)
+    from rigid_env.resources import scene_path
+
+    with open(scene_path("detumble"), encoding="utf-8") as f:
+        scene = yaml.safe_load(f)
+    outcomes = {}
+    for name, inertia in (("needle", NEEDLE), ("unreal", UNREAL)):
+        scene["body"] = {"mass": 2.0, "inertia": list(inertia)}
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            env = gym.make("RigidEnv/Detumble-v0", scene=scene)
+            for thrust in (0.0, 1.0):
+                env.reset(seed=0)
+                w0 = env.unwrapped.task.world.state.w[0].copy()
+                _, _, _, truncated, info = env.step(np.full(6, thrust, np.float32))
+                w1 = env.unwrapped.task.world.state.w[0].copy()
+                outcomes[name, thrust] = (bool(info["numerical_error"]), truncated, w0, w1)
+    error, truncated, w0, w1 = outcomes["unreal", 0.0]
+    assert error and truncated and np.isfinite(w1).all()
+    error, truncated, w0, w1 = outcomes["needle", 0.0]
+    assert not error and not truncated
+    assert np.linalg.norm(w1) == pytest.approx(np.linalg.norm(w0), rel=1e-12)
+    error, truncated, w0, w1 = outcomes["needle", 1.0]
+    assert not error and not truncated
+    # Couple x of the scene: two 0.1 N thrusters 0.15 m off the axis; dt = 0.05 s.
+    assert w1[0] - w0[0] == pytest.approx(2 * 0.1 * 0.15 * 0.05 / 1.0e-100, rel=1e-9)

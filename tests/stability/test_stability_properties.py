@@ -80,8 +80,8 @@ def test_q_stays_unit_under_thrust(inertia, w0, layout, data, integrator):
         data.draw(
             st.lists(
                 st.floats(min_value=-1.0, max_value=1.0),
-                min_size=layout.action_dim,
-                max_size=layout.action_dim,
+                min_size=layout.force_map.shape[0],
+                max_size=layout.force_map.shape[0],
             )
         )
     )
