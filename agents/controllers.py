@@ -5,12 +5,15 @@ only the observation plus the task's known model (inertia, thruster layout, time
 works on a single env (N = 1) and on a vector env alike.
 
 * :class:`PDController`: a desired body torque from the angular velocity and, for orientation
-  tasks, the attitude error; allocated to the thrusters by bounded least squares.
+  tasks, the attitude error (a law per task in :data:`PD_LAWS`, reading the observation by the
+  names the task gives its parts); allocated to the thrusters by bounded least squares.
 * :class:`ZeroController` and :class:`RandomController`: the floor to beat.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -30,7 +33,7 @@ FloatArray = NDArray[np.float64]
 
 
 def task_of(env: Any) -> Any:
-    """The :class:`~rigid_env.envs.base.TaskBatch` behind a (wrapped) single or vector env."""
+    """The :class:`~rigid_env.envs.batch.TaskBatch` behind a (wrapped) single or vector env."""
     inner = getattr(env, "unwrapped", env)
     if not hasattr(inner, "task"):
         raise TypeError(f"env: {type(inner).__name__} is not a rigid_env environment")
@@ -74,43 +77,98 @@ class BoundedAllocator:
         return u
 
 
+def observed(task: Any, obs: FloatArray, first: str, last: str | None = None) -> FloatArray:
+    """(N, k) the columns of ``obs`` that the task names ``first`` to ``last`` (inclusive; the
+    task's :attr:`~rigid_env.envs.batch.TaskBatch.obs_slices`), as float64."""
+    slices = task.obs_slices
+    for name in (first, last or first):
+        if name not in slices:
+            raise KeyError(
+                f"{type(task).__name__} observes no {name!r}; it observes {', '.join(slices)}"
+            )
+    return obs[:, slices[first].start : slices[last or first].stop].astype(np.float64)
+
+
+def _damping(pd: PDController, obs: FloatArray, w: FloatArray, inertia: FloatArray) -> FloatArray:
+    """``tau = -k_d I w``: for a principal-axis body ``I w`` is the angular momentum ``L``, so
+    the torque always points against ``L`` and no impulse is wasted (the fuel spent is close to
+    the minimum ``|L0| / lever``)."""
+    return -pd.k_d * inertia * w
+
+
+def _damping_against_drag(
+    pd: PDController, obs: FloatArray, w: FloatArray, inertia: FloatArray
+) -> FloatArray:
+    """The damping plus a feed-forward that cancels the predicted drag torque ``r_cp x R^T F``
+    at the centre of pressure, ``F = -1/2 rho C_D A |v_p| v_p``, with the velocity and the
+    orientation read from the observation."""
+    return _damping(pd, obs, w, inertia) - pd.drag_torque(obs, w)
+
+
+def _spin_about_y(
+    pd: PDController, obs: FloatArray, w: FloatArray, inertia: FloatArray
+) -> FloatArray:
+    """``tau = w x I w - k_d I (w - Omega e_y)``: the feed-forward cancels the gyroscopic term,
+    leaving ``w' = -k_d (w - w_target)``, a stable linear error."""
+    w_target = np.zeros_like(w)
+    w_target[:, 1] = pd.task.params.target_spin
+    return cross(w, inertia * w) - pd.k_d * inertia * (w - w_target)
+
+
+def _attitude(pd: PDController, obs: FloatArray, w: FloatArray, inertia: FloatArray) -> FloatArray:
+    """``tau = I (k_p phi - k_d w)`` with ``phi`` the body-frame rotation vector of the observed
+    error quaternion (critically damped for ``k_d = 2 sqrt(k_p)``)."""
+    q_err = observed(pd.task, obs, "error_w", "error_z")
+    return inertia * (pd.k_p * quat_to_rotvec(q_err) - pd.k_d * w)
+
+
+@dataclass(frozen=True)
+class PDLaw:
+    """A task's PD law: its default gains and its desired body torque [N m] (N, 3) from the
+    controller, the observations (N, D), the body ``w`` [rad/s] and the moments (N, 3)."""
+
+    k_p: float
+    """Proportional gain [1/s^2] (0 where the law has no attitude term)."""
+    k_d: float
+    """Derivative gain [1/s]; ``k_d dt`` well below 1 avoids chattering at the step size."""
+    torque: Callable[[PDController, FloatArray, FloatArray, FloatArray], FloatArray]
+
+
+PD_LAWS: dict[str, PDLaw] = {
+    "Detumble": PDLaw(0.0, 2.0, _damping),
+    "TumblingFall": PDLaw(0.0, 4.0, _damping_against_drag),
+    "SpinStabilize": PDLaw(0.0, 3.0, _spin_about_y),
+    "Reorient": PDLaw(1.0, 2.0, _attitude),
+}
+"""The PD law of each task, by the task's name (its class name without ``Task``)."""
+
+
 class PDController:
-    """Proportional-derivative attitude controller with bounded least-squares allocation.
-
-    Desired body torque, per task:
-
-    * Detumble: ``tau = -k_d I w``: for a principal-axis body ``I w`` is the angular momentum
-      ``L``, so the torque always points against ``L`` and no impulse is wasted (the fuel spent
-      is close to the minimum ``|L0| / lever``).
-    * TumblingFall: the same damping plus a feed-forward that cancels the predicted drag torque
-      ``r_cp x R^T F`` at the centre of pressure, ``F = -1/2 rho C_D A |v_p| v_p`` with the
-      (vertical) velocity and orientation read from the observation.
-    * SpinStabilize: ``tau = w x I w - k_d I (w - Omega e_y)``: the feed-forward cancels the
-      gyroscopic term, leaving ``w' = -k_d (w - w_target)``, a stable linear error.
-    * Reorient: ``tau = I (k_p phi - k_d w)`` with ``phi`` the body-frame rotation vector of the
-      error quaternion (critically damped for ``k_d = 2 sqrt(k_p)``).
+    """Proportional-derivative attitude controller with bounded least-squares allocation: the
+    task's law in :data:`PD_LAWS` gives a desired body torque, allocated to the thrusters.
 
     Args:
         env: the (single or vector, possibly wrapped) environment it will control.
-        k_p: proportional gain [1/s^2] (Reorient).
-        k_d: derivative gain [1/s]; ``k_d dt`` well below 1 avoids chattering at the step size.
+        k_p: proportional gain [1/s^2] (the law's default if None).
+        k_d: derivative gain [1/s] (the law's default if None).
+
+    Raises:
+        KeyError: the env's task has no PD law (add one to :data:`PD_LAWS`).
     """
 
     def __init__(self, env: Any, k_p: float | None = None, k_d: float | None = None) -> None:
         self.task = task_of(env)
         self.kind = type(self.task).__name__.removesuffix("Task")
-        defaults = {
-            "Detumble": (0.0, 2.0),
-            "TumblingFall": (0.0, 4.0),
-            "SpinStabilize": (0.0, 3.0),
-            "Reorient": (1.0, 2.0),
-        }
-        kp0, kd0 = defaults.get(self.kind, (1.0, 2.0))
-        self.k_p = kp0 if k_p is None else float(k_p)
-        self.k_d = kd0 if k_d is None else float(k_d)
+        if self.kind not in PD_LAWS:
+            raise KeyError(
+                f"PDController: task {self.kind!r} has no PD law; add one to "
+                f"agents.controllers.PD_LAWS (laws: {', '.join(PD_LAWS)})"
+            )
+        self.law = PD_LAWS[self.kind]
+        self.k_p = self.law.k_p if k_p is None else float(k_p)
+        self.k_d = self.law.k_d if k_d is None else float(k_d)
         actuators = [e for e in self.task.world.force_effects if isinstance(e, LinearActuator)]
         self.allocate = BoundedAllocator(np.concatenate([a.torque_map for a in actuators]))
-        self.rot_dim = 4 if self.task.rotation_repr == "quaternion" else 6
 
     def __call__(self, obs: NDArray[Any]) -> NDArray[np.float32]:
         """Commands (N, A) float32 for observations (N, obs_dim) or (obs_dim,)."""
@@ -119,34 +177,24 @@ class PDController:
         obs = np.atleast_2d(obs)
         task = self.task
         inertia = np.broadcast_to(task.world.model.inertia, (obs.shape[0], 3))
-        w = obs[:, self.rot_dim : self.rot_dim + 3] * task.w_scale
-        if self.kind == "SpinStabilize":
-            w_target = np.zeros_like(w)
-            w_target[:, 1] = task.target_spin
-            tau = cross(w, inertia * w) - self.k_d * inertia * (w - w_target)
-        elif self.kind == "Reorient":
-            q_err = obs[:, self.rot_dim + 6 : self.rot_dim + 10]
-            tau = inertia * (self.k_p * quat_to_rotvec(q_err) - self.k_d * w)
-        else:
-            tau = -self.k_d * inertia * w
-            if self.kind == "TumblingFall":
-                tau = tau - self._drag_torque(obs, w)
-        u = self.allocate(tau).astype(np.float32)
+        w = observed(task, obs, "w") * task.w_scale
+        u = self.allocate(self.law.torque(self, obs, w, inertia)).astype(np.float32)
         return u[0] if single else u
 
-    def _drag_torque(self, obs: FloatArray, w: FloatArray) -> FloatArray:
+    def drag_torque(self, obs: FloatArray, w: FloatArray) -> FloatArray:
         """Predicted aerodynamic torque (N, 3) body frame [N m] from the observation."""
         drag = [e for e in self.task.world.force_effects if isinstance(e, QuadraticDrag)]
         if not drag or not drag[0].offset:
             return np.zeros_like(w)
         d = drag[0]
-        q = orientation_from_obs(obs, self.rot_dim)
-        r = self.rot_dim + 7  # TumblingFall's extras: height, then the velocity (see its versions)
-        if self.task.version >= 1:
-            v = quat_rotate(q, obs[:, r : r + 3].astype(np.float64) * FALL_SPEED_SCALE)
-        else:
+        rot = self.task.obs_slices["orientation"]
+        q = orientation_from_obs(obs, rot.stop - rot.start)
+        if "v_body_x" in self.task.obs_slices:  # TumblingFall v1: the body-frame velocity
+            v_body = observed(self.task, obs, "v_body_x", "v_body_z")
+            v = quat_rotate(q, v_body * FALL_SPEED_SCALE)
+        else:  # v0 observes the vertical speed
             v = np.zeros_like(w)
-            v[:, 2] = obs[:, r] * FALL_SPEED_SCALE  # v0 observes the vertical speed
+            v[:, 2] = observed(self.task, obs, "v_z")[:, 0] * FALL_SPEED_SCALE
         v_p = v + quat_rotate(q, cross(w, d.center_of_pressure))
         f = -d.k * np.linalg.norm(v_p, axis=1, keepdims=True) * v_p
         return cross(d.center_of_pressure, quat_rotate_inv(q, f))

@@ -34,10 +34,9 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from rigid_env.envs import TASKS
-
 from .controllers import CONTROLLERS
 from .evaluate import Policy, load_policy, rollout
+from .shipped import TASKS
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
 DEMO_SEED = 20261201

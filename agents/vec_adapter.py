@@ -27,7 +27,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
-from rigid_env.envs.base import TaskBatch
+from rigid_env.envs.batch import TaskBatch
 
 RENDER_MODES = (None, "rgb_array")
 

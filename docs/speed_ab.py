@@ -25,7 +25,7 @@ import rigid_env  # noqa: F401  (registers the ids)
 from rigid_env.bench.speed import spinning_state
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import World
-from rigid_env.envs.base import default_scene_path
+from rigid_env.resources import scene_path as default_scene_path
 from rigid_env.scene import load_scene
 
 

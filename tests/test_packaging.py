@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 import rigid_env
+from agents.shipped import ENV_IDS as SHIPPED_IDS
 from rigid_env.resources import SCENE_DIR, data_path, data_roots, pretrained_path, scene_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -38,6 +39,7 @@ import numpy as np
 import rigid_env
 from rigid_env.agents.config import load_config
 from rigid_env.agents.evaluate import load_policy
+from rigid_env.agents.shipped import ENV_IDS
 from rigid_env.agents.vec_adapter import RigidBodySB3VecEnv
 from rigid_env.resources import SCENE_DIR, data_path
 
@@ -51,7 +53,7 @@ pretrained = {json.loads(p.read_text())["env_id"]: p.with_suffix(".zip")
               for p in sorted(data_path("agents/pretrained").glob("*.json"))}
 out["pretrained"] = sorted(str(p) for p in pretrained.values())
 steps = {}
-for env_id in rigid_env.envs.ENV_IDS:
+for env_id in ENV_IDS:
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     policy = load_policy(pretrained[env_id], env_id)
@@ -136,8 +138,8 @@ def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     assert Path(out["rigid_env"]).is_relative_to(installed)
     assert Path(out["scene_dir"]).is_relative_to(installed)
     assert out["top_level_agents"] is None
-    assert out["steps"] == dict.fromkeys(rigid_env.envs.ENV_IDS, True)
-    assert len(out["pretrained"]) == len(rigid_env.envs.ENV_IDS)
+    assert out["steps"] == dict.fromkeys(SHIPPED_IDS, True)
+    assert len(out["pretrained"]) == len(SHIPPED_IDS)
     assert all(Path(p).is_relative_to(installed) for p in out["pretrained"])
     assert len(out["configs"]) == len(list(ROOT.glob("configs/agents/*.yaml")))
 

@@ -1,33 +1,67 @@
-"""The README's "Your own task" example runs from a file of its own, prints what its comment
-says, and its vector env equals its single env (a new task gets the library's guarantees)."""
+"""The README's "Your own task" example: at most 30 lines of code reading as the task's physics;
+it runs from a file of its own and prints what its comment says; registered with
+``gymnasium.register`` it is made by ``gym.make`` and ``gym.make_vec``, passes Gymnasium's
+``check_env``, and its vector env equals its single env (also split over threads)."""
 
 from __future__ import annotations
 
+import ast
 import contextlib
 import importlib.util
 import io
 import re
+import warnings
 from pathlib import Path
 
+import gymnasium as gym
 import numpy as np
+from gymnasium.utils.env_checker import check_env
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-def test_custom_task_example_runs_and_its_vector_env_equals_the_single_env(tmp_path) -> None:
+def readme_code() -> str:
     text = README.read_text()
     section = text[text.index("## Your own task") :]
-    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
-    expected = re.search(r"print\(.*\)\s+#\s*(.+)", code).group(1)
-    path = tmp_path / "stop_z.py"  # as a user would keep it: Numba caches kernels of files
-    path.write_text(code)
-    spec = importlib.util.spec_from_file_location("stop_z", path)
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def load_example(tmp_path: Path, name: str):
+    """The README's code as a module of its own file (as a user would keep it: Numba caches
+    the kernels of a file), and what it printed."""
+    path = tmp_path / f"{name}.py"
+    path.write_text(readme_code().replace('"StopZ-v0"', f'"{name}-v0"'))
+    spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         spec.loader.exec_module(module)
-    assert out.getvalue().strip() == expected.strip()
-    single, vec = module.StopZEnv(), module.StopZVectorEnv(num_envs=3)
+    return module, out.getvalue()
+
+
+def test_example_is_short_and_has_no_slot_arithmetic() -> None:
+    """At most 30 lines of code (blank lines and field docstrings aside), no function with
+    more than 8 parameters, no state or parameter read by position."""
+    code = readme_code()
+    lines = [ln for ln in code.splitlines() if ln.strip() and not ln.strip().startswith('"""')]
+    assert len(lines) <= 30, len(lines)
+    for node in ast.walk(ast.parse(code)):
+        if isinstance(node, ast.FunctionDef):
+            assert len(node.args.args) <= 8, node.name
+    assert not re.search(r"\b(s|tp|state)\[\d", code)
+
+
+def test_custom_task_example_runs_and_its_vector_env_equals_the_single_env(tmp_path) -> None:
+    module, printed = load_example(tmp_path, "stop_z")
+    expected = re.search(r"print\(.*\)\s+#\s*(.+)", readme_code()).group(1)
+    assert printed.strip() == expected.strip()
+    env = gym.make("stop_z-v0")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # any checker warning is a failure
+        check_env(env.unwrapped, skip_render_check=True)
+    vec = gym.make_vec("stop_z-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    assert isinstance(vec.unwrapped, module.RigidBodyVectorEnv)
+    single = gym.make("stop_z-v0")
     vec_obs, _ = vec.reset(seed=7)
     obs, _ = single.reset(seed=8)  # sub-env 1 replays seed 7 + 1
     assert np.array_equal(vec_obs[1], obs)
@@ -39,22 +73,15 @@ def test_custom_task_example_runs_and_its_vector_env_equals_the_single_env(tmp_p
 
 
 def test_custom_task_threaded_pass_equals_the_single_env(tmp_path, monkeypatch) -> None:
-    """The README's optional threaded twin of the pass (its second code block), used from
-    ``THREAD_MIN_BODIES`` envs on: the last env of a threaded vector env equals its single env,
-    bit for bit."""
+    """From ``THREAD_MIN_BODIES`` envs on the same one-line pass runs over Numba's threads: the
+    last env of a threaded vector env equals its single env, bit for bit."""
     from rigid_env.core import threads as world_module
 
-    section = README.read_text()[README.read_text().index("## Your own task") :]
-    first, second = re.findall(r"```python\n(.*?)```", section, re.S)[:2]
-    path = tmp_path / "stop_z_threads.py"
-    path.write_text(first + "\n" + second)
-    spec = importlib.util.spec_from_file_location("stop_z_threads", path)
-    module = importlib.util.module_from_spec(spec)
-    with contextlib.redirect_stdout(io.StringIO()):
-        spec.loader.exec_module(module)
+    load_example(tmp_path, "stop_z_threads")
     monkeypatch.setattr(world_module, "THREADS", 2)
     n = world_module.THREAD_MIN_BODIES + 5
-    single, vec = module.StopZEnv(), module.StopZVectorEnv(num_envs=n)
+    single = gym.make("stop_z_threads-v0")
+    vec = gym.make_vec("stop_z_threads-v0", num_envs=n, vectorization_mode="vector_entry_point")
     vec_obs, _ = vec.reset(seed=7)
     obs, _ = single.reset(seed=7 + n - 1)
     assert np.array_equal(vec_obs[-1], obs)

@@ -2,87 +2,61 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
-from rigid_env.core.jit import kernel
-from rigid_env.envs import kernels as T
-from rigid_env.envs.base import (
-    RigidBodyEnv,
-    RigidBodyVectorEnv,
-    TaskBatch,
-    bounded,
-    positive,
-    random_tumble,
-)
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
+from rigid_env.envs.kernels import NO_EXTRA, Outcome, env_pass, kernel, task_kernel
+from rigid_env.envs.maths import safe_norm
+from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
 from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.envs.sampling import random_tumble
 
-MAX_SPIN, THRESHOLD, BONUS = T.TASK, T.TASK + 1, T.TASK + 2
+
+class DetumbleParams(TaskParams):
+    """Detumble's keyword arguments."""
+
+    max_initial_spin: Rate = 3.0
+    """Initial |w| is uniform in [0, max_initial_spin] [rad/s], > 0; the observed w is divided
+    by it."""
+    success_threshold: Rate = 0.05
+    """|w| below which the body counts as at rest [rad/s], > 0."""
+    fuel_weight: Weight = 0.1
+    """Weight of the fuel term (mean |u| per step) in the reward, >= 0."""
+    success_bonus: Bonus = 1.0
+    """Reward on the step that reaches rest (the episode ends there), >= 0."""
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped):
+def evaluate(body, effort, goal, memory, task, stepped):
     """Detumble's reward, termination and success of one env (see :class:`DetumbleEnv`)."""
-    speed = T.safe_norm((s[10], s[11], s[12]))
-    success = speed < tp[THRESHOLD]
+    speed = safe_norm(body.w)
+    success = speed < task.success_threshold
     # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
-    spin_cost = 1.0 - tolerance_one(speed, 0.0, tp[THRESHOLD], tp[MAX_SPIN], LINEAR, 0.0)
-    reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
-    return reward, success, success, memory, (0.0, 0.0, 0.0, 0.0)
+    spin_cost = 1.0 - tolerance_one(speed, 0.0, task.success_threshold, task.max_initial_spin,
+                                    LINEAR, 0.0)  # fmt: skip
+    reward = -spin_cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
+    return Outcome(reward, success, success, memory, NO_EXTRA)
 
 
-@kernel
-def detumble_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
-
-
-@T.threads_kernel
-def detumble_pass_threads(tp, state, model, command, target, noise, stepped, rec, obs, i, j, t):
-    T.task_pass_threads(
-        detumble_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-    )  # fmt: skip
+@task_kernel
+def detumble_pass(job, threads): return env_pass(evaluate, job, threads)  # fmt: skip
 
 
 class DetumbleTask(TaskBatch):
-    """Task definition of :class:`DetumbleEnv` (see there); extra keyword arguments:
+    """Task definition of :class:`DetumbleEnv` (see there); its keyword arguments are
+    :class:`DetumbleParams`."""
 
-    Args:
-        max_initial_spin: initial |w| is uniform in [0, max_initial_spin] [rad/s].
-        success_threshold: |w| below which the body counts as at rest [rad/s].
-        fuel_weight: weight of the fuel term (mean |u| per step) in the reward.
-        success_bonus: reward on the step that reaches rest (the episode ends there).
-    """
-
+    params_model = DetumbleParams
     scene_name = "detumble"
-    task_pass = staticmethod(detumble_pass)
-    task_pass_threads = staticmethod(detumble_pass_threads)
-
-    def __init__(
-        self,
-        num_envs: int,
-        *,
-        max_initial_spin: float = 3.0,
-        success_threshold: float = 0.05,
-        fuel_weight: float = 0.1,
-        success_bonus: float = 1.0,
-        **kwargs: Any,
-    ) -> None:
-        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
-        self.success_threshold = positive("success_threshold", success_threshold, "rad/s")
-        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
-        self.success_bonus = bounded("success_bonus", success_bonus, "reward")
-        super().__init__(num_envs, **kwargs)
+    task_pass = detumble_pass
 
     def angular_velocity_scale(self) -> float:
-        return self.max_initial_spin
+        return self.params.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q, w = random_tumble(rng, self.max_initial_spin)
+        q, w = random_tumble(rng, self.params.max_initial_spin)
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
-
-    def task_numbers(self) -> list[float]:
-        return [self.max_initial_spin, self.success_threshold, self.success_bonus]
 
 
 class DetumbleEnv(RigidBodyEnv):

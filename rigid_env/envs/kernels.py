@@ -1,94 +1,132 @@
-"""The task layer's per-env maths, compiled with Numba like the physics.
+"""The task layer's compiled pass over the envs, written once for one env and looped over N.
 
-After the world's compiled step, one compiled pass over the ``N`` envs (:func:`task_pass`;
-over the cores from 1,024 envs on, :func:`task_pass_threads`) accounts each env's fuel,
-evaluates its task (reward, termination, success) with the task's per-env ``evaluate``
-function, writes its float32 observation row and its info numbers. A single env is ``N = 1``
-of the very same pass, so it equals a vector env's row bit for bit.
+After the world's compiled step, one compiled pass (:func:`env_pass`) accounts each env's fuel,
+calls its task's ``evaluate`` on the env's body, writes the env's float32 observation row and its
+record. A single env is ``N = 1`` of the same pass, so it equals a vector env's row bit for bit.
+A task names its ``evaluate`` to the pass in one line of its module, compiled with
+:data:`task_kernel` (the pass is inlined there, so Numba sees ``evaluate`` at compile time and
+caches the result with the task's module)::
 
-A task's numbers travel in one float64 array ``tp`` of task parameters: the common header
-below, the task's own numbers from :data:`TASK` on, and each actuator's force at ``|u| = 1``
-from :data:`FMAX` on (the fuel weights).
+    @task_kernel
+    def detumble_pass(job, threads): return env_pass(evaluate, job, threads)
+
+(:data:`kernel`, the core's decorator of a per-item function, is here too for ``evaluate``.)
+
+The data the pass shares, each declared once by name:
+
+* :class:`BodyState`: one env's body state, what ``evaluate`` reads (``body.w``, ``body.q``, ...);
+* :class:`Outcome`: what ``evaluate`` returns;
+* :data:`RECORD`: the dtype of the envs' record (N,): reward, flags, info numbers, fuel, memory;
+* the numbers: a structured array of one element, the common fields :data:`COMMON_NUMBERS` and
+  the task's parameters, by name (:func:`rigid_env.envs.params.numbers`);
+* :class:`EnvArrays`: the arrays of a pass, handed to Numba as a plain tuple in this order (a
+  named tuple costs about a microsecond per call in Numba's dispatcher; the pass names it).
 """
 
 from __future__ import annotations
 
 import math
+from collections import namedtuple
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit, prange
+from numpy.typing import NDArray
 
 from rigid_env.core.dynamics import kinetic_energy
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import body_model
+from rigid_env.core.layout import body_model, load
 from rigid_env.core.maths import rotate
 from rigid_env.core.threads import split_range
+from rigid_env.envs.maths import canonical, safe_norm, tanh
 
-# ---- task parameters: the common header ------------------------------------------------------
-DT = 0  # control step [s]
-W_SCALE = 1  # angular speed the observation divides by [rad/s]
-SIXD = 2  # 1: the orientation is observed as the 6-D rotation, 0: a canonical quaternion
-EXTRA_BOUND = 3  # the task's extra observations are clipped into +-this
-FUEL_WEIGHT = 4  # weight of the effort (mean |u|) in the reward
-TASK = 5  # the task's own parameters start here (at most 11 of them)
-FMAX = 16  # then one force [N] per command component
+task_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
+"""The decorator of a task's pass: cached on disk, the GIL released, and a pass given
+``threads > 1`` split over Numba's threads (one thread runs a plain loop)."""
 
-
-@kernel
-def safe_norm(w):
-    """``|w| = sqrt((w0^2 + w1^2) + w2^2)``, without overflow for a huge finite ``w`` (a frozen,
-    diverged body): where the squares overflow (or underflow) the largest component is factored
-    out first, so the result is finite wherever ``w`` is."""
-    s2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
-    if 1.0e-290 < s2 < math.inf:
-        return math.sqrt(s2)
-    top = max(abs(w[0]), abs(w[1]), abs(w[2]))
-    if top == 0.0 or not math.isfinite(top):
-        return top
-    a, b, c = w[0] / top, w[1] / top, w[2] / top
-    return top * math.sqrt(a * a + b * b + c * c)
+W_OBS_BOUND = 5.0
+"""The observed body ``w`` over the task's speed scale is clipped into +-this (and the
+observation space says so)."""
+FINE_SPIN = 0.1
+"""[rad/s] the scale of the fine-resolution observation ``tanh(w / FINE_SPIN)`` near rest."""
+TARGET_WIDTH = 4
+"""Numbers of a per-env target (a quaternion, or unused zeros): ``evaluate``'s ``goal``."""
+COMMON_NUMBERS = ("dt", "w_scale", "sixd", "extra_bound")
+"""The numbers every task's record of numbers starts with: the control step [s], the angular
+speed the observed ``w`` is divided by [rad/s], whether the orientation is observed as the 6-D
+rotation (else a canonical quaternion), and the clip of the task's extra observations."""
 
 
-@kernel
-def canonical(q):
-    """The representative of ``+-q`` with ``w >= 0``, the sign decided by the first non-zero
-    component in the order ``w, x, y, z`` (as :func:`rigid_env.core.rotation.canonical`)."""
-    lead = q[0] if q[0] != 0.0 else q[1] if q[1] != 0.0 else q[2] if q[2] != 0.0 else q[3]
-    if lead < 0.0:
-        return (-q[0], -q[1], -q[2], -q[3])
-    return q
+class BodyState(NamedTuple):
+    """One env's body state, as ``evaluate`` reads it (tuples of floats; the body's model is
+    :class:`rigid_env.core.layout.Body`)."""
+
+    x: tuple[float, float, float]
+    """Position of the centre of mass, world frame [m]."""
+    v: tuple[float, float, float]
+    """Velocity of the centre of mass, world frame [m/s]."""
+    q: tuple[float, float, float, float]
+    """Orientation body -> world, unit quaternion (w, x, y, z)."""
+    w: tuple[float, float, float]
+    """Angular velocity, body frame [rad/s]."""
 
 
-# tanh by a polynomial expm1 after fdlibm's reduction: no libm call, so a loop of it vectorises
-LN2_HI, LN2_LO = 6.93147180369123816490e-01, 1.90821492927058770002e-10  # ln 2 = hi + lo
-INV_LN2 = 1.44269504088896338700e00
-INV_FACTORIAL = tuple(1.0 / math.factorial(j) for j in range(14))  # expm1's Taylor coefficients
+class Outcome(NamedTuple):
+    """What a task's ``evaluate`` returns for one env."""
+
+    reward: float
+    terminated: bool
+    success: bool
+    memory: float
+    """The env's number of task memory, kept after a step (e.g. a success streak)."""
+    extra: tuple[float, ...]
+    """The task's extra observations, of which the first ``len(extra_observations)`` of its
+    task class are observed (clipped into +-``extra_bound``): :data:`NO_EXTRA` for none."""
 
 
-@kernel
-def tanh(x):
-    """``tanh(x)`` of a finite ``x`` by ``e = expm1(-2 |x|)``, ``tanh |x| = -e / (2 + e)``, the
-    sign put back, in float64 with no libm call (within 5 eps of libm's,
-    tests/envs/test_task_kernels.py), so that a loop of it vectorises. ``expm1(t)`` for ``t =
-    -2 min(|x|, 20)`` (tanh 20 rounds to 1): ``t = k ln 2 + r``, ``|r| <= ln 2 / 2`` (Cody-Waite,
-    two parts of ln 2), ``expm1(r)`` by its Taylor series to ``r^13`` (the rest < 0.1 eps
-    relative), then ``2^k expm1(r) + (2^k - 1)`` with ``2^k`` (``-58 <= k <= 0``) a product of
-    selected powers of two, all exact."""
-    t = -2.0 * min(abs(x), 20.0)
-    k = np.floor(t * INV_LN2 + 0.5)
-    r = (t - k * LN2_HI) - k * LN2_LO
-    c = INV_FACTORIAL[13]
-    for j in range(12, 1, -1):  # Horner: c = sum_j>=2 r^(j-2) / j!
-        c = INV_FACTORIAL[j] + r * c
-    p = r + r * r * c
-    m, s = -k, 1.0
-    for bit in (32.0, 16.0, 8.0, 4.0, 2.0, 1.0):
-        take = m >= bit
-        s = s * 2.0**-bit if take else s
-        m = m - bit if take else m
-    e = s * p + (s - 1.0)
-    h = (0.0 - e) / (2.0 + e)
-    return h if x >= 0.0 else -h
+NO_EXTRA = (0.0,)
+"""``Outcome.extra`` of a task that observes nothing more than the body (Numba cannot index an
+empty tuple; a task that names no extra observation observes none of it)."""
+
+
+RECORD = np.dtype(
+    [
+        ("reward", np.float64),
+        ("terminated", np.bool_),
+        ("success", np.bool_),
+        ("speed", np.float64),  # |w| [rad/s]
+        ("energy", np.float64),  # kinetic energy [J]
+        ("w_world", np.float64, (3,)),  # angular velocity, world frame [rad/s]
+        ("fuel", np.float64),  # impulse spent in the episode [N s]
+        ("memory", np.float64),  # the task's memory (Outcome.memory)
+    ]
+)
+"""One env's record, written by the pass (the fuel increased, the rest overwritten)."""
+
+EnvRecord = namedtuple("EnvRecord", RECORD.names)  # type: ignore[misc]
+"""One env's :data:`RECORD` as Python values, by the same names: ``EnvRecord._make(record.item(i))``
+(one call; reading the fields one by one costs several times more)."""
+
+
+class EnvArrays(NamedTuple):
+    """The arrays of a pass over ``N`` envs (a plain tuple in this order across the boundary)."""
+
+    state: NDArray[np.float64]
+    """(13, N) state columns ``(x, v, q, w)``."""
+    model: NDArray[np.float64]
+    """(MODEL_WIDTH, N) model columns."""
+    command: NDArray[np.float64]
+    """(N, A) the commands the bodies got, in [-1, 1]."""
+    target: NDArray[np.float64]
+    """(N, TARGET_WIDTH) each env's target."""
+    noise: NDArray[np.float64]
+    """(N | 1, 3) sensor noise on the observed ``w`` [rad/s]."""
+    record: NDArray[np.void]
+    """(N,) :data:`RECORD` (written)."""
+    obs: NDArray[np.float32]
+    """(N, D) observations (written)."""
+    max_force: NDArray[np.float64]
+    """(A,) each command component's force at ``|u| = 1`` [N], the fuel's weights."""
 
 
 @kernel
@@ -97,37 +135,36 @@ def _clip(x, bound):
 
 
 @kernel
-def observe_body(tp, s, noise, obs, i):
-    """Write the common observation of the state ``s`` (13-tuple) into row ``i`` of ``obs``
-    and return where the task's extra observations begin: the orientation (canonical
-    quaternion, or the first two columns of ``R(q)``), the body ``w`` (plus sensor ``noise``)
-    over :data:`W_SCALE` clipped to +-5, and (written by :func:`fine_spin`, for all envs in
-    one loop) ``tanh(w / 0.1 rad/s)`` for fine resolution near rest."""
-    q = (s[6], s[7], s[8], s[9])
-    if tp[SIXD] != 0.0:
-        c0 = rotate(q, (1.0, 0.0, 0.0))
-        c1 = rotate(q, (0.0, 1.0, 0.0))
+def observe_body(c, body, noise, obs, i):
+    """Write the common observation of ``body`` into row ``i`` of ``obs`` and return where the
+    task's extra observations begin: the orientation (canonical quaternion, or the first two
+    columns of ``R(q)``), the body ``w`` (plus sensor ``noise``) over ``c.w_scale`` clipped to
+    +-:data:`W_OBS_BOUND`, and (written by :func:`fine_spin`, for all envs in one loop)
+    ``tanh(w / FINE_SPIN)``."""
+    if c.sixd:
+        c0 = rotate(body.q, (1.0, 0.0, 0.0))
+        c1 = rotate(body.q, (0.0, 1.0, 0.0))
         for k in range(3):
             obs[i, k] = _clip(c0[k], 1.0)
             obs[i, 3 + k] = _clip(c1[k], 1.0)
         r = 6
     else:
-        qc = canonical(q)
+        qc = canonical(body.q)
         for k in range(4):
             obs[i, k] = qc[k]
         r = 4
-    scale = tp[W_SCALE]
+    scale = c.w_scale
     for k in range(3):
-        wk = s[10 + k] + noise[k]
-        obs[i, r + k] = _clip(wk / scale, 5.0)
+        wk = body.w[k] + noise[k]
+        obs[i, r + k] = _clip(wk / scale, W_OBS_BOUND)
     return r + 6
 
 
 @kernel
-def fine_spin(tp, state, noise, obs, start, stop):
-    """``tanh((w + noise) / 0.1 rad/s)`` of the envs ``start <= i < stop`` into their columns of
-    ``obs`` after the orientation and the scaled ``w``: three loops over the envs with no
-    call or branch, which LLVM vectorises, into a buffer, then copied into the rows."""
+def fine_spin(c, state, noise, obs, start, stop):
+    """``tanh((w + noise) / FINE_SPIN)`` of the envs ``start <= i < stop`` into their columns of
+    ``obs`` after the orientation and the scaled ``w``: three loops over the envs with no call
+    or branch, which LLVM vectorises, into a buffer, then copied into the rows."""
     n = np.uint64(stop - start)
     fine = np.empty((3, n))
     shared = noise.shape[0] == 1
@@ -135,108 +172,93 @@ def fine_spin(tp, state, noise, obs, start, stop):
         row, nk = state[10 + k, start:stop], noise[0, k]
         if shared:  # the same noise for every env (none: zeros)
             for i in range(n):
-                fine[k, i] = tanh((row[i] + nk) / 0.1)
+                fine[k, i] = tanh((row[i] + nk) / FINE_SPIN)
         else:
             for i in range(n):
-                fine[k, i] = tanh((row[i] + noise[start + i, k]) / 0.1)
-    c = (6 if tp[SIXD] != 0.0 else 4) + 3
+                fine[k, i] = tanh((row[i] + noise[start + i, k]) / FINE_SPIN)
+    col = (6 if c.sixd else 4) + 3
     for i in range(n):
-        obs[start + i, c], obs[start + i, c + 1], obs[start + i, c + 2] = fine[:, i]
-
-
-# ---- rows of the envs' record (RECORD, N): one column per env ---------------------------
-REWARD, TERMINATED, SUCCESS, SPEED, ENERGY, W_WORLD, FUEL = 0, 1, 2, 3, 4, 5, 8
-MEMORY = 9  # one number of task memory (e.g. a success streak)
-RECORD = 10
-TARGET_WIDTH = 4  # a per-env target (a quaternion, or unused zeros)
+        obs[start + i, col], obs[start + i, col + 1], obs[start + i, col + 2] = fine[:, i]
 
 
 @kernel
-def _column13(a, i):
-    return (
-        a[0, i], a[1, i], a[2, i], a[3, i], a[4, i], a[5, i], a[6, i],
-        a[7, i], a[8, i], a[9, i], a[10, i], a[11, i], a[12, i],
-    )  # fmt: skip
-
-
-@kernel
-def _env_of(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i):
-    """:func:`task_pass` of env ``i``."""
-    s = _column13(state, i)
+def _env(evaluate, c, a, stepped, i):
+    """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
+    body = BodyState(*load(a.state, i))
+    rec = a.record[i]
     effort = 0.0
     if stepped:
-        actions = command.shape[1]
+        actions = a.command.shape[1]
         magnitude = thrust = 0.0
         for k in range(actions):
-            a = abs(command[i, k])
-            magnitude += a
-            thrust += a * tp[FMAX + k]
+            u = abs(a.command[i, k])
+            magnitude += u
+            thrust += u * a.max_force[k]
         effort = magnitude / actions
-        rec[FUEL, i] += thrust * tp[DT]
-    j = 0 if noise.shape[0] == 1 else i
-    start = observe_body(tp, s, (noise[j, 0], noise[j, 1], noise[j, 2]), obs, i)
-    goal = (target[i, 0], target[i, 1], target[i, 2], target[i, 3])
-    reward, done, ok, memory, extra = evaluate(s, effort, goal, rec[MEMORY, i], tp, stepped)
+        rec.fuel = rec.fuel + thrust * c.dt
+    j = 0 if a.noise.shape[0] == 1 else i
+    start = observe_body(c, body, (a.noise[j, 0], a.noise[j, 1], a.noise[j, 2]), a.obs, i)
+    goal = (a.target[i, 0], a.target[i, 1], a.target[i, 2], a.target[i, 3])
+    out = evaluate(body, effort, goal, rec.memory, c, stepped)
     if stepped:
-        rec[MEMORY, i] = memory
-    bound = tp[EXTRA_BOUND]
-    for k in range(obs.shape[1] - start):
-        obs[i, start + k] = min(bound, max(-bound, extra[k]))
-    rec[REWARD, i] = reward
-    rec[TERMINATED, i] = 1.0 if done else 0.0
-    rec[SUCCESS, i] = 1.0 if ok else 0.0
+        rec.memory = out.memory
+    bound = c.extra_bound
+    extra = out.extra
+    for k in range(min(a.obs.shape[1] - start, len(extra))):
+        a.obs[i, start + k] = min(bound, max(-bound, extra[k]))
+    rec.reward = out.reward
+    rec.terminated = out.terminated
+    rec.success = out.success
     # Info numbers: a body on its way to a numerical failure may have a finite state whose
     # energy or world w overflows; its record then keeps the last finite values.
-    w = (s[10], s[11], s[12])
-    rec[SPEED, i] = safe_norm(w)
-    energy = kinetic_energy((s[3], s[4], s[5]), w, body_model(model, i))
+    rec.speed = safe_norm(body.w)
+    energy = kinetic_energy(body.v, body.w, body_model(a.model, i))
     if math.isfinite(energy):
-        rec[ENERGY, i] = energy
-    ww = rotate((s[6], s[7], s[8], s[9]), w)
+        rec.energy = energy
+    ww = rotate(body.q, body.w)
     if math.isfinite(ww[0] + ww[1] + ww[2]):
-        rec[W_WORLD, i], rec[W_WORLD + 1, i], rec[W_WORLD + 2, i] = ww
+        rec.w_world[0], rec.w_world[1], rec.w_world[2] = ww
+    return len(extra)
+
+
+@kernel
+def _envs(evaluate, numbers, arrays, stepped, start, stop):
+    """:func:`env_pass` of the envs ``start <= i < stop``."""
+    c = numbers[0]
+    a = EnvArrays(*arrays)
+    extras = -1
+    for i in range(start, stop):
+        extras = _env(evaluate, c, a, stepped, i)
+    fine_spin(c, a.state, a.noise, a.obs, start, stop)
+    return extras
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
-    """Fuel, task and observation of the envs ``start <= i < stop`` after a step
-    (``stepped``), or the observation and info alone after a reset (``stepped`` false: no
-    fuel, and the memory is kept).
+def env_pass(evaluate, job, threads):
+    """Fuel, task and observation of every env after a step (``stepped``), or the observation
+    and record alone after a reset (``stepped`` false: no fuel, and the memory is kept).
 
     Args:
-        evaluate: the task's per-env function ``(s, effort, target, memory, tp, stepped) ->
-            (reward, terminated, success, memory, extra)`` on the state ``s`` (13-tuple), the
-            effort (mean ``|u|``), the target (4-tuple) and the memory (a number), returning
-            the new memory (kept after a step) and the extra observations (a 4-tuple, the
-            first ``task_obs_dim`` used, clipped into +-``EXTRA_BOUND``).
-        tp: task parameters. state: (13, N) state columns. model: (MODEL_WIDTH, N) model
-            columns. command: (N, A) the commands the bodies got. target: (N, TARGET_WIDTH)
-            targets. noise: (N | 1, 3) sensor noise on the observed ``w`` [rad/s].
-        rec: (RECORD, N) the envs' record, a column each: reward, terminated, success,
-            ``|w|``, kinetic energy, world ``w`` (written), fuel spent [N s] (increased) and
-            the task memory.
-        obs: (N, D) float32 observations (written).
-        start, stop: the envs to treat (threads treat disjoint ranges at once).
+        evaluate: the task's per-env function ``(body, effort, goal, memory, task, stepped) ->
+            Outcome`` of the env's :class:`BodyState`, its effort (mean ``|u|`` of the step), its
+            target (a :data:`TARGET_WIDTH`-tuple), its memory and the task's numbers by name.
+        job: ``(numbers, arrays, stepped)``: (1,) the task's numbers (:data:`COMMON_NUMBERS`,
+            then its parameters), the :class:`EnvArrays` as a plain tuple, and whether the
+            bodies were stepped (else reset).
+        threads: split the envs over this many of Numba's threads (each env is computed alone,
+            so the split changes no number).
+
+    Returns:
+        How many extra observations ``evaluate`` returns (-1 when threaded or for no env).
     """
-    for i in range(start, stop):
-        _env_of(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, i)
-    fine_spin(tp, state, noise, obs, start, stop)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def task_pass_threads(entry, tp, state, model, command, target, noise, stepped, rec, obs,
-                      start, stop, threads):  # fmt: skip
-    """A task's pass ``entry`` (its compiled :func:`task_pass`) of ``start <= i < stop`` split
-    into ``threads`` contiguous ranges over Numba's threads (``prange``; each env is computed
-    alone, so the split changes no number); ``entry`` is called, not inlined again."""
+    numbers, arrays, stepped = job
+    n = arrays[0].shape[1]
+    if threads <= 1:
+        return _envs(evaluate, numbers, arrays, stepped, 0, n)
     for t in prange(threads):
-        lo, hi = split_range(start, stop, t, threads)
-        entry(tp, state, model, command, target, noise, stepped, rec, obs, lo, hi)
-
-
-threads_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-"""The decorator of a task's pass over Numba's threads (:func:`task_pass_threads`): optional,
-a task without one runs its pass on one thread."""
+        lo, hi = split_range(0, n, t, threads)
+        _envs(evaluate, numbers, arrays, stepped, lo, hi)
+    return -1
 
 
 @kernel

@@ -4,109 +4,85 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 
 from rigid_env.core.jit import kernel
 from rigid_env.core.maths import quat_mul
-from rigid_env.core.rotation import canonical, quat_angle_between
-from rigid_env.envs import kernels as T
-from rigid_env.envs.base import (
-    RigidBodyEnv,
-    RigidBodyVectorEnv,
-    TaskBatch,
-    bounded,
-    positive,
-    random_quaternion,
-    random_tumble,
-    task_version,
-)
+from rigid_env.core.rotation import canonical as canonical_quat
+from rigid_env.core.rotation import quat_angle_between
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
+from rigid_env.envs.kernels import Outcome, env_pass, task_kernel
+from rigid_env.envs.maths import canonical, safe_norm
+from rigid_env.envs.params import Angle, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.envs.sampling import random_quaternion, random_tumble
 from rigid_env.render import TaskView
 
-MAX_SPIN, SUCCESS_ANGLE, SUCCESS_SPIN, VERSION = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3
+Version = task_version(newest=1)
+
+
+class ReorientParams(TaskParams):
+    """Reorient's keyword arguments."""
+
+    max_initial_spin: Rate = 1.0
+    """Initial |w| is uniform in [0, max_initial_spin] [rad/s], > 0; the observed w is divided
+    by it."""
+    success_angle: Angle = float(np.deg2rad(5.0))
+    """Orientation error allowed for success [rad], in (0, pi]."""
+    success_spin: Rate = 0.05
+    """|w| allowed for success [rad/s], > 0."""
+    fuel_weight: Weight = 0.05
+    """Weight of the fuel term (mean |u| per step) in the reward, >= 0."""
+    version: Version = 0
+    """The reward's version, 0 or 1 (see the env's Version History); gym.make sets it from
+    the id."""
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped):
+def evaluate(body, effort, goal, memory, task, stepped):
     """Reorient's reward and success of one env (see :class:`ReorientEnv`); its extra
-    observation is the error quaternion ``canonical(conj(q) (x) target)``."""
-    err = T.canonical(quat_mul((s[6], -s[7], -s[8], -s[9]), target))
+    observation is the error quaternion ``canonical(conj(q) (x) goal)``."""
+    q = body.q
+    err = canonical(quat_mul((q[0], -q[1], -q[2], -q[3]), goal))
     angle = 2.0 * math.atan2(
         math.sqrt(err[1] * err[1] + err[2] * err[2] + err[3] * err[3]), abs(err[0])
     )
-    speed = T.safe_norm((s[10], s[11], s[12]))
-    success = angle < tp[SUCCESS_ANGLE] and speed < tp[SUCCESS_SPIN]
+    speed = safe_norm(body.w)
+    success = angle < task.success_angle and speed < task.success_spin
     # v1: no flat top inside the success band (its edge is no optimum to hover at), and a
     # bonus of 1 on every step that counts as success; v0: flat tops, no bonus.
-    v1 = tp[VERSION] >= 1.0
-    r_angle = tolerance_one(angle, 0.0, 0.0 if v1 else tp[SUCCESS_ANGLE], math.pi, LINEAR, 0.0)
-    r_spin = tolerance_one(speed, 0.0, 0.0 if v1 else tp[SUCCESS_SPIN], tp[MAX_SPIN], LINEAR, 0.0)
+    v1 = task.version >= 1
+    r_angle = tolerance_one(angle, 0.0, 0.0 if v1 else task.success_angle, math.pi, LINEAR, 0.0)
+    r_spin = tolerance_one(speed, 0.0, 0.0 if v1 else task.success_spin, task.max_initial_spin,
+                           LINEAR, 0.0)  # fmt: skip
     bonus = 1.0 if v1 and success else 0.0
-    reward = r_angle * (0.5 + 0.5 * r_spin) + bonus - tp[T.FUEL_WEIGHT] * effort
-    return reward, False, success, memory, err
+    reward = r_angle * (0.5 + 0.5 * r_spin) + bonus - task.fuel_weight * effort
+    return Outcome(reward, False, success, memory, err)
 
 
-@kernel
-def reorient_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
-
-
-@T.threads_kernel
-def reorient_pass_threads(tp, state, model, command, target, noise, stepped, rec, obs, i, j, t):
-    T.task_pass_threads(
-        reorient_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-    )  # fmt: skip
+@task_kernel
+def reorient_pass(job, threads): return env_pass(evaluate, job, threads)  # fmt: skip
 
 
 class ReorientTask(TaskBatch):
-    """Task definition of :class:`ReorientEnv`; extra keyword arguments:
+    """Task definition of :class:`ReorientEnv`; its keyword arguments are
+    :class:`ReorientParams`."""
 
-    Args:
-        max_initial_spin: initial |w| uniform in [0, max_initial_spin] [rad/s].
-        success_angle: orientation error allowed for success [rad].
-        success_spin: |w| allowed for success [rad/s].
-        fuel_weight: weight of the fuel term.
-        version: 0 or 1, the reward's version (see the env's Version History); ``gym.make``
-            sets it from the id.
-    """
-
+    params_model = ReorientParams
     scene_name = "reorient"
-    task_obs_dim = 4
+    task_pass = reorient_pass
+    extra_observations = ("error_w", "error_x", "error_y", "error_z")
     target_dim = 4
-    task_pass = staticmethod(reorient_pass)
-    task_pass_threads = staticmethod(reorient_pass_threads)
-
-    def __init__(
-        self,
-        num_envs: int,
-        *,
-        max_initial_spin: float = 1.0,
-        success_angle: float = np.deg2rad(5.0),
-        success_spin: float = 0.05,
-        fuel_weight: float = 0.05,
-        version: int = 0,
-        **kwargs: Any,
-    ) -> None:
-        self.version = task_version("version", version, newest=1)
-        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
-        self.success_angle = bounded("success_angle", success_angle, "rad", 0.0, np.pi,
-                                     low_open=True)  # fmt: skip
-        self.success_spin = positive("success_spin", success_spin, "rad/s")
-        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
-        super().__init__(num_envs, **kwargs)
 
     def angular_velocity_scale(self) -> float:
-        return self.max_initial_spin
+        return self.params.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q, w = random_tumble(rng, self.max_initial_spin)
-        target = canonical(random_quaternion(rng))
+        q, w = random_tumble(rng, self.params.max_initial_spin)
+        target = canonical_quat(random_quaternion(rng))
         return np.zeros(3), np.zeros(3), q, w, target
-
-    def task_numbers(self) -> list[float]:
-        return [self.max_initial_spin, self.success_angle, self.success_spin, self.version]
 
     def view(self) -> TaskView:
         """The body, with the target orientation as an outline and its angle to it."""

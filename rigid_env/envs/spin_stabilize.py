@@ -4,27 +4,41 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
 
 from rigid_env.core.jit import kernel
 from rigid_env.core.rotation import quat_from_axis_angle, quat_rotate
-from rigid_env.envs import kernels as T
-from rigid_env.envs.base import (
-    RigidBodyEnv,
-    RigidBodyVectorEnv,
-    TaskBatch,
-    bounded,
-    positive,
-    random_quaternion,
-    task_version,
-)
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
+from rigid_env.envs.kernels import Outcome, env_pass, task_kernel
+from rigid_env.envs.maths import safe_norm
+from rigid_env.envs.params import Angle, Rate, Seconds, TaskParams, Weight, quantity, task_version
 from rigid_env.envs.rewards import GAUSSIAN, LINEAR, tolerance_one
+from rigid_env.envs.sampling import random_quaternion
 from rigid_env.render import TaskView
 
-TARGET_SPIN, SUCCESS_ANGLE, HOLD_STEPS, VERSION = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3
 MARGIN_45_DEG = math.pi / 4.0
+Tilt = quantity("rad", ge=0, le=np.pi)
+Version = task_version(newest=1)
+
+
+class SpinStabilizeParams(TaskParams):
+    """SpinStabilize's keyword arguments."""
+
+    target_spin: Rate = 2.0
+    """Target rate about body y [rad/s], > 0; the observed w is divided by it."""
+    max_initial_tilt: Tilt = float(np.deg2rad(10.0))
+    """Largest initial angle between w and body y [rad], in [0, pi]."""
+    success_angle: Angle = float(np.deg2rad(5.0))
+    """Spin axis error allowed for success [rad], in (0, pi]."""
+    hold_time: Seconds = 1.0
+    """How long the axis must stay within success_angle [s], >= 0 (at least one step)."""
+    fuel_weight: Weight = 0.1
+    """Weight of the fuel term (mean |u| per step) in the reward, >= 0."""
+    version: Version = 0
+    """The reward's version, 0 or 1 (see the env's Version History); gym.make sets it from
+    the id."""
 
 
 @kernel
@@ -34,93 +48,52 @@ def axis_error(w):
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped):
+def evaluate(body, effort, goal, memory, task, stepped):
     """SpinStabilize's reward and success of one env (see :class:`SpinStabilizeEnv`); its
     memory is the number of consecutive steps with the spin axis within the success angle."""
-    w = (s[10], s[11], s[12])
-    angle = axis_error(w)
-    speed = T.safe_norm(w)
-    spin = tp[TARGET_SPIN]
+    angle = axis_error(body.w)
+    speed = safe_norm(body.w)
+    spin = task.target_spin
     streak = memory
     if stepped:  # a reset's observation keeps the streak
-        streak = memory + 1.0 if angle < tp[SUCCESS_ANGLE] else 0.0
-    success = streak >= tp[HOLD_STEPS]
+        streak = memory + 1.0 if angle < task.success_angle else 0.0
+    success = streak >= task.hold_steps
     rate_error = abs(speed - spin)
     r_rate = tolerance_one(rate_error, 0.0, 0.1 * spin, spin, GAUSSIAN, 0.1)
-    if tp[VERSION] >= 1.0:
+    if task.version >= 1:
         # v1: the axis term falls from the first degree on (no flat top, linear to 0 at
         # 45 deg), and a step that counts as success pays 1 more.
         r_axis = tolerance_one(angle, 0.0, 0.0, MARGIN_45_DEG, LINEAR, 0.0)
         bonus = 1.0 if success else 0.0
     else:
-        r_axis = tolerance_one(angle, 0.0, tp[SUCCESS_ANGLE], MARGIN_45_DEG, GAUSSIAN, 0.1)
+        r_axis = tolerance_one(angle, 0.0, task.success_angle, MARGIN_45_DEG, GAUSSIAN, 0.1)
         bonus = 0.0
-    reward = r_axis * r_rate + bonus - tp[T.FUEL_WEIGHT] * effort
-    return reward, False, success, streak, ((speed - spin) / spin, 0.0, 0.0, 0.0)
+    reward = r_axis * r_rate + bonus - task.fuel_weight * effort
+    return Outcome(reward, False, success, streak, ((speed - spin) / spin,))
 
 
-@kernel
-def spin_stabilize_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
-
-
-@T.threads_kernel
-def spin_stabilize_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-):
-    T.task_pass_threads(
-        spin_stabilize_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-    )  # fmt: skip
+@task_kernel
+def spin_stabilize_pass(job, threads): return env_pass(evaluate, job, threads)  # fmt: skip
 
 
 class SpinStabilizeTask(TaskBatch):
-    """Task definition of :class:`SpinStabilizeEnv`; extra keyword arguments:
+    """Task definition of :class:`SpinStabilizeEnv`; its keyword arguments are
+    :class:`SpinStabilizeParams`."""
 
-    Args:
-        target_spin: target rate about body y [rad/s].
-        max_initial_tilt: largest initial angle between w and body y [rad].
-        success_angle: spin axis error allowed for success [rad].
-        hold_time: how long the axis must stay within ``success_angle`` [s].
-        fuel_weight: weight of the fuel term.
-        version: 0 or 1, the reward's version (see the env's Version History); ``gym.make``
-            sets it from the id.
-    """
-
+    params_model = SpinStabilizeParams
     scene_name = "spin_stabilize"
-    task_obs_dim = 1
-    task_pass = staticmethod(spin_stabilize_pass)
-    task_pass_threads = staticmethod(spin_stabilize_pass_threads)
-
-    def __init__(
-        self,
-        num_envs: int,
-        *,
-        target_spin: float = 2.0,
-        max_initial_tilt: float = np.deg2rad(10.0),
-        success_angle: float = np.deg2rad(5.0),
-        hold_time: float = 1.0,
-        fuel_weight: float = 0.1,
-        version: int = 0,
-        **kwargs: Any,
-    ) -> None:
-        self.version = task_version("version", version, newest=1)
-        self.target_spin = positive("target_spin", target_spin, "rad/s")
-        self.max_initial_tilt = bounded("max_initial_tilt", max_initial_tilt, "rad", 0.0, np.pi)
-        self.success_angle = bounded("success_angle", success_angle, "rad", 0.0, np.pi,
-                                     low_open=True)  # fmt: skip
-        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
-        self.hold_time = bounded("hold_time", hold_time, "s")
-        super().__init__(num_envs, **kwargs)
+    task_pass = spin_stabilize_pass
+    extra_observations = ("rate_error",)
 
     def angular_velocity_scale(self) -> float:
-        return self.target_spin
+        return self.params.target_spin
 
     def sample(self, rng: np.random.Generator):
         q = random_quaternion(rng)
         # Tilt the spin away from body y by up to max_initial_tilt about a random axis in x-z.
         phi = rng.uniform(0.0, 2.0 * np.pi)
-        tilt = rng.uniform(0.0, self.max_initial_tilt)
-        rate = self.target_spin * rng.uniform(0.9, 1.1)
+        tilt = rng.uniform(0.0, self.params.max_initial_tilt)
+        rate = self.params.target_spin * rng.uniform(0.9, 1.1)
         axis = np.array([np.cos(phi), 0.0, np.sin(phi)])
         w = rate * quat_rotate(quat_from_axis_angle(axis, tilt), np.array([0.0, 1.0, 0.0]))
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
@@ -128,14 +101,16 @@ class SpinStabilizeTask(TaskBatch):
     @property
     def hold_steps(self) -> int:
         """Control steps the spin axis must stay within ``success_angle`` (at least one)."""
-        return max(1, round(self.hold_time / self.dt))
+        return max(1, round(self.params.hold_time / self.dt))
 
-    def task_numbers(self) -> list[float]:
-        return [self.target_spin, self.success_angle, float(self.hold_steps), self.version]
+    def derived_numbers(self) -> dict[str, float]:
+        return {"hold_steps": float(self.hold_steps)}
 
     def view(self) -> TaskView:
         """The body, with the target spin axis (body +y) and the spin's angle to it."""
-        return replace(super().view(), target_spin=self.target_spin, readouts=("spin_axis_angle",))
+        return replace(
+            super().view(), target_spin=self.params.target_spin, readouts=("spin_axis_angle",)
+        )
 
     def readouts(self, i: int) -> tuple[float, ...]:
         return (math.degrees(axis_error(tuple(self.world.state.w[i].tolist()))),)

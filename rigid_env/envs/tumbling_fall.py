@@ -3,131 +3,112 @@
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
+from typing import Annotated
 
 import numpy as np
+from pydantic import field_validator
 
+from rigid_env.config_files import FieldError, vector
 from rigid_env.core.jit import kernel
 from rigid_env.core.maths import rotate_inv
-from rigid_env.envs import kernels as T
-from rigid_env.envs.base import (
-    RigidBodyEnv,
-    RigidBodyVectorEnv,
-    TaskBatch,
-    bounded,
-    positive,
-    random_tumble,
-    task_version,
-)
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
+from rigid_env.envs.kernels import W_OBS_BOUND, Outcome, env_pass, task_kernel
+from rigid_env.envs.maths import safe_norm
+from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight, quantity, task_version
 from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.envs.sampling import random_tumble
 from rigid_env.render import TaskView
 
-MAX_SPIN, THRESHOLD, BONUS, TOP, VERSION = T.TASK, T.TASK + 1, T.TASK + 2, T.TASK + 3, T.TASK + 4
 FALL_SPEED_SCALE = 20.0  # [m/s], the unit of the observed velocity (v0: its vertical part)
+Height = quantity("m", gt=0)
+
+Version = task_version(newest=1)
+
+
+class TumblingFallParams(TaskParams):
+    """TumblingFall's keyword arguments."""
+
+    max_initial_spin: Rate = 3.0
+    """Initial |w| is uniform in [0, max_initial_spin] [rad/s], > 0; the observed w is divided
+    by it."""
+    drop_height: Annotated[tuple[Height, Height], vector(2, "m", "[50.0, 70.0]")] = (50.0, 70.0)
+    """Range (low, high) of initial heights [m], 0 < low <= high; the observed height is divided
+    by high."""
+    success_threshold: Rate = 0.1
+    """|w| at touchdown that counts as stabilised [rad/s], > 0."""
+    fuel_weight: Weight = 0.05
+    """Weight of the fuel term (mean |u| per step) in the reward, >= 0."""
+    success_bonus: Bonus = 10.0
+    """Reward at a stabilised touchdown, >= 0."""
+    version: Version = 0
+    """The observation's and reward's version, 0 or 1 (see the env's Version History);
+    gym.make sets it from the id."""
+
+    @field_validator("drop_height")
+    @classmethod
+    def _ordered(cls, pair: tuple[float, float]) -> tuple[float, float]:
+        if pair[1] < pair[0]:
+            raise FieldError("1", f"must be >= drop_height[0] ({pair[0]!r}), got {pair[1]!r}",
+                             "give (low, high) with low <= high")  # fmt: skip
+        return pair
 
 
 @kernel
-def evaluate(s, effort, target, memory, tp, stepped):
+def evaluate(body, effort, goal, memory, task, stepped):
     """TumblingFall's reward, termination (touchdown) and success of one env (see
     :class:`TumblingFallEnv`)."""
-    speed = T.safe_norm((s[10], s[11], s[12]))
-    landed = s[2] <= 0.0
-    success = landed and speed < tp[THRESHOLD]
+    speed = safe_norm(body.w)
+    height = body.x[2]
+    landed = height <= 0.0
+    success = landed and speed < task.success_threshold
     # v1: the cost falls all the way to rest (v0: flat below the success threshold).
-    flat = tp[THRESHOLD] if tp[VERSION] < 1.0 else 0.0
-    spin_cost = 1.0 - tolerance_one(speed, 0.0, flat, tp[MAX_SPIN], LINEAR, 0.0)
-    reward = -spin_cost - tp[T.FUEL_WEIGHT] * effort + (tp[BONUS] if success else 0.0)
-    if tp[VERSION] < 1.0:
-        extra = (s[2] / tp[TOP], s[5] / FALL_SPEED_SCALE, 0.0, 0.0)  # height, vertical speed
+    flat = task.success_threshold if task.version < 1 else 0.0
+    spin_cost = 1.0 - tolerance_one(speed, 0.0, flat, task.max_initial_spin, LINEAR, 0.0)
+    reward = -spin_cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
+    top = task.drop_height[1]
+    if task.version < 1:
+        extra = (height / top, body.v[2] / FALL_SPEED_SCALE, 0.0, 0.0)  # height, vertical speed
     else:  # height and the velocity in the body frame (the airflow the drag torque follows)
-        vb = rotate_inv((s[6], s[7], s[8], s[9]), (s[3], s[4], s[5]))
-        extra = (s[2] / tp[TOP], vb[0] / FALL_SPEED_SCALE, vb[1] / FALL_SPEED_SCALE,
+        vb = rotate_inv(body.q, body.v)
+        extra = (height / top, vb[0] / FALL_SPEED_SCALE, vb[1] / FALL_SPEED_SCALE,
                  vb[2] / FALL_SPEED_SCALE)  # fmt: skip
-    return reward, landed, success, memory, extra
+    return Outcome(reward, landed, success, memory, extra)
 
 
-@kernel
-def tumbling_fall_pass(tp, state, model, command, target, noise, stepped, rec, obs, start, stop):
-    T.task_pass(evaluate, tp, state, model, command, target, noise, stepped, rec, obs, start, stop)
-
-
-@T.threads_kernel
-def tumbling_fall_pass_threads(
-    tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-):
-    T.task_pass_threads(
-        tumbling_fall_pass, tp, state, model, command, target, noise, stepped, rec, obs, i, j, t
-    )  # fmt: skip
+@task_kernel
+def tumbling_fall_pass(job, threads): return env_pass(evaluate, job, threads)  # fmt: skip
 
 
 class TumblingFallTask(TaskBatch):
-    """Task definition of :class:`TumblingFallEnv`; extra keyword arguments:
+    """Task definition of :class:`TumblingFallEnv`; its keyword arguments are
+    :class:`TumblingFallParams`."""
 
-    Args:
-        max_initial_spin: initial |w| uniform in [0, max_initial_spin] [rad/s].
-        drop_height: range of initial heights [m].
-        success_threshold: |w| at touchdown that counts as stabilised [rad/s].
-        fuel_weight: weight of the fuel term.
-        success_bonus: reward at a stabilised touchdown.
-        version: 0 or 1, the reward's version (see the env's Version History); ``gym.make``
-            sets it from the id.
-    """
-
+    params_model = TumblingFallParams
     scene_name = "tumbling_fall"
-    task_obs_dim = 2
-    task_obs_bound = 5.0
-    task_pass = staticmethod(tumbling_fall_pass)
-    task_pass_threads = staticmethod(tumbling_fall_pass_threads)
+    task_pass = tumbling_fall_pass
+    extra_bound = W_OBS_BOUND
 
-    def __init__(
-        self,
-        num_envs: int,
-        *,
-        max_initial_spin: float = 3.0,
-        drop_height: tuple[float, float] = (50.0, 70.0),
-        success_threshold: float = 0.1,
-        fuel_weight: float = 0.05,
-        success_bonus: float = 10.0,
-        version: int = 0,
-        **kwargs: Any,
-    ) -> None:
-        self.version = task_version("version", version, newest=1)
-        self.task_obs_dim = 4 if self.version >= 1 else 2
-        pair = drop_height if isinstance(drop_height, tuple | list) else ()
-        if len(pair) != 2:
-            raise ValueError(
-                f"drop_height: expected (low, high) [m] with 0 < low <= high, got {drop_height!r}"
-            )
-        lo = positive("drop_height[0]", pair[0], "m")
-        hi = bounded("drop_height[1]", pair[1], "m", lo)
-        self.max_initial_spin = positive("max_initial_spin", max_initial_spin, "rad/s")
-        self.drop_height = (lo, hi)
-        self.success_threshold = positive("success_threshold", success_threshold, "rad/s")
-        self.fuel_weight = bounded("fuel_weight", fuel_weight, "reward per mean |u|")
-        self.success_bonus = bounded("success_bonus", success_bonus, "reward")
-        super().__init__(num_envs, **kwargs)
+    @property
+    def extra_observations(self) -> tuple[str, ...]:  # type: ignore[override]
+        """v1: the height over the highest drop, then the body-frame velocity over
+        FALL_SPEED_SCALE; v0: the height, then the vertical speed."""
+        if self.params.version >= 1:
+            return ("height", "v_body_x", "v_body_y", "v_body_z")
+        return ("height", "v_z")
 
     def angular_velocity_scale(self) -> float:
-        return self.max_initial_spin
+        return self.params.max_initial_spin
 
     def sample(self, rng: np.random.Generator):
-        q, w = random_tumble(rng, self.max_initial_spin)
-        x = np.array([0.0, 0.0, rng.uniform(*self.drop_height)])
+        q, w = random_tumble(rng, self.params.max_initial_spin)
+        x = np.array([0.0, 0.0, rng.uniform(*self.params.drop_height)])
         return x, np.zeros(3), q, w, np.zeros(0)
-
-    def task_numbers(self) -> list[float]:
-        return [
-            self.max_initial_spin,
-            self.success_threshold,
-            self.success_bonus,
-            self.drop_height[1],
-            self.version,
-        ]
 
     def view(self) -> TaskView:
         """The body over the ground, the height gauge reaching the highest drop."""
         view = super().view()
-        return replace(view, gauge_top=max(view.gauge_top, self.drop_height[1]))
+        return replace(view, gauge_top=max(view.gauge_top, self.params.drop_height[1]))
 
 
 class TumblingFallEnv(RigidBodyEnv):

@@ -12,12 +12,13 @@ import numpy as np
 import pytest
 import yaml
 
-import rigid_env
 from agents.config import ConfigError, load_config
-from agents.controllers import BoundedAllocator, PDController
+from agents.controllers import PD_LAWS, BoundedAllocator, PDController
 from agents.demo import env_id, pretrained_model
 from agents.evaluate import evaluate
 from agents.evaluate import main as evaluate_main
+from agents.shipped import ENV_IDS as SHIPPED_IDS
+from agents.shipped import TASKS as SHIPPED_TASKS
 from agents.vec_adapter import RigidBodySB3VecEnv
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +44,7 @@ def test_bounded_allocator_matches_scipy_lsq_linear():
         assert np.linalg.norm(t @ u[k] - taus[k]) <= np.linalg.norm(t @ ref - taus[k]) + 1e-6
 
 
-@pytest.mark.parametrize("env_id", rigid_env.envs.ENV_IDS)
+@pytest.mark.parametrize("env_id", SHIPPED_IDS)
 def test_pd_controller_solves_every_task(env_id):
     """The analytic controller succeeds on 20 of 20 fixed seeds of each task (in either
     rotation representation); doing nothing does not."""
@@ -210,7 +211,7 @@ def test_evaluate_cli_errors(tmp_path, capsys):
     assert evaluate_main(["none", "--env", "RigidEnv/Nope-v0"]) == 2
 
 
-@pytest.mark.parametrize("task", list(rigid_env.envs.TASKS))
+@pytest.mark.parametrize("task", list(SHIPPED_TASKS))
 def test_pretrained_policy_reaches_its_bar(task):
     """Each shipped policy, on 20 fixed seeds nobody trained on, succeeds on at least 19 (the
     issue's 95 %) and spends at most 1.5x the PD controller's fuel on the same episodes."""
@@ -241,3 +242,25 @@ def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
     (ckpt / "model_vecnormalize_1024_steps.pkl").write_bytes(b"p")
     assert [s.steps for s in _snapshots(tmp_path, norm_required=True)] == [1024, 512]
     assert _snapshots(tmp_path / "missing", norm_required=True) == []
+
+
+def test_every_shipped_task_has_its_configs_policy_and_pd_law():
+    """agents.shipped lists the tasks with a config per algorithm, a pretrained policy and a PD
+    law; the demo and the tests loop over those, not over every registered task."""
+    root = Path(__file__).resolve().parents[2]
+    for name, (module, _, _) in SHIPPED_TASKS.items():
+        assert name in PD_LAWS
+        for algo in ("ppo", "sac", "td3"):
+            assert (root / "configs" / "agents" / f"{algo}_{module}.yaml").exists()
+        assert pretrained_model(name).exists()
+
+
+def test_task_without_a_pd_law_is_a_loud_error():
+    from rigid_env.envs.detumble import DetumbleTask
+    from rigid_env.envs.environments import RigidBodyEnv
+
+    class SpinDownTask(DetumbleTask):
+        pass
+
+    with pytest.raises(KeyError, match=r"task 'SpinDown' has no PD law; add one to .*PD_LAWS"):
+        PDController(RigidBodyEnv(task=SpinDownTask))

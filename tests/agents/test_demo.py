@@ -12,9 +12,9 @@ import pytest
 
 from agents import demo
 from agents.evaluate import evaluate
+from agents.shipped import TASKS
 from agents.side_by_side import PANEL, record_side_by_side
 from rigid_env.cli import main
-from rigid_env.envs import TASKS
 
 ROOT = Path(__file__).resolve().parents[2]
 EPISODES = 2

@@ -11,11 +11,19 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 
 import rigid_env
-from rigid_env.envs.base import RigidBodyVectorEnv
+from rigid_env.envs.environments import RigidBodyVectorEnv
 
 from roundoff import gamma
 
 ENV_IDS = rigid_env.envs.ENV_IDS
+# The shipped tasks, whose episodes the scenarios below are written around (a task added later
+# runs every other contract test through ENV_IDS).
+BUILT_IN = [
+    "RigidEnv/Detumble-v0",
+    "RigidEnv/SpinStabilize-v1",
+    "RigidEnv/Reorient-v1",
+    "RigidEnv/TumblingFall-v1",
+]
 
 
 def rollout_single(env_id: str, seed: int, actions: np.ndarray, **kwargs):
@@ -300,7 +308,7 @@ def test_overrides_and_options():
 
 
 def test_scene_override_as_dict():
-    base = rigid_env.scene.load_scene(rigid_env.envs.base.default_scene_path("detumble")).to_dict()
+    base = rigid_env.scene.load_scene(rigid_env.resources.scene_path("detumble")).to_dict()
     base["body"]["mass"] = 4.0
     env = gym.make("RigidEnv/Detumble-v0", scene=base)
     assert env.unwrapped.task.world.model.mass[0] == 4.0
@@ -418,7 +426,7 @@ def _assert_same_reset(ours: tuple, ref: tuple) -> None:
         assert info[key].dtype == value.dtype and np.array_equal(info[key], value), key
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", BUILT_IN)  # no episode of these ends in the first 5 steps
 def test_reset_mask_equals_sync_vector_env(env_id):
     """``reset(options={"reset_mask": m})`` resets only the masked sub-envs, as Gymnasium's
     SyncVectorEnv over single envs does: the same observations (the masked rows new, the others

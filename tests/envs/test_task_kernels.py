@@ -5,7 +5,7 @@ import math
 import numpy as np
 from numba import njit
 
-from rigid_env.envs.kernels import tanh
+from rigid_env.envs.maths import tanh
 
 EPS = 2.0**-53  # unit roundoff of float64
 

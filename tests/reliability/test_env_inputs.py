@@ -5,6 +5,7 @@ integrator driven beyond its stable step warns once."""
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import gymnasium as gym
@@ -108,3 +109,120 @@ def test_extreme_mass_properties_name_the_input_not_dt() -> None:
     msg = str(info.value)
     assert "mass properties are extreme" in msg and "body.inertia" in msg
     assert math.isfinite(world.state.w[0, 2]) and np.all(np.isfinite(world.rows))
+
+
+# ---- issue 28, section 4: every input type a user can pass --------------------------------
+
+
+def make_both(env_id: str, **kwargs):
+    """A single env and a vector env of two, both reset with seed 5 (sub-env 0 = the single)."""
+    env = gym.make(env_id, **kwargs)
+    vec = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+    env.reset(seed=5)
+    vec.reset(seed=5)
+    return env, vec
+
+
+@pytest.mark.parametrize(
+    "dtype", [np.float16, np.longdouble, np.dtype(">f8"), np.dtype(">f4"), np.dtype(">i4")]
+)
+def test_actions_of_every_real_dtype_act_as_their_float64_values(dtype) -> None:
+    """float16, long double and byte-swapped numbers are converted as NumPy converts them (a
+    float16 or a big-endian float64 exactly): the step equals the one given the float64 values,
+    bit for bit, in the single and the vector env."""
+    action = np.array([0.5, -0.25, 1.0, 0.0, -1.0, 0.125]).astype(dtype)
+    exact = action.astype(np.float64)
+    results = []
+    for a in (action, exact):
+        env, vec = make_both("RigidEnv/Detumble-v0")
+        obs, reward, *_ = env.step(a)
+        vobs, vrew, *_ = vec.step(np.stack([a, a]))
+        results.append((obs, reward, vobs, vrew))
+    (o1, r1, v1, vr1), (o2, r2, v2, vr2) = results
+    assert np.array_equal(o1, o2) and r1 == r2
+    assert np.array_equal(v1, v2) and np.array_equal(vr1, vr2)
+    assert np.array_equal(v1[0], o1)
+
+
+@pytest.mark.parametrize(
+    "action", [np.zeros(6, np.complex128), np.array(["0.1"] * 6), np.zeros(6, object)]
+)
+def test_actions_that_are_not_real_numbers_are_one_line(action) -> None:
+    env, vec = make_both("RigidEnv/Detumble-v0")
+    for step, a in ((env.step, action), (vec.step, np.stack([action, action]))):
+        with pytest.raises(ValueError, match=r"^action: expected real numbers") as info:
+            step(a)
+        assert "\n" not in str(info.value)
+
+
+def test_vector_reset_takes_numpy_integer_seeds_and_refuses_the_rest() -> None:
+    vec = gym.make_vec("RigidEnv/Detumble-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    a, _ = vec.reset(seed=np.int64(3))
+    b, _ = vec.reset(seed=3)
+    assert np.array_equal(a, b)
+    c, _ = vec.reset(seed=[np.int32(3), 4])
+    assert np.array_equal(c, b)
+    env = gym.make("RigidEnv/Detumble-v0")
+    d, _ = env.reset(seed=np.uint8(4))
+    assert np.array_equal(d, b[1])  # sub-env 1 of seed 3 is seed 4
+    for bad in (True, 2.0, "3", -1):
+        for reset in (vec.reset, env.reset):
+            with pytest.raises(ValueError, match=r"^seed: must be an integer >= 0"):
+                reset(seed=bad)
+
+
+@pytest.mark.parametrize("bad", [None, 2.0, True, "4", 0, np.float64(3.0)])
+def test_bad_num_envs_is_one_line(bad) -> None:
+    with pytest.raises(ValueError, match=r"^num_envs: must be an integer >= 1, got") as info:
+        gym.make_vec("RigidEnv/Detumble-v0", num_envs=bad, vectorization_mode="vector_entry_point")
+    assert repr(bad) in str(info.value) and "\n" not in str(info.value)
+
+
+def test_reset_options_are_checked() -> None:
+    """A vector env reads only ``reset_mask``, a single env no option: another key or a
+    non-dict is a one-line error rather than silently ignored."""
+    vec = gym.make_vec("RigidEnv/Detumble-v0", num_envs=2, vectorization_mode="vector_entry_point")
+    env = gym.make("RigidEnv/Detumble-v0")
+    with pytest.raises(
+        ValueError, match=r"^options\['garbage'\]: unknown reset option; .*reset_mask"
+    ):
+        vec.reset(seed=0, options={"garbage": 1})
+    with pytest.raises(ValueError, match=r"^options: expected a dict or None, got str"):
+        vec.reset(seed=0, options="reset_mask")
+    with pytest.raises(ValueError, match=r"^options\['reset_mask'\]: unknown reset option"):
+        env.reset(seed=0, options={"reset_mask": np.ones(1, bool)})
+    env.reset(seed=0, options={})  # what SB3 and the checkers pass
+    vec.reset(seed=0, options={})
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "field"),
+    [
+        ("RigidEnv/Detumble-v0", {"max_initial_spin": 1e300}, "max_initial_spin"),
+        ("RigidEnv/SpinStabilize-v1", {"target_spin": 1e300}, "target_spin"),
+        ("RigidEnv/TumblingFall-v1", {"drop_height": (1e308, 1e308)}, "drop_height[0]"),
+        ("RigidEnv/Reorient-v1", {"success_spin": 1e-300}, "success_spin"),
+        (
+            "RigidEnv/Detumble-v0",
+            {"randomization": {"sensor_noise": 1e200}},
+            "randomization.sensor_noise",
+        ),
+    ],
+)
+def test_task_kwargs_follow_the_scene_loaders_magnitude_rule(env_id, kwargs, field) -> None:
+    """The scene loader refuses non-zero magnitudes outside [1e-100, 1e100] (products of three
+    stay finite); the task's keywords follow the same rule, so info["energy"] never reads 0.0
+    for an overflowed energy."""
+    with pytest.raises(ValueError, match=rf"^{re.escape(field)}: .*too (large|small)") as info:
+        gym.make(env_id, **kwargs)
+    assert "\n" not in str(info.value)
+
+
+def test_unknown_keyword_names_the_tasks_own_and_the_closest() -> None:
+    with pytest.raises(ValueError) as info:
+        gym.make("RigidEnv/Detumble-v0", fuel_weigth=0.2)
+    msg = str(info.value)
+    assert msg.startswith("fuel_weigth: unknown keyword; did you mean fuel_weight?")
+    for name in ("max_initial_spin", "success_threshold", "success_bonus", "randomization"):
+        assert name in msg
+    assert "\n" not in msg

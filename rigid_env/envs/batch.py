@@ -1,0 +1,433 @@
+"""The task batch: a task on ``N`` bodies, written once (a single env is ``N = 1``).
+
+:class:`TaskBatch` owns a :class:`~rigid_env.core.world.World` of ``N`` bodies and a task's
+reset distribution, observation, reward and episode end. A step is two compiled calls: the
+world's step, then the task's pass over the envs (:func:`rigid_env.envs.kernels.env_pass`:
+fuel, reward, termination, success, observation, record). A task subclass names its parameters
+model, its scene and its compiled pass, and draws one env's initial state (:meth:`sample`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import ArrayLike, NDArray
+
+from rigid_env.core import threads
+from rigid_env.core.effects import LinearActuator
+from rigid_env.core.state import BodyModel
+from rigid_env.envs import kernels as K
+from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
+from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
+from rigid_env.render import Frame, TaskView
+from rigid_env.resources import scene_path
+from rigid_env.scene import Scene, load_scene
+
+FloatArray = NDArray[np.float64]
+
+_NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
+
+
+def as_num_envs(value: Any) -> int:
+    """``value`` as a number of envs (an integer >= 1, NumPy's included), or a one-line
+    ``ValueError``."""
+    integral = isinstance(value, int | np.integer) and not isinstance(value, bool | np.bool_)
+    if not integral or value < 1:
+        raise ValueError(f"num_envs: must be an integer >= 1, got {value!r}")
+    return int(value)
+
+
+_COMPILED_DTYPES = frozenset(map(np.dtype, (np.float64, np.float32)))  # read as they are
+
+
+def as_actions(action: ArrayLike) -> NDArray[Any]:
+    """``action`` as an array of a real dtype the compiled clip reads (float64, float32, or
+    integers as they are; float16, long double and byte-swapped floats converted to float64,
+    which holds them exactly or, for long double, as NumPy casts), or a one-line ValueError."""
+    act = action if isinstance(action, np.ndarray) else np.asarray(action)
+    if act.dtype in _COMPILED_DTYPES:
+        return act
+    kind = act.dtype.kind
+    if kind not in "fiu" or (act.dtype.itemsize > 8 and kind != "f"):
+        raise ValueError(
+            f"action: expected real numbers (float32 or float64), got dtype {act.dtype}"
+        )
+    native = act.dtype.isnative and act.dtype.itemsize <= 8
+    if kind == "f" and not (native and act.dtype.itemsize >= 4):
+        act = act.astype(np.float64)
+    elif not native:
+        act = act.astype(act.dtype.newbyteorder("="))
+    return act
+
+
+class TaskBatch:
+    """A task on ``num_envs`` bodies: reset distribution, observation, reward, episode end.
+
+    A task subclass sets :attr:`params_model` (its keyword arguments), :attr:`scene_name`,
+    :attr:`task_pass` (its one-line compiled pass naming its ``evaluate``) and, when it observes
+    more than the body, :attr:`extra_observations`; it implements :meth:`sample` (one env's
+    initial state and target from its generator) and :meth:`angular_velocity_scale`.
+    Everything else (actions, thrusters, fuel, randomisation, spaces, buffers) lives here.
+
+    Args:
+        num_envs: number of bodies ``N``.
+        **kwargs: the task's parameters (:attr:`params_model`) and the settings every task
+            takes (:class:`~rigid_env.envs.params.EnvSettings`: ``scene``, ``integrator``,
+            ``dt``, ``substeps``, ``rotation_repr``, ``randomization``).
+    """
+
+    params_model: ClassVar[type[TaskParams]]
+    scene_name: ClassVar[str]
+    task_pass: ClassVar[Callable[..., int]]
+    extra_observations: tuple[str, ...] = ()
+    """Names of the task's extra observations, in the order of ``Outcome.extra`` (a task may
+    set them per instance, e.g. per version)."""
+    extra_bound: ClassVar[float] = 1.0
+    """The task's extra observations are clipped into +-this."""
+    target_dim: ClassVar[int] = 0
+
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        self.n = as_num_envs(num_envs)
+        name = type(self).__name__.removesuffix("Task")
+        settings, self.params = parse_kwargs(self.params_model, name, kwargs)
+        self.settings: EnvSettings = settings
+        self.scene: Scene = load_scene(
+            settings.scene if settings.scene is not None else scene_path(self.scene_name)
+        )
+        self.world = self.scene.build_world(
+            n=self.n,
+            integrator=settings.integrator,
+            dt=settings.dt,
+            substeps=settings.substeps,
+            on_error="freeze",
+        )
+        if self.world.action_dim == 0:
+            raise ValueError(
+                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
+            )
+        self.dt = self.world.dt
+        self.rotation_repr = settings.rotation_repr
+        self.randomization = settings.randomization
+        self.base_model = self.world.model
+        # Per-component force at |u| = 1 [N], for the fuel measure.
+        actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
+        self.max_force = np.concatenate([np.linalg.norm(a.force_map, axis=1) for a in actuators])
+        self.action_dim = self.world.action_dim
+        self.w_scale = self.angular_velocity_scale()
+        self.obs_slices = self._observation_slices()
+        """Where each observed quantity lies in an observation: ``orientation``, ``w`` (over
+        :attr:`w_scale`), ``fine_w`` and each of :attr:`extra_observations` by name."""
+        bound = np.concatenate(
+            [
+                np.ones(4 if self.rotation_repr == "quaternion" else 6),
+                np.full(3, K.W_OBS_BOUND),
+                np.ones(3),
+                np.full(len(self.extra_observations), self.extra_bound),
+            ]
+        ).astype(np.float32)
+        self.obs_dim = bound.size
+        self.single_observation_space = spaces.Box(-bound, bound, dtype=np.float32)
+        self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
+        common = {
+            "dt": self.dt,
+            "w_scale": self.w_scale,
+            "sixd": self.rotation_repr == "sixd",
+            "extra_bound": self.extra_bound,
+        }
+        self.numbers = numbers(self.params, common, **self.derived_numbers())
+        """(1,) the numbers of the compiled pass, by name (see
+        :func:`~rigid_env.envs.params.numbers`)."""
+        n, a = self.n, self.action_dim
+        self.steps = np.zeros(n, dtype=np.int64)
+        self.target = np.zeros((n, K.TARGET_WIDTH))
+        """(N, 4) each env's target (its first ``target_dim`` numbers used)."""
+        self.thrust_scale: FloatArray | None = None
+        """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
+        (None before: every actuator as in the scene)."""
+        self.last_action = np.zeros((n, a))
+        """(N, A) the last command each env was sent, clipped (before thrust randomisation)."""
+        self.command = self.last_action
+        """(N, A) the last command the bodies got: :attr:`last_action` itself until thrust is
+        randomised, then ``last_action * thrust_scale``."""
+        self.record = np.zeros(n, dtype=K.RECORD)
+        """(N,) each env's :data:`~rigid_env.envs.kernels.RECORD`, written by the compiled pass."""
+        self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)
+        """(N, obs_dim) the latest observations (overwritten by every step and reset, unless
+        :meth:`observe` gave them away: then a new buffer is written)."""
+        self._obs_given = False
+        self._no_noise = np.zeros((1, 3))
+        self._sigma = self.randomization.sensor_noise
+        self._check_extra_observations()
+
+    # ---- task interface ------------------------------------------------------------------
+    def angular_velocity_scale(self) -> float:
+        """Typical angular speed [rad/s] that the observation divides by."""
+        raise NotImplementedError
+
+    def sample(self, rng: np.random.Generator) -> tuple[FloatArray, ...]:
+        """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
+        raise NotImplementedError
+
+    def derived_numbers(self) -> dict[str, float]:
+        """Numbers ``evaluate`` reads beside the parameters, derived from them and the scene
+        (none by default)."""
+        return {}
+
+    @property
+    def version(self) -> int:
+        """The task's version (the ``-vK`` of its id; 0 for a task with one)."""
+        return int(getattr(self.params, "version", 0))
+
+    # ---- shared machinery ----------------------------------------------------------------
+    def _observation_slices(self) -> dict[str, slice]:
+        rot = 4 if self.rotation_repr == "quaternion" else 6
+        out = {"orientation": slice(0, rot), "w": slice(rot, rot + 3)}
+        out["fine_w"] = slice(rot + 3, rot + 6)
+        for k, name in enumerate(self.extra_observations):
+            out[name] = slice(rot + 6 + k, rot + 7 + k)
+        return out
+
+    def _check_extra_observations(self) -> None:
+        """Run the compiled pass once on a scratch env (compiling it, or loading it from the
+        cache) and check that ``evaluate`` gives every extra observation the task names."""
+        state = np.zeros((13, 1))
+        state[6] = 1.0  # the identity orientation
+        arrays = (state, self.world.model_columns[:, :1].copy(), np.zeros((1, self.action_dim)),
+                  np.zeros((1, K.TARGET_WIDTH)), self._no_noise, np.zeros(1, K.RECORD),
+                  np.zeros((1, self.obs_dim), np.float32), self.max_force)  # fmt: skip
+        given = type(self).task_pass((self.numbers, arrays, False), 1)
+        if given < len(self.extra_observations):
+            raise ValueError(
+                f"{type(self).__name__}: evaluate returns {given} extra observation(s), the task "
+                f"names {len(self.extra_observations)} ({', '.join(self.extra_observations)}); "
+                "return them all in Outcome.extra"
+            )
+
+    @property
+    def fuel(self) -> FloatArray:
+        """(N,) impulse spent in the episode so far [N s] (a view of :attr:`record`)."""
+        return self.record["fuel"]
+
+    @property
+    def success(self) -> NDArray[np.bool_]:
+        """(N,) whether each env's task counts as solved at the current step."""
+        return self.record["success"]
+
+    def angular_speed(self) -> FloatArray:
+        """(N,) ``|w|`` [rad/s] of the current state (finite for a frozen, diverged body)."""
+        return self.record["speed"].copy()
+
+    def check_action(self, action: ArrayLike) -> FloatArray:
+        """Validate and clip a command to (N, A) in [-1, 1] (into :attr:`last_action`; the
+        bodies' command, thrust randomisation included, into :attr:`command`).
+
+        Raises:
+            ValueError: a dtype that is not real, a wrong shape, or a NaN/inf entry (never
+                silently simulated).
+        """
+        act = as_actions(action)
+        if act.shape != (self.n, self.action_dim):
+            if self.n == 1 and act.shape == (self.action_dim,):
+                act = act.reshape(1, -1)
+            else:
+                raise ValueError(
+                    f"action: expected shape ({self.n}, {self.action_dim})"
+                    f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                    f"got {act.shape}"
+                )
+        if K.clip_commands(np.ascontiguousarray(act), self.last_action) < 0:
+            raise ValueError(_NON_FINITE_ACTION)
+        if self.thrust_scale is not None:
+            np.multiply(self.last_action, self.thrust_scale, out=self.command)
+        return self.last_action
+
+    def step(
+        self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+        """Advance every body by ``dt`` with the command of the last :meth:`check_action`.
+
+        Args:
+            rngs: one generator per env (drawn from only for sensor noise).
+            restarting: (N,) envs about to be reset (autoreset): no noise is drawn for them
+                here, so each env's generator sees what a single env's would.
+
+        Returns:
+            reward (N,), terminated (N,), failed (N,) (the state turned non-finite this step;
+            the body is frozen at its last finite state and the episode must end). Views of
+            the task's buffers, valid until the next step.
+        """
+        failed = self.world.advance(self.command)
+        self.steps += 1
+        self._own_obs(keep=False)
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
+        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
+                                self.target, noise, self.record, self.obs), True)  # fmt: skip
+        return self.record["reward"], self.record["terminated"].copy(), failed
+
+    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
+        """:meth:`step` of a task of one env: its record as Python values and whether its body
+        failed."""
+        failed = self.world.advance(self.command)
+        self.steps[0] += 1
+        self._own_obs(keep=False)
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
+        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
+                                self.target, noise, self.record, self.obs), True)  # fmt: skip
+        return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
+
+    def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
+        """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
+        return (state, model, command, target, noise, record, obs, self.max_force)
+
+    def _pass(self, arrays: tuple[Any, ...], stepped: bool) -> None:
+        """The task's compiled pass over the envs of ``arrays`` (split over the cores when
+        many; each env is computed alone, so the split changes no number)."""
+        job = (self.numbers, arrays, stepped)
+        if not threads.threaded(arrays[0].shape[1]):
+            type(self).task_pass(job, 1)
+        else:
+            threads.call_threaded(lambda t: type(self).task_pass(job, t))
+
+    def _own_obs(self, keep: bool) -> None:
+        """If :meth:`observe` gave :attr:`obs` away, write into a new buffer from now on (with
+        the same rows if ``keep``, for a reset of some envs): what a caller got stays as it
+        was, with no copy per step."""
+        if self._obs_given:
+            self.obs = self.obs.copy() if keep else np.empty_like(self.obs)
+            self._obs_given = False
+
+    def _noise(
+        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
+    ) -> FloatArray:
+        """(K, 3) sensor noise on the observed ``w`` [rad/s], one row per generator (zeros,
+        nothing drawn, where ``skip``); one shared zero row when there is no noise."""
+        if self._sigma <= 0.0:
+            return self._no_noise
+        return sensor_noise(list(rngs), self._sigma, skip)
+
+    def reset_envs(
+        self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
+    ) -> None:
+        """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index),
+        and observe them (:attr:`obs` rows ``idx``; sensor noise from the same generators)."""
+        idx = np.asarray(idx, dtype=np.int64)
+        s = self.world.state
+        draws = []
+        randomized = self.randomization.physical or self.randomization.thrust > 0.0
+        for k, i in enumerate(idx.tolist()):
+            draws.append(self.sample(rngs[k]))
+            if randomized:
+                self._randomize(i, rngs[k])
+        if draws:
+            x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
+            s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
+            if self.target_dim:
+                self.target[idx, : self.target_dim] = target
+        self.steps[idx] = 0
+        self.record[idx] = 0
+        self.last_action[idx] = 0.0
+        self.command[idx] = 0.0
+        self.world.failed[idx] = False
+        if idx.size == 0:
+            return
+        self._own_obs(keep=True)  # rows idx are written below, the others kept
+        record, obs = self.record[idx], self.obs[idx]
+        cols = np.ascontiguousarray(self.world.columns[:, idx])
+        model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        noise = self._noise(rngs)
+        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise,
+                                record, obs), False)  # fmt: skip
+        self.record[idx], self.obs[idx] = record, obs
+
+    def _randomize(self, i: int, rng: np.random.Generator) -> None:
+        r = self.randomization
+        if r.physical:
+            if self.world.model.n == 1:  # first randomised reset: give every body its own copy
+                self.world.set_model(
+                    BodyModel(
+                        np.repeat(self.base_model.mass, self.n),
+                        np.repeat(self.base_model.inertia, self.n, axis=0),
+                    )
+                )
+            mass, inertia = random_mass_properties(
+                rng, r, self.base_model.mass[0], self.base_model.inertia[0]
+            )
+            model = self.world.model
+            model.mass[i] = mass
+            model.inertia[i] = inertia
+            self.world.set_model(BodyModel(model.mass, model.inertia))
+        if r.thrust > 0.0:
+            if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
+                self.thrust_scale = np.ones((self.n, self.action_dim))
+                self.command = self.last_action * self.thrust_scale
+            self.thrust_scale[i] = random_thrust(rng, r, self.action_dim)
+
+    def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
+        """The latest observations, the caller's to keep: (N, obs_dim) (the buffer itself,
+        which no later step or reset writes into), or a copy of the rows ``idx``."""
+        if idx is not None:
+            return self.obs[idx]
+        self._obs_given = True
+        return self.obs
+
+    def infos(self) -> dict[str, NDArray[Any]]:
+        """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure."""
+        r = self.record
+        success = r["success"].copy()
+        return {
+            "angular_speed": r["speed"].copy(),
+            "energy": r["energy"].copy(),
+            "fuel": r["fuel"].copy(),
+            "success": success,
+            "is_success": success.copy(),  # SB3 EvalCallback logs this key
+            "numerical_error": self.world.failed.copy(),
+            "angular_velocity_world": r["w_world"].copy(),
+        }
+
+    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
+        """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
+        record (read here if not given)."""
+        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
+        return {
+            "angular_speed": r.speed,
+            "energy": r.energy,
+            "fuel": r.fuel,
+            "success": r.success,
+            "is_success": r.success,
+            "numerical_error": bool(self.world.failed[0]),
+            "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
+        }
+
+    # ---- what a renderer shows (rigid_env.render) ----------------------------------------
+    def view(self) -> TaskView:
+        """What the task shows: its body, its thrusters and (under gravity) the ground; a task
+        adds its target and readouts."""
+        title = type(self).__name__.removesuffix("Task")
+        return TaskView.for_scene(
+            title, self.scene, self.world.force_effects, spin_scale=self.w_scale
+        )
+
+    def readouts(self, i: int) -> tuple[float, ...]:
+        """Env ``i``'s numbers for :attr:`TaskView.readouts` (none by default)."""
+        return ()
+
+    def frame(self, i: int = 0) -> Frame:
+        """The numbers of env ``i``'s current frame."""
+        if not 0 <= i < self.n:
+            raise IndexError(f"i: environment index {i} is out of range for {self.n} envs")
+        s = self.world.state
+        return Frame(
+            q=s.q[i].copy(),
+            w_body=s.w[i].copy(),
+            height=float(s.x[i, 2]),
+            command=self.last_action[i].copy(),
+            step=int(self.steps[i]),
+            angular_speed=float(self.angular_speed()[i]),
+            fuel=float(self.fuel[i]),
+            success=bool(self.success[i]),
+            target=self.target[i].copy() if self.target_dim else None,
+            readouts=self.readouts(i),
+        )

@@ -1,0 +1,190 @@
+"""The envs' keyword arguments as frozen pydantic models: a task's parameters
+(:class:`TaskParams`, one subclass per task, beside its ``evaluate``) and the settings every
+task takes (:class:`EnvSettings`). Each field carries its unit and range; the numbers a scene
+file would refuse (not finite, or a non-zero magnitude outside [1e-100, 1e100]) are refused
+here by the same rule (:class:`rigid_env.scene_sections.Quantity`). A bad keyword is one line,
+``field: problem; fix``; an unknown one names the keywords the task takes, the closest first.
+
+The numbers the compiled pass reads (:func:`numbers`) are derived from the parameters model:
+one field per parameter, by name, after :data:`rigid_env.envs.kernels.COMMON_NUMBERS`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import os
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from numpy.typing import NDArray
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+
+from rigid_env.config_files import ConfigFileError, error_line
+from rigid_env.envs.kernels import COMMON_NUMBERS
+from rigid_env.scene_sections import Quantity
+
+
+def _plain_number(value: Any) -> Any:
+    """A NumPy real scalar as the Python number it holds (the rest goes on unchanged)."""
+    if isinstance(value, np.integer | np.floating) and not isinstance(value, np.bool_):
+        return value.item()
+    return value
+
+
+NumPyReal = BeforeValidator(_plain_number)
+
+
+def quantity(unit: str, **bounds: float) -> Any:
+    """A finite number in ``unit`` with the range ``bounds`` (``gt``, ``ge``, ``lt``, ``le``) on
+    the field and the scene's magnitude rule; text and booleans refused."""
+    return Annotated[float, Field(allow_inf_nan=False, **bounds), Quantity(unit), NumPyReal]
+
+
+Rate = quantity("rad/s", gt=0)
+"""An angular speed [rad/s], > 0."""
+Angle = quantity("rad", gt=0, le=np.pi)
+"""An angle [rad] in (0, pi]."""
+Seconds = quantity("s", ge=0)
+"""A duration [s], >= 0."""
+Weight = quantity("reward per mean |u|", ge=0)
+"""The weight of the effort (mean ``|u|`` of a step) in the reward, >= 0."""
+Bonus = quantity("reward", ge=0)
+"""A reward, >= 0."""
+Fraction = quantity("relative half-width", ge=0, lt=1)
+"""A relative half-width in [0, 1)."""
+NoiseRate = quantity("rad/s", ge=0)
+"""A standard deviation of an angular speed [rad/s], >= 0."""
+
+
+def task_version(newest: int) -> Any:
+    """The task's version (the ``-vK`` of its id), an integer from 0 to ``newest``."""
+
+    def check(value: Any) -> int:
+        integral = isinstance(value, int | np.integer) and not isinstance(value, bool)
+        if not integral or not 0 <= value <= newest:
+            raise ValueError(
+                f"must be an integer from 0 to {newest} (the task's versions), got {value!r}; "
+                "gym.make sets it from the id (RigidEnv/<Task>-vK)"
+            )
+        return int(value)
+
+    return Annotated[int, BeforeValidator(check)]
+
+
+class TaskParams(BaseModel):
+    """A task's own keyword arguments (a subclass per task): frozen, unknown keys refused, a
+    docstring per field with its unit and range."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    @classmethod
+    def __pydantic_init_subclass__(cls, **kwargs: Any) -> None:
+        super().__pydantic_init_subclass__(**kwargs)
+        clash = sorted(set(cls.model_fields) & set(COMMON_NUMBERS))
+        if clash:
+            raise TypeError(
+                f"{cls.__name__}.{clash[0]}: the name is taken by a number every task has "
+                f"({', '.join(COMMON_NUMBERS)}); rename the field"
+            )
+
+
+class Randomization(BaseModel):
+    """Domain randomisation, drawn per episode from the environment's own generator."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    mass: Fraction = 0.0
+    """Relative half-width ``a`` in [0, 1): the mass times ``U(1 - a, 1 + a)``."""
+    inertia: Fraction = 0.0
+    """Relative half-width in [0, 1) for each principal moment (the largest then clipped onto
+    the triangle inequality so the body stays physical)."""
+    thrust: Fraction = 0.0
+    """Relative half-width in [0, 1) for each actuator's strength."""
+    sensor_noise: NoiseRate = 0.0
+    """Standard deviation of Gaussian noise on the observed angular velocity [rad/s], >= 0
+    (drawn every step for every env: a per-env loop, so off by default)."""
+
+    @property
+    def physical(self) -> bool:
+        """Whether any mass-property draw is needed at reset."""
+        return self.mass > 0.0 or self.inertia > 0.0
+
+
+def _none_is_empty(value: Any) -> Any:
+    return {} if value is None else value
+
+
+class EnvSettings(BaseModel):
+    """The keyword arguments every task takes besides its own parameters."""
+
+    model_config = ConfigDict(
+        frozen=True, extra="forbid", use_attribute_docstrings=True, arbitrary_types_allowed=True
+    )
+
+    scene: str | os.PathLike[str] | dict[str, Any] | None = None
+    """A scene file (path) or its dict, instead of the task's own scene."""
+    integrator: Any = None
+    """An integrator's name overriding the scene's (checked by the world)."""
+    dt: Any = None
+    """The control step [s] overriding the scene's (checked by the world)."""
+    substeps: Any = None
+    """Integrator steps per control step overriding the scene's (checked by the world)."""
+    rotation_repr: Literal["quaternion", "sixd"] = "quaternion"
+    """The observed orientation: "quaternion" (canonical, 4 numbers) or "sixd" (the first two
+    columns of the rotation matrix, 6 numbers)."""
+    randomization: Annotated[Randomization, BeforeValidator(_none_is_empty)] = Randomization()
+    """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise (None: none)."""
+
+
+def parse_kwargs(
+    params_model: type[TaskParams], task: str, kwargs: dict[str, Any]
+) -> tuple[EnvSettings, TaskParams]:
+    """The settings and the task's parameters from an env's keyword arguments.
+
+    Raises:
+        ValueError: one line, ``field: problem; fix``; an unknown keyword names the ones
+            ``task`` takes, the closest first.
+    """
+    common, own = EnvSettings.model_fields, params_model.model_fields
+    for key in kwargs:
+        if key not in common and key not in own:
+            allowed = [*own, *common]
+            close = difflib.get_close_matches(str(key), allowed, n=1)
+            hint = f"did you mean {close[0]}? " if close else ""
+            raise ValueError(f"{key}: unknown keyword; {hint}{task} takes {', '.join(allowed)}")
+    split = {k: v for k, v in kwargs.items() if k in common}
+    return (
+        _validated(EnvSettings, split),
+        _validated(params_model, {k: v for k, v in kwargs.items() if k in own}),
+    )
+
+
+def _validated(model: type[BaseModel], data: dict[str, Any]) -> Any:
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        line: ConfigFileError = error_line(exc, model, "")
+        raise ValueError(f"{line.path}: {line.problem}; {line.fix}") from None
+
+
+def numbers(params: TaskParams, common: dict[str, float], **derived: float) -> NDArray[np.void]:
+    """The numbers of a task's compiled pass: a structured array of one element with the
+    ``common`` numbers (:data:`~rigid_env.envs.kernels.COMMON_NUMBERS`), each parameter of
+    ``params`` by its name (a float, an integer, or a tuple of floats) and the task's
+    ``derived`` numbers (e.g. a duration in control steps)."""
+    values: dict[str, Any] = {name: common[name] for name in COMMON_NUMBERS}
+    values.update(params.model_dump())
+    values.update(derived)
+    fields: list[tuple[Any, ...]] = []
+    for name, value in values.items():
+        if isinstance(value, bool | np.bool_):
+            fields.append((name, np.bool_))
+        elif isinstance(value, int):
+            fields.append((name, np.int64))
+        elif isinstance(value, tuple | list):
+            fields.append((name, np.float64, (len(value),)))
+        else:
+            fields.append((name, np.float64))
+    out = np.zeros(1, dtype=np.dtype(fields))
+    out[0] = tuple(values.values())
+    return out

@@ -1,0 +1,73 @@
+"""A task is its physics: a parameters model and one compiled ``evaluate`` reading named state
+and named numbers. What a task module may not contain, and the checks a task class gets when it
+is made (a name clash with the common numbers, an extra observation it names but never gives)."""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import rigid_env
+from rigid_env.envs.detumble import DetumbleParams, DetumbleTask
+from rigid_env.envs.environments import RigidBodyEnv
+from rigid_env.envs.kernels import COMMON_NUMBERS, Outcome, env_pass, kernel, task_kernel
+from rigid_env.envs.params import Rate, TaskParams
+
+ENVS = Path(rigid_env.__file__).parent / "envs"
+TASK_MODULES = [f"{module}.py" for module, _, _ in rigid_env.envs.TASKS.values()]
+
+
+@pytest.mark.parametrize("name", TASK_MODULES)
+def test_task_module_reads_names_not_slots(name: str) -> None:
+    """No function of a task module takes more than 8 parameters, and none reads the state or
+    the parameters by position (``s[10]``, ``tp[...]``)."""
+    source = (ENVS / name).read_text()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.FunctionDef):
+            assert len(node.args.args) + len(node.args.kwonlyargs) <= 8, node.name
+    assert not re.search(r"\b(s|tp|state|rec)\[", source)
+
+
+def test_numbers_are_the_common_ones_then_the_parameters_by_name() -> None:
+    task = DetumbleTask(1, fuel_weight=0.25)
+    names = task.numbers.dtype.names
+    assert names == (*COMMON_NUMBERS, *DetumbleParams.model_fields)
+    assert task.numbers[0]["fuel_weight"] == 0.25 and task.numbers[0]["dt"] == task.dt
+
+
+def test_a_parameter_named_like_a_common_number_is_refused_at_class_creation() -> None:
+    with pytest.raises(TypeError, match=r"^ClashParams\.dt: the name is taken"):
+
+        class ClashParams(TaskParams):
+            dt: Rate = 1.0
+
+
+@kernel
+def _one_extra(body, effort, goal, memory, task, stepped):
+    return Outcome(-effort, False, False, memory, (body.w[2],))
+
+
+@task_kernel
+def _one_extra_pass(job, threads): return env_pass(_one_extra, job, threads)  # fmt: skip
+
+
+class TwoNamedTask(DetumbleTask):
+    task_pass = _one_extra_pass
+    extra_observations = ("spin_z", "spin_x")
+
+
+class OneNamedTask(TwoNamedTask):
+    extra_observations = ("spin_z",)
+
+
+def test_an_extra_observation_named_but_not_given_is_refused_when_made() -> None:
+    with pytest.raises(ValueError, match=r"^TwoNamedTask: evaluate returns 1 extra observation"):
+        RigidBodyEnv(task=TwoNamedTask)
+    env = RigidBodyEnv(task=OneNamedTask)
+    obs, _ = env.reset(seed=0)
+    w_z = env.unwrapped.task.world.state.w[0, 2]
+    assert obs[env.unwrapped.task.obs_slices["spin_z"]][0] == np.float32(max(-1.0, min(1.0, w_z)))
