@@ -47,9 +47,10 @@ FaultKind = Literal["stuck_off", "stuck_on", "degraded"]
 FAULT_KINDS: tuple[FaultKind, ...] = ("stuck_off", "stuck_on", "degraded")
 
 
-def with_preset(scene: Scene, preset: str) -> Scene:
+def with_preset(scene: Scene, preset: str, dt: float | None = None) -> Scene:
     """``scene`` with its thrusters' hardware set by ``preset`` (``ideal``: as the scene says;
-    ``realistic``: the module's cold-gas values, the minimum on-time capped at the step).
+    ``realistic``: the module's cold-gas values, the minimum on-time capped at the control step
+    ``dt`` [s], default the scene's).
 
     Raises:
         ValueError: for an unknown preset, naming the keyword and the choices.
@@ -59,7 +60,7 @@ def with_preset(scene: Scene, preset: str) -> Scene:
         raise ValueError(f"thrusters: unknown preset {preset!r}; choose one of {choices}")
     if preset == "ideal" or not scene.actuators.thrusters:
         return scene
-    on_time = min(REALISTIC_MIN_ON_TIME, scene.dt)
+    on_time = min(REALISTIC_MIN_ON_TIME, scene.dt if dt is None else float(dt))
     thrusters = [
         t.model_copy(
             update={
