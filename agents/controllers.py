@@ -167,7 +167,8 @@ class PulseModulator:
         for t in thrusters:
             bit = getattr(t, "min_impulse", None)
             fmax = np.linalg.norm(t.force_map, axis=1)
-            floor = np.zeros(fmax.shape) if bit is None else bit / np.where(fmax > 0, fmax * dt, 1.0)
+            per_step = np.where(fmax > 0.0, fmax * dt, 1.0)  # the impulse of a full step [N s]
+            floor = np.zeros(fmax.shape) if bit is None else bit / per_step
             minimum.append(floor)
         self.minimum = np.concatenate(minimum) if minimum else np.zeros(0)
         self.active = bool(np.any(self.minimum > 0.0))

@@ -456,8 +456,12 @@ class TaskBatch:
         level, and whether it acts now."""
         if self.randomization.thruster_faults is None:
             return {}
-        f = [(-1, -1, -1, 0.0) if x is None else
-             (x.thruster, x.step, FAULT_KINDS.index(x.kind), x.level) for x in self.faults]  # fmt: skip
+        f = [
+            (-1, -1, -1, 0.0)
+            if x is None
+            else (x.thruster, x.step, FAULT_KINDS.index(x.kind), x.level)
+            for x in self.faults
+        ]
         thruster, step, kind, level = (np.array(c) for c in zip(*f, strict=True))
         return {
             "fault_thruster": thruster,
