@@ -25,7 +25,7 @@ ALL_ENV_IDS = [
 #: Registered variants of a task with other defaults: id -> (task, max_episode_steps, kwargs).
 VARIANTS: dict[str, tuple[str, int, dict]] = {
     # Detumble on realistic cold-gas thrusters where half the episodes lose a thruster (stuck
-    # off, stuck on or degraded) from a random step in the first 100 on; a 2 degree
+    # off, stuck on or degraded) from a random step in the first 20 (1 s) on; a 2 degree
     # misalignment per episode. The observation does not say which (info does).
     "DetumbleFaults-v0": (
         "Detumble",
@@ -34,7 +34,7 @@ VARIANTS: dict[str, tuple[str, int, dict]] = {
             "thrusters": "realistic",
             "randomization": {
                 "thruster_misalignment": 2.0,
-                "thruster_faults": {"probability": 0.5, "within_steps": 100},
+                "thruster_faults": {"probability": 0.5, "within_steps": 20},
             },
         },
     ),
