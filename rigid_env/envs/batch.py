@@ -499,6 +499,18 @@ class TaskBatch:
         """Env ``i``'s numbers for :attr:`TaskView.readouts` (none by default)."""
         return ()
 
+    def delivered_thrust(self, i: int) -> FloatArray:
+        """(A,) env ``i``'s thrust in the last step in units of each max force, as delivered:
+        the lagged level at the step's end where the thrusters lag, else the command after
+        faults (an on/off duty is the step's mean level), times the step's noise factors."""
+        levels = self.world.thrust_levels
+        if levels is not None:
+            return np.clip(levels[i], -1.0, 1.0)
+        out = self.command[i].copy()
+        if self._noisy:
+            out *= self.world.thrust_factors[i]
+        return np.clip(out, -1.0, 1.0)
+
     def frame(self, i: int = 0) -> Frame:
         """The numbers of env ``i``'s current frame."""
         if not 0 <= i < self.n:
@@ -508,7 +520,7 @@ class TaskBatch:
             q=s.q[i].copy(),
             w_body=s.w[i].copy(),
             height=float(s.x[i, 2]),
-            command=self.last_action[i].copy(),
+            command=self.delivered_thrust(i),
             step=int(self.steps[i]),
             angular_speed=float(self.angular_speed()[i]),
             fuel=float(self.fuel[i]),

@@ -136,3 +136,25 @@ def test_fault_task_passes_the_checkers() -> None:
 
     check_env(gym.make("RigidEnv/DetumbleFaults-v0").unwrapped)
     sb3_check_env(gym.make("RigidEnv/DetumbleFaults-v0"), warn=False)
+
+
+def test_frame_draws_the_delivered_thrust() -> None:
+    """The rendered plume follows the thrust: a full on/off pulse on a lagged thruster rises to
+    ``f (1 - e^{-dt/TAU})`` in the step (``f`` its noise factor), then decays by ``e^{-dt/TAU}``
+    in a step without command; the other thrusters show none."""
+    import math
+
+    from rigid_env.envs.hardware import REALISTIC_LAG
+
+    env = gym.make("RigidEnv/Detumble-v0", thrusters="realistic")
+    env.reset(seed=0)
+    task = env.unwrapped.task
+    a = np.zeros(6, np.float32)
+    a[0] = 1.0
+    env.step(a)
+    f = task.world.thrust_factors[0, 0]
+    decay = math.exp(-task.dt / REALISTIC_LAG)
+    assert task.frame().command[0] == pytest.approx(f * (1.0 - decay), rel=1e-12)
+    np.testing.assert_array_equal(task.frame().command[1:], np.zeros(5))
+    env.step(np.zeros(6, np.float32))
+    assert task.frame().command[0] == pytest.approx(f * (1.0 - decay) * decay, rel=1e-12)
