@@ -93,8 +93,6 @@ class ThrusterFaults(BaseModel):
     """A stuck-on valve's command magnitude, uniform in this range (sign uniform) [-]."""
     degraded_fraction: Annotated[tuple[float, float], Field()] = (0.2, 0.8)
     """A degraded thruster's fraction of the command, uniform in this range [-]."""
-    observed: bool = False
-    """Whether the observation says which thruster failed (else only ``info`` does)."""
 
 
 @dataclass(frozen=True)
