@@ -362,3 +362,32 @@ def test_body_maps_equal_to_the_worlds_change_nothing_and_a_tilt_turns_the_torqu
     np.testing.assert_array_equal(world.state.w[1], [0.0, -0.6 * 1.0 * DT, 0.0])
     with pytest.raises(ValueError, match=r"force_map, torque_map: expected finite arrays"):
         world.set_body_maps(fmap[:1], fmap[:1])
+
+
+def test_hardware_batch_over_threads_equals_one_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Thrusters as hardware take the same range entry over Numba's threads: a batch of at
+    least ``THREAD_MIN_BODIES`` (lag, on/off, noise, per-body maps) split over two threads
+    equals one thread's, bit for bit."""
+    from rigid_env.core import threads
+
+    n = threads.THREAD_MIN_BODIES + 5
+    rng = np.random.default_rng(9)
+    w0 = rng.normal(size=(n, 3))
+    commands = rng.uniform(-1, 1, (3, n, 1))
+    factors = rng.uniform(0.8, 1.2, (3, n, 1))
+    fmap = rng.normal(size=(n, 1, 3))
+    hardware = {"lag": [0.02], "on_off": [True], "noise": [0.1]}
+
+    def run() -> np.ndarray:
+        world = thruster_world(n=n, substeps=2, **hardware)
+        world.state.w[:] = w0
+        world.set_body_maps(fmap, np.cross([0.5, 0.0, 0.0], fmap))
+        for u, f in zip(commands, factors, strict=True):
+            world.thrust_factors[:] = f
+            world.step(u)
+        return np.vstack([world.rows.T, world.thrust_levels.T])
+
+    monkeypatch.setattr(threads, "THREADS", 2)
+    split = run()
+    monkeypatch.setattr(threads, "THREAD_MIN_BODIES", 10**9)
+    np.testing.assert_array_equal(split, run())
