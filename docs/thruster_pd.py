@@ -9,9 +9,9 @@ episode (at most 400 steps).
 
 import gymnasium as gym
 import numpy as np
+from rigid_env.agents.controllers import PDController
 
 import rigid_env.envs  # noqa: F401  (registers the ids)
-from agents.controllers import PDController
 
 
 def run(env_id: str, n: int, modulate: bool, **kwargs: object) -> tuple[float, float, float]:
