@@ -449,7 +449,7 @@ def _exact_free_hardware(
     for k in range(substeps):
         limit_speed_pass(p, state)
         if roots is None:  # sqrt(E) at the start, then the reach s B of every segment
-            roots = energy_roots(model, state)
+            roots = energy_roots(p, model, state)
         t[:] = k * c.h
         t1 = c.dt if k == substeps - 1 else (k + 1) * c.h
         while segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):

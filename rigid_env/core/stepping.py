@@ -29,7 +29,7 @@ from rigid_env.core.layout import (
     store,
     unpack,
 )
-from rigid_env.core.maths import norm
+from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
 
@@ -91,11 +91,15 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 
 @kernel
-def reachable_energy(v, w, act, m, c, h):
-    """The largest kinetic energy [J] a body at ``(v, w)`` may end a step of ``h`` with under
-    the wrench ``act`` and the world's gravity (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h
-    B))^2``, ``B`` the forces' reach."""
+def reachable_energy(old, act, m, c, h):
+    """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
+    with under the wrench ``act``, the world's gravity and its gravity gradient
+    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
+    (:func:`force_reach`) and ``dV`` the most kinetic energy the gravity-gradient torque can
+    give (:func:`gradient_reach`)."""
+    x, v, _, w = old
     root = math.sqrt(kinetic_energy(v, w, m)) + h * force_reach(act, m, c) * math.sqrt(0.5)
+    root += gradient_reach(x, m, c)
     return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
 
 
@@ -107,6 +111,19 @@ def force_reach(act, m, c):
     g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
     inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
     return (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+
+
+@kernel
+def gradient_reach(x, m, c):
+    """``sqrt(dV)``: the gravity-gradient torque is conservative, with the potential ``V = mu /
+    (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation spans ``dV = 3 mu (I_max -
+    I_min) / (2 |r|^3)`` (``|r|`` at the step's start); 0 without the effect."""
+    if c.gravity_gradient == 0.0:
+        return 0.0
+    center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
+    r = norm(axpy(x, -1.0, center))
+    spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(m.inertia_x, m.inertia_y, m.inertia_z)
+    return math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
 
 
 @kernel
@@ -143,7 +160,7 @@ def substep(step, c, model, wrenches, state, status, last, i):
     act = (fb, tb)
     m = body_model(model, i)
     w = limit_speed(w0, c)
-    reachable = reachable_energy(v0, w, act, m, c, c.h)
+    reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
     x, v, q, w = step(x0, v0, q0, w, act, m, c, c.h)
     if last:
         v, w = step_maps(v, w, c)
@@ -161,7 +178,7 @@ def hardware_substep(step, p, c, model, command, state, status, k, last, i):
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     x, v, q, w = x0, v0, q0, limit_speed(w0, c)
-    root = math.sqrt(kinetic_energy(v, w, m))  # sqrt(E) may grow by s B a segment
+    root = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x0, m, c)  # + s B a segment
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
@@ -303,12 +320,15 @@ def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
 
 
 @kernel
-def energy_roots(model, state):
-    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)]."""
+def energy_roots(p, model, state):
+    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)], plus the gravity gradient's
+    :func:`gradient_reach`."""
+    c = unpack(p)
     out = np.empty(state.shape[1])
     for i in range(state.shape[1]):
-        _, v, _, w = load(state, i)
-        out[i] = math.sqrt(kinetic_energy(v, w, body_model(model, i)))
+        x, v, _, w = load(state, i)
+        m = body_model(model, i)
+        out[i] = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
     return out
 
 
@@ -356,8 +376,7 @@ def finish_pass(p, model, state, before, status, command):
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
         old = load(before, i)
-        act = wrench(p, c, model, command, i)
-        reachable = reachable_energy(old[1], old[3], act, m, c, c.h * c.substeps)
+        reachable = reachable_energy(old, wrench(p, c, model, command, i), m, c, c.h * c.substeps)
         ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
