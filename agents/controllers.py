@@ -7,6 +7,8 @@ works on a single env (N = 1) and on a vector env alike.
 * :class:`PDController`: a desired body torque from the angular velocity and, for orientation
   tasks, the attitude error (a law per task in :data:`PD_LAWS`, reading the observation by the
   names the task gives its parts); allocated to the thrusters by bounded least squares.
+  On on/off thrusters with a minimum impulse bit, a :class:`PulseModulator` turns the
+  continuous commands into valve duties.
 * :class:`ZeroController` and :class:`RandomController`: the floor to beat.
 """
 
@@ -143,6 +145,48 @@ PD_LAWS: dict[str, PDLaw] = {
 """The PD law of each task, by the task's name (its class name without ``Task``)."""
 
 
+class PulseModulator:
+    """A pulse-width modulator after the continuous law, for on/off thrusters with a minimum
+    impulse bit (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., Sec. 7.3; Sidi,
+    *Spacecraft Dynamics and Control*, Ch. 7): the continuous command ``u`` in [-1, 1] is the
+    duty cycle of the step (an on/off valve open ``|u| dt`` delivers the impulse of the ideal
+    thruster at ``u``), and a duty below the minimum on-time ``J / (f_max dt)``, which the valve
+    would drop, is carried over instead: the modulator fires the commanded impulse it owes (its
+    running sum, ``e <- e + u``) once it reaches the minimum, as a sigma-delta modulator does, so
+    no commanded impulse is lost on average. A thrust lag delays an on/off pulse but keeps its
+    impulse (the lag's response to a pulse has the pulse's area), so the duty is not rescaled.
+
+    Args:
+        thrusters: the world's thruster effects (their hardware read from each); a component
+            without ``on_off`` or ``min_impulse`` passes its command through.
+        dt: the control step [s].
+    """
+
+    def __init__(self, thrusters: list[Any], dt: float) -> None:
+        minimum = []
+        for t in thrusters:
+            bit = getattr(t, "min_impulse", None)
+            fmax = np.linalg.norm(t.force_map, axis=1)
+            per_step = np.where(fmax > 0.0, fmax * dt, 1.0)  # the impulse of a full step [N s]
+            floor = np.zeros(fmax.shape) if bit is None else bit / per_step
+            minimum.append(floor)
+        self.minimum = np.concatenate(minimum) if minimum else np.zeros(0)
+        self.active = bool(np.any(self.minimum > 0.0))
+        self.owed: FloatArray | None = None
+
+    def __call__(self, u: FloatArray) -> FloatArray:
+        """(N, A) on/off duties for the continuous commands ``u`` (N, A)."""
+        if not self.active:
+            return u
+        if self.owed is None or self.owed.shape != u.shape:
+            self.owed = np.zeros_like(u)
+        want = self.owed + u
+        fire = np.abs(want) >= self.minimum
+        out = np.where(fire, np.clip(want, -1.0, 1.0), 0.0)
+        self.owed = want - out
+        return out
+
+
 class PDController:
     """Proportional-derivative attitude controller with bounded least-squares allocation: the
     task's law in :data:`PD_LAWS` gives a desired body torque, allocated to the thrusters.
@@ -169,6 +213,9 @@ class PDController:
         self.k_d = self.law.k_d if k_d is None else float(k_d)
         actuators = [e for e in self.task.world.force_effects if isinstance(e, LinearActuator)]
         self.allocate = BoundedAllocator(np.concatenate([a.torque_map for a in actuators]))
+        self.modulate = PulseModulator(actuators, self.task.dt)
+        """The hardware it is told about (the scene's on/off thrusters and their minimum
+        impulse bit): a modulator after the continuous law; never the faults."""
 
     def __call__(self, obs: NDArray[Any]) -> NDArray[np.float32]:
         """Commands (N, A) float32 for observations (N, obs_dim) or (obs_dim,)."""
@@ -178,7 +225,8 @@ class PDController:
         task = self.task
         inertia = np.broadcast_to(task.world.model.inertia, (obs.shape[0], 3))
         w = observed(task, obs, "w") * task.w_scale
-        u = self.allocate(self.law.torque(self, obs, w, inertia)).astype(np.float32)
+        u = self.modulate(self.allocate(self.law.torque(self, obs, w, inertia)))
+        u = u.astype(np.float32)
         return u[0] if single else u
 
     def drag_torque(self, obs: FloatArray, w: FloatArray) -> FloatArray:

@@ -14,7 +14,8 @@ only; the environments import it, never the reverse.
   inertia boxes the same way);
 * the world axes x, y, z (red, green, blue) from the centre of mass;
 * each actuator component as a marker at its body point with a flame along ``-direction``
-  whose length is proportional to ``|u|`` (a negative command fires the other way);
+  whose length is proportional to its thrust as delivered (``Frame.command``: a lagged, pulsed
+  or failed thruster's, a negative one firing the other way);
 * the world angular velocity ``R w_body`` as a magenta arrow from the centre, its length
   proportional to ``|w|`` (capped at ``ARROW_MAX`` body radii); the part inside the body is
   drawn through it, dimmed;
@@ -203,7 +204,8 @@ class Frame:
         q: (4,) orientation, body -> world (w, x, y, z).
         w_body: (3,) angular velocity, body frame [rad/s].
         height: centre-of-mass height, world z [m] (drawn when the view has a ground).
-        command: (A,) the last command, in [-1, 1].
+        command: (A,) each component's thrust in the step, in units of its max force, in
+            [-1, 1]: the command as the hardware delivered it (lagged, pulsed, failed).
         step: steps into the episode.
         angular_speed: ``|w|`` [rad/s] (finite even for a diverged body).
         fuel: impulse spent so far [N s].
@@ -455,7 +457,7 @@ class TaskRenderer:
             bg.blit(label, (tips[k, 0] - w / 2, tips[k, 1] - h / 2))
         legend: list[tuple[str, Color]] = [
             ("angular velocity (world)", ARROW_COLOR),
-            ("thrust (length ~ |command|)", _mix(FLAME_NOZZLE, FLAME_TIP, 0.5)),
+            ("thrust (length ~ |thrust|)", _mix(FLAME_NOZZLE, FLAME_TIP, 0.5)),
         ]
         if self.view.target_orientation:
             legend.append(("target orientation", TARGET_COLOR))

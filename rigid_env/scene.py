@@ -182,6 +182,7 @@ class Scene(Spec):
     def _derive(self) -> Scene:
         _ = self._frame  # the mass properties are computed (and checked) when loading
         self.effects_spec.check(self)
+        self.actuators.check(self.dt)
         return self
 
     # ---- derived ---------------------------------------------------------------------------
@@ -255,6 +256,10 @@ class Scene(Spec):
                     self.point_to_body([t.point for t in act.thrusters]),
                     self.direction_to_body([t.direction for t in act.thrusters]),
                     np.array([t.max_force for t in act.thrusters]),
+                    lag=np.array([t.lag for t in act.thrusters]),
+                    min_impulse=np.array([t.min_impulse for t in act.thrusters]),
+                    on_off=np.array([t.mode == "on_off" for t in act.thrusters]),
+                    noise=np.array([t.noise for t in act.thrusters]),
                 )
             )
         pf = act.point_forces

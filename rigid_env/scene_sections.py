@@ -440,8 +440,14 @@ class EffectsSpec(Spec):
         return forces, [e for e in listed if isinstance(e, StepMap)]
 
 
+Seconds = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("s")]
+Impulse = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N s")]
+Fraction = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("")]
+
+
 class ThrusterSpec(Spec):
-    """One thruster: one action component ``u`` in [-1, 1], force ``u max_force direction``."""
+    """One thruster: one action component ``u`` in [-1, 1], force ``u max_force direction``;
+    ideal unless its optional hardware keys say otherwise (:mod:`rigid_env.core.thrusters`)."""
 
     point: Position
     """Application point, shape frame [m]."""
@@ -449,6 +455,18 @@ class ThrusterSpec(Spec):
     """Thrust direction, shape frame (non-zero; normalised)."""
     max_force: Newtons
     """Force at ``|u| = 1`` [N], >= 0."""
+    lag: Seconds = 0.0
+    """Time constant ``TAU`` of the thrust's first-order response ``df/dt = (u f_max - f) /
+    TAU`` [s], >= 0 (0: none)."""
+    min_impulse: Impulse = 0.0
+    """Minimum impulse bit [N s], >= 0 and at most ``max_force dt``: a firing whose commanded
+    impulse over a step is below it gives none (0: none)."""
+    mode: Literal["proportional", "on_off"] = "proportional"
+    """``proportional``: thrust ``u max_force``; ``on_off``: pulse width, ``|u|`` is the fraction
+    of the step fired at full thrust from its start."""
+    noise: Fraction = 0.0
+    """``SIGMA`` of a multiplicative thrust factor ``max(0, 1 + SIGMA xi)`` drawn per step by the
+    environment's generator, >= 0 (0: none)."""
 
     @field_validator("direction")
     @classmethod
@@ -482,3 +500,16 @@ class ActuatorsSpec(Spec):
         """Number of action components."""
         pf = 0 if self.point_forces is None else 3 * len(self.point_forces.points)
         return len(self.thrusters) + pf
+
+    def check(self, dt: float) -> None:
+        """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one
+        step can reach (``max_force dt``); raise :class:`FieldError` naming the thruster
+        (``actuators.thrusters[k].<field>``)."""
+        for k, t in enumerate(self.thrusters):
+            if t.min_impulse > t.max_force * dt:
+                raise FieldError(
+                    f"actuators.thrusters[{k}].min_impulse",
+                    f"{t.min_impulse:g} N s is above the most the thruster gives in one step "
+                    f"(max_force dt = {t.max_force * dt:g} N s)",
+                    "lower it, raise max_force or lengthen dt",
+                )

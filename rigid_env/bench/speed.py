@@ -438,8 +438,23 @@ def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:
         "angular_damping": [ang],
         "gravity_gradient": [gradient],
         "thrusters (command)": [thrusters],
+        **{f"thrusters + {name}": [hw] for name, hw in thruster_hardware(thrusters).items()},
         "all of them": [gravity, drag_cp, lin, ang, thrusters],
     }
+
+
+def thruster_hardware(thrusters: Thrusters) -> dict[str, Thrusters]:
+    """Each hardware option of the thrusters alone, and all of them (values of the
+    ``realistic`` preset's order, :mod:`rigid_env.core.thrusters`)."""
+    k = thrusters.max_force.shape[0]
+    options = {
+        "lag": {"lag": np.full(k, 0.02)},
+        "min_impulse": {"min_impulse": 0.01 * thrusters.max_force * DT},
+        "on_off": {"on_off": np.ones(k, bool)},
+        "noise": {"noise": np.full(k, 0.05)},
+    }
+    options["all hardware"] = {key: v for option in options.values() for key, v in option.items()}
+    return {name: replace(thrusters, **values) for name, values in options.items()}
 
 
 def _effect_cases(n: int, integrator: str) -> list[Case]:
@@ -451,6 +466,17 @@ def _effect_cases(n: int, integrator: str) -> list[Case]:
     for name, effects in effect_variants().items():
         world = World(model, effects, integrator=integrator, dt=DT, state=s0)
         act = command if world.action_dim else None
+        if world.parameters.noisy:  # the factors are drawn per step (an env's cost of noise)
+            rng = np.random.default_rng(4)
+
+            def noisy_step(
+                w: World = world, a: FloatArray | None = act, g: np.random.Generator = rng
+            ) -> None:
+                w.draw_thrust_factors(g)
+                w.step(a)
+
+            cases.append(Case(name, noisy_step, n, reset=lambda w=world: w.reset(s0)))
+            continue
         cases.append(
             Case(name, lambda w=world, a=act: w.step(a), n, reset=lambda w=world: w.reset(s0))
         )
@@ -478,7 +504,10 @@ def bench_effects(cfg: Config, res: Results) -> None:
         f"One `World.step` ({cfg.effect_integrator}, dt {DT} s) of the same body with a random "
         "velocity and spin; each world lists only the effects named (thrusters get a random "
         'command); "all of them" = gravity, drag with offset centre of pressure, both '
-        "dampings and the thrusters.",
+        'dampings and the ideal thrusters. "thrusters + X": the thrusters with one hardware '
+        "option (lag 0.02 s, a minimum impulse bit of 1 % of max_force dt, on/off firing, "
+        "noise 0.05 with the factors drawn each step); an ideal thruster takes the path it "
+        'took before the options existed ("thrusters (command)").',
         "Ratio: time per step over the no-effects world's (lower is faster). "
         f'"{NOISE_FLOOR}" is a second, identical no-effects world measured in the same '
         "rounds: its distance from 1 is the noise floor.",

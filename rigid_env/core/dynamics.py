@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import MAPS
+from rigid_env.core.layout import map_row
 from rigid_env.core.maths import axpy, cross, norm, rotate, rotate_inv
 
 
@@ -44,21 +44,22 @@ def gyro_jacobian(w, m):
 
 
 @kernel
-def wrench(p, command, i):
-    """Body-frame actuator force and torque of body ``i``'s command (row ``i`` of ``command``
-    (N, A), or its only row): ``f_body = sum_a u_a F_a``, ``tau_body = sum_a u_a (r_a x F_a)``
-    (rows of :data:`MAPS`), summed in a fixed order."""
+def wrench(p, c, model, command, i):
+    """Body-frame actuator force and torque of body ``i``'s command (``c``: the named ``p``; row
+    ``i`` of ``command`` (N, A), or its only row): ``f_body = sum_a u_a F_a``, ``tau_body =
+    sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own, :func:`map_row`), summed
+    in a fixed order."""
     r = 0 if command.shape[0] == 1 else i
     fx = fy = fz = tx = ty = tz = 0.0
     for a in range(command.shape[1]):
-        k = MAPS + 6 * a
-        c = command[r, a]
-        fx += c * p[k]
-        fy += c * p[k + 1]
-        fz += c * p[k + 2]
-        tx += c * p[k + 3]
-        ty += c * p[k + 4]
-        tz += c * p[k + 5]
+        f, t = map_row(p, c, model, a, i)
+        u = command[r, a]
+        fx += u * f[0]
+        fy += u * f[1]
+        fz += u * f[2]
+        tx += u * t[0]
+        ty += u * t[1]
+        tz += u * t[2]
     return (fx, fy, fz), (tx, ty, tz)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.core.inertia import checked_floats
-from rigid_env.core.layout import Params
+from rigid_env.core.layout import THRUSTER_WIDTH, Params, Thruster
 from rigid_env.core.rotation import cross, quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
@@ -247,17 +247,29 @@ class LinearActuator(ForceEffect):
 @dataclass(frozen=True)
 class Thrusters(LinearActuator):
     """Thrusters: thruster ``k`` pushes along ``directions[k]`` at ``points[k]`` (body frame) with
-    force ``u_k * max_force[k]``, ``u_k`` in [-1, 1].
+    force ``u_k * max_force[k]``, ``u_k`` in [-1, 1], ideal unless given a hardware model
+    (:mod:`rigid_env.core.thrusters`; each array may be left out: all ideal).
 
     Attributes:
         points: (K, 3) application points, body frame, relative to the centre of mass [m].
         directions: (K, 3) thrust directions, body frame (normalised here).
         max_force: (K,) force at ``|u| = 1`` [N].
+        lag: (K,) time constant ``TAU`` of ``df/dt = (u f_max - f) / TAU`` [s], 0: none.
+        min_impulse: (K,) minimum impulse bit [N s]: a firing whose commanded impulse over a
+            world step is below it gives none, 0: none.
+        on_off: (K,) pulse-width firing: ``|u|`` (at most 1) is the fraction of the world step
+            fired at full thrust from its start, along ``sign(u) direction``.
+        noise: (K,) ``SIGMA`` of the multiplicative thrust factor drawn per world step outside
+            the core (:meth:`rigid_env.core.world.World.draw_thrust_factors`), 0: none.
     """
 
     points: FloatArray
     directions: FloatArray
     max_force: FloatArray
+    lag: FloatArray | None = None
+    min_impulse: FloatArray | None = None
+    on_off: NDArray[np.bool_] | None = None
+    noise: FloatArray | None = None
     name: ClassVar[str] = "thrusters"
     force_map: FloatArray = field(init=False, repr=False)
     torque_map: FloatArray = field(init=False, repr=False)
@@ -279,11 +291,59 @@ class Thrusters(LinearActuator):
             raise ValueError("thrusters.max_force: must be >= 0 [N]")
         dirs = dirs / norms[:, None]
         fmap = dirs * fmax[:, None]
+        k = points.shape[0]
+        for name in ("lag", "min_impulse", "noise"):
+            given = getattr(self, name)
+            arr = np.zeros(k) if given is None else np.asarray(given, dtype=np.float64)
+            arr = np.broadcast_to(arr, (k,)).copy()
+            bad = np.flatnonzero(~(np.isfinite(arr) & (arr >= 0.0)))
+            if bad.size:
+                j = int(bad[0])
+                raise ValueError(
+                    f"thrusters[{j}].{name}: must be a finite number >= 0, got {arr[j]} (0 or "
+                    "left out: ideal)"
+                )
+            object.__setattr__(self, name, arr)
+        on_off = np.zeros(k, bool) if self.on_off is None else np.asarray(self.on_off, bool)
+        object.__setattr__(self, "on_off", np.broadcast_to(on_off, (k,)).copy())
         object.__setattr__(self, "points", points)
         object.__setattr__(self, "directions", dirs)
         object.__setattr__(self, "max_force", fmax.copy())
         object.__setattr__(self, "force_map", fmap)
         object.__setattr__(self, "torque_map", cross(points, fmap))
+
+    @property
+    def hardware(self) -> bool:
+        """Whether some thruster is not ideal (then the world step is the hardware's)."""
+        arrays = (self.lag, self.min_impulse, self.on_off, self.noise)
+        return bool(any(np.any(a != 0) for a in arrays))
+
+    def check_step(self, dt: float) -> None:
+        """Refuse a minimum impulse bit no firing of ``dt`` [s] reaches: ``max_force dt``.
+
+        Raises:
+            ValueError: naming the thruster, the field and the fix.
+        """
+        over = np.flatnonzero(self.min_impulse > self.max_force * dt)
+        if over.size:
+            j = int(over[0])
+            raise ValueError(
+                f"thrusters[{j}].min_impulse: {self.min_impulse[j]:g} N s is above the most the "
+                f"thruster gives in one step, max_force dt = {self.max_force[j] * dt:g} N s; "
+                "lower it or lengthen dt"
+            )
+
+    def hardware_rows(self) -> FloatArray:
+        """(K, THRUSTER_WIDTH) each thruster's :class:`rigid_env.core.layout.Thruster` row."""
+        inv_lag = np.divide(1.0, self.lag, out=np.zeros_like(self.lag), where=self.lag > 0.0)
+        named = {
+            "max_force": self.max_force,
+            "inv_lag": inv_lag,
+            "min_impulse": self.min_impulse,
+            "on_off": self.on_off.astype(np.float64),
+            "noise": self.noise,
+        }
+        return np.stack([named[f] for f in Thruster._fields], axis=1)
 
 
 @dataclass(frozen=True)
@@ -326,21 +386,44 @@ def pack(
     max_angular_speed: float | None = None,
     stable_angle: float | None = None,
     control: tuple[float, float, int, bool] | None = None,
+    dt: float | None = None,
 ) -> FloatArray:
     """The world's parameters: the named :class:`Params` (the step ``h`` and ``substeps``, each
     effect's flag and numbers, the speed limit, the integrator's stable ``h |w|`` [rad], None:
     no limit, an error-controlled integrator's ``(rtol, atol, max_substeps, adaptive)``, None:
-    a fixed-step one), then from :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one
-    row ``(force (3,), torque (3,))`` per command component in scene order.
+    a fixed-step one; the world step ``dt``, default ``h substeps``), then from
+    :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one row ``(force (3,), torque
+    (3,))`` per command component in scene order, then, where some thruster has a hardware
+    model, one :class:`rigid_env.core.layout.Thruster` row per component.
 
     Raises:
         TypeError: if an effect names a parameter that :class:`Params` does not declare.
+        ValueError: for a minimum impulse bit above ``max_force dt``.
     """
     actuators = [e for e in effects if isinstance(e, LinearActuator)]
     rows = [np.hstack([a.force_map, a.torque_map]) for a in actuators]
     maps = np.vstack(rows) if rows else np.zeros((0, 6))
     forces = [e for e in effects if isinstance(e, ForceEffect)]
-    named = dict.fromkeys(Params._fields, 0.0) | {"h": h, "substeps": float(substeps)}
+    dt = h * substeps if dt is None else dt
+    named = dict.fromkeys(Params._fields, 0.0) | {"h": h, "substeps": float(substeps), "dt": dt}
+    hardware = [a for a in actuators if isinstance(a, Thrusters) and a.hardware]
+    tail: list[FloatArray] = []
+    if hardware:  # each component's Thruster row after the maps (ideal ones: max_force alone)
+        for a in hardware:
+            a.check_step(dt)
+        for a in actuators:
+            if isinstance(a, Thrusters):
+                tail.append(a.hardware_rows())
+            else:
+                ideal = np.zeros((a.force_map.shape[0], THRUSTER_WIDTH))
+                ideal[:, Thruster._fields.index("max_force")] = np.linalg.norm(a.force_map, axis=1)
+                tail.append(ideal)
+        hw = np.vstack(tail)
+        named |= {
+            "hardware": 1.0,
+            "lagged": float(np.any(hw[:, Thruster._fields.index("inv_lag")] > 0.0)),
+            "noisy": float(np.any(hw[:, Thruster._fields.index("noise")] > 0.0)),
+        }
     for e in effects:
         named |= e.parameters()
     if max_angular_speed is not None:
@@ -355,4 +438,5 @@ def pack(
     named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
     named["any_force"] = 1.0 if forces else 0.0
     named["velocity_dependent"] = 1.0 if any(e.velocity_dependent for e in forces) else 0.0
-    return np.concatenate([np.array(Params(**named), dtype=np.float64), maps.ravel()])
+    head = np.array(Params(**named), dtype=np.float64)
+    return np.concatenate([head, maps.ravel(), *(t.ravel() for t in tail)])

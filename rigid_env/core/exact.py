@@ -57,10 +57,11 @@ def _ellip_pi(nu: FloatArray, phi: FloatArray, m: FloatArray) -> FloatArray:
 
 
 def free_rotation_exact(
-    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float, isotropic: bool
+    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float | FloatArray, isotropic: bool
 ) -> tuple[FloatArray, FloatArray]:
-    """Exact torque-free motion for time ``h`` of ``N`` bodies: Jacobi elliptic functions for
-    the body angular velocity and an elliptic integral of the third kind for the orientation.
+    """Exact torque-free motion for time ``h`` (one, or (N,) per body) of ``N`` bodies: Jacobi
+    elliptic functions for the body angular velocity and an elliptic integral of the third kind
+    for the orientation.
 
     Angular velocity (Landau and Lifshitz, "Mechanics", 3rd ed., Sec. 37). Sort the moments
     ``J1 <= J2 <= J3`` (``u`` = the sorted components of ``w``; an odd sorting permutation
@@ -105,8 +106,9 @@ def free_rotation_exact(
     rotates by ``exp(h w)``. ``E``, ``|L|`` and the world ``L`` are kept to round-off for any
     ``h``. Returns new ``(q, w)``.
     """
+    h_col = np.asarray(h)[..., None] if np.ndim(h) else h  # per-body h (N,) beside w (N, 3)
     if isotropic:
-        return quat_integrate_exp(q, w, h), w
+        return quat_integrate_exp(q, w, h_col), w
     from scipy import special
 
     inertia = np.broadcast_to(inertia, w.shape)
@@ -193,5 +195,5 @@ def free_rotation_exact(
     # q exp(h w / 2) and constant w they take alone (a batch equals its single bodies, bitwise).
     iso = isotropic_rows(inertia)[:, None]
     if iso.any():
-        q1, w1 = np.where(iso, quat_integrate_exp(q, w, h), q1), np.where(iso, w, w1)
+        q1, w1 = np.where(iso, quat_integrate_exp(q, w, h_col), q1), np.where(iso, w, w1)
     return q1, w1

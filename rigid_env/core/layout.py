@@ -4,10 +4,12 @@
   N): what the per-body functions read as ``m.mass``, ``m.inv_inertia_x``.
 * :class:`Params`: the world's parameters, the head of one float64 array (:func:`pack` in
   :mod:`rigid_env.core.effects` fills it by name), followed by the actuators' maps from
-  :data:`MAPS` on; the per-body functions read them as ``p.gravity``, ``p.drag_k``. An effect
+  :data:`MAPS` on (then each command component's :class:`Thruster` hardware numbers); the
+  per-body functions read them as ``p.gravity``, ``p.drag_k``. An effect
   the scene does not list has a 0 flag, skipped by one branch. Adding a field is adding a line
   here: every offset follows from the order of the declaration.
-* the state columns (13, N) ``(x, v, q, w)`` (:func:`load`, :func:`store`).
+* the state columns (13, N) ``(x, v, q, w)`` (:func:`load`, :func:`store`), and from
+  :data:`THRUST` on the thrusters' levels where they lag.
 * the step's outcome: a body's status (:data:`HEALTHY`, :data:`FROZEN`, :data:`FAILED`) and the
   code a world step returns (:func:`step_code`, decoded by :func:`decode`).
 
@@ -85,16 +87,45 @@ class Params(NamedTuple):
     atol: float  # and its absolute tolerance
     max_substeps: float  # the most substeps one integrator step may take
     adaptive: float  # flag: error control on (else one fixed step of h)
+    dt: float  # world step [s]
+    hardware: float  # flag: some thruster has a hardware model (lag, min impulse, on/off, noise)
+    lagged: float  # flag: the thrust levels are state, rows from THRUST on (some thruster lags)
+    noisy: float  # flag: the command carries A thrust factors after its A components
+    body_maps: float  # flag: each body has its own actuator maps, model rows from MODEL_WIDTH on
 
 
 MAPS = len(Params._fields)
 """Offset of the actuators' maps in the parameter array: A rows of ``(force (3,), torque (3,))``,
 body frame, at ``|u| = 1``."""
 MODEL_WIDTH = len(Body._fields)
+"""Rows of a body's model numbers in the model columns; where the bodies have their own
+actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH + 6 a`` ..
+``+ 5`` hold component ``a``'s ``(force, torque)`` at ``|u| = 1`` (body frame), as the rows of
+:data:`MAPS` do for all bodies."""
 STATE_WIDTH = 13
 """Rows of the state columns: ``x`` (0:3), ``v`` (3:6), ``q`` (6:10), ``w`` (10:13)."""
+THRUST = STATE_WIDTH
+"""Row of the first actuator state where the scene's thrusters lag (``Params.lagged``): rows
+``THRUST + a`` hold command component ``a``'s thrust level ``f_a / max_force_a`` [-] (signed),
+part of the body's state as ``x, v, q, w``."""
+
+
+class Thruster(NamedTuple):
+    """A command component's hardware numbers (:mod:`rigid_env.core.thrusters`), one row per
+    component after the actuators' maps (:func:`thruster`); an ideal one has zeros but its
+    ``max_force``."""
+
+    max_force: float  # force at |u| = 1 [N]
+    inv_lag: float  # 1 / TAU of df/dt = (u f_max - f) / TAU [1/s]; 0: no lag
+    min_impulse: float  # [N s]: a firing of smaller commanded impulse gives none; 0: none
+    on_off: float  # flag: pulse-width firing, |u| = the fraction of the step fired
+    noise: float  # SIGMA of the multiplicative thrust factor (drawn outside the core)
+
+
+THRUSTER_WIDTH = len(Thruster._fields)
 _PARAMS0 = Params(*([0.0] * MAPS))
 _BODY0 = Body(*([0.0] * MODEL_WIDTH))
+_THRUSTER0 = Thruster(*([0.0] * THRUSTER_WIDTH))
 
 # ---- a body's status and the code of a world step -------------------------------------------
 HEALTHY, FROZEN, FAILED = 0, 1, 2
@@ -173,6 +204,32 @@ def _unpack(p):
 @overload(body_model, inline="always")
 def _body_model(model, i):
     return lambda model, i: _read(model, i, _BODY0)
+
+
+def thruster(p: FloatArray, actions: int, a: int) -> Thruster:
+    """Command component ``a``'s hardware numbers, after the ``actions`` rows of maps."""
+    k = MAPS + 6 * actions + THRUSTER_WIDTH * a
+    return Thruster(*p[k : k + THRUSTER_WIDTH].tolist())
+
+
+@overload(thruster, inline="always")
+def _thruster(p, actions, a):
+    return lambda p, actions, a: _read(p, MAPS + 6 * actions + THRUSTER_WIDTH * a, _THRUSTER0)
+
+
+@kernel
+def map_row(p, c, model, a, i):
+    """Command component ``a``'s body-frame ``(force, torque)`` at ``|u| = 1`` for body ``i``:
+    the body's own (model rows from :data:`MODEL_WIDTH`) or the world's (from :data:`MAPS`)."""
+    if c.body_maps != 0.0:
+        k = MODEL_WIDTH + 6 * a
+        return (model[k, i], model[k + 1, i], model[k + 2, i]), (
+            model[k + 3, i],
+            model[k + 4, i],
+            model[k + 5, i],
+        )
+    k = MAPS + 6 * a
+    return (p[k], p[k + 1], p[k + 2]), (p[k + 3], p[k + 4], p[k + 5])
 
 
 @kernel

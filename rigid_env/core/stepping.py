@@ -32,6 +32,7 @@ from rigid_env.core.layout import (
 )
 from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
+from rigid_env.core.thrusters import next_switch, segment_wrench
 
 
 # ---- one body ---------------------------------------------------------------------------------
@@ -95,23 +96,35 @@ def reachable_energy(old, act, m, c, h):
     """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
     with under the wrench ``act``, the world's gravity and its gravity gradient
     (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
-    and ``dV`` the most kinetic energy the gravity-gradient torque can give: it is conservative,
-    with the potential ``V = mu / (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation
-    spans ``dV = 3 mu (I_max - I_min) / (2 |r|^3)`` (``|r|`` at the step's start)."""
+    (:func:`force_reach`) and ``dV`` the most kinetic energy the gravity-gradient torque can
+    give (:func:`gradient_reach`)."""
     x, v, _, w = old
+    root = math.sqrt(kinetic_energy(v, w, m)) + h * force_reach(act, m, c) * math.sqrt(0.5)
+    root += gradient_reach(x, m, c)
+    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+
+
+@kernel
+def force_reach(act, m, c):
+    """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the world's
+    gravity: ``(|F| + m |g|) / sqrt(m) + |tau| / sqrt(I_min)``."""
     fb, tb = act
     g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
     inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
-    reach = (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
-    root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
-    if c.gravity_gradient != 0.0:
-        center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
-        r = norm(axpy(x, -1.0, center))
-        spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(
-            m.inertia_x, m.inertia_y, m.inertia_z
-        )
-        root += math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
-    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+    return (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+
+
+@kernel
+def gradient_reach(x, m, c):
+    """``sqrt(dV)``: the gravity-gradient torque is conservative, with the potential ``V = mu /
+    (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation spans ``dV = 3 mu (I_max -
+    I_min) / (2 |r|^3)`` (``|r|`` at the step's start); 0 without the effect."""
+    if c.gravity_gradient == 0.0:
+        return 0.0
+    center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
+    r = norm(axpy(x, -1.0, center))
+    spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(m.inertia_x, m.inertia_y, m.inertia_z)
+    return math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
 
 
 @kernel
@@ -204,6 +217,47 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
+@pass_kernel
+def hardware_substep(step, p, c, model, command, state, status, k, last, i):
+    """:func:`substep` ``k`` of body ``i`` with thrusters as hardware
+    (:mod:`rigid_env.core.thrusters`): the speed limit, then one ``step`` per segment of the
+    substep ``[k h, (k + 1) h]`` (split at the on/off switch times inside it), each with the
+    thrusters' wrench held over it; on the ``last`` substep (which ends at ``dt``) also
+    :func:`step_maps`; then the :func:`guard`. Returns ``(failed, beyond)``."""
+    x0, v0, q0, w0 = load(state, i)
+    m = body_model(model, i)
+    x, v, q, w = x0, v0, q0, limit_speed(w0, c)
+    root = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x0, m, c)  # + s B a segment
+    t = k * c.h
+    t1 = c.dt if last else (k + 1) * c.h
+    while t < t1:
+        end = next_switch(p, c, command, i, t, t1)
+        act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
+        x, v, q, w = step(x, v, q, w, act, m, c, end - t)
+        t = end
+    if last:
+        v, w = step_maps(v, w, c)
+    reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
+    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+
+
+@pass_kernel
+def hardware_advance(step, p, c, model, state, status, command, start, stop):
+    """:func:`advance` of bodies ``start <= i < stop`` whose thrusters are hardware: each
+    body's substeps by :func:`hardware_substep`. Returns the step's code."""
+    failures = over = 0
+    substeps = int(c.substeps)
+    for i in range(start, stop):
+        for k in range(substeps):
+            last = k == substeps - 1
+            failed, past = hardware_substep(step, p, c, model, command, state, status, k, last, i)
+            failures += failed
+            over += past
+    return step_code(failures, min(over, 1))
+
+
 # ---- the world step of a compiled integrator -------------------------------------------------
 @pass_kernel
 def advance(step, p, model, state, status, wrenches, command, bodies, counts=None):
@@ -232,9 +286,11 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
                 return BAD_COMMAND
     start, stop = bodies
     c = unpack(p)
+    if c.hardware != 0.0:
+        return hardware_advance(step, p, c, model, state, status, command, start, stop)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench into its column of wrenches
-            fb, tb = wrench(p, command, i)
+            fb, tb = wrench(p, c, model, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
     clear_counts(counts, bodies)
@@ -286,10 +342,79 @@ def kicks(p, model, state, command, h):
     """:func:`kick` of every body for time ``h``, in place on the ``v, w`` of ``state``."""
     c = unpack(p)
     for i in range(state.shape[1]):
-        act = wrench(p, command, i)
+        act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
         v, w = kick(x, v, q, w, act, body_model(model, i), c, h)
         store(state, i, x, v, q, w)
+
+
+@kernel
+def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
+    """The next segment of every body with thrusters as hardware (``exact_free``'s
+    :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
+    switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
+    the body has reached ``t1``) and its thrusters' wrench into ``wrenches`` (6, N), lagging
+    levels advanced in ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether
+    some body has a segment."""
+    c = unpack(p)
+    more = False
+    for i in range(state.shape[1]):
+        lengths[i] = 0.0
+        if t[i] < t1:
+            end = next_switch(p, c, command, i, t[i], t1)
+            fb, tb = segment_wrench(p, c, model, command, state, i, t[i], end - t[i])
+            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
+            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+            lengths[i] = end - t[i]
+            roots[i] += lengths[i] * force_reach((fb, tb), body_model(model, i), c) * math.sqrt(0.5)
+            t[i] = end
+            more = True
+    return more
+
+
+@kernel
+def energy_roots(p, model, state):
+    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)], plus the gravity gradient's
+    :func:`gradient_reach`."""
+    c = unpack(p)
+    out = np.empty(state.shape[1])
+    for i in range(state.shape[1]):
+        x, v, _, w = load(state, i)
+        m = body_model(model, i)
+        out[i] = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+    return out
+
+
+@kernel
+def hardware_finish_pass(p, model, state, before, status, roots):
+    """:func:`finish_pass` of thrusters as hardware, each body's reach ``roots`` (N,) summed
+    over its segments (``sqrt(E0) + sum_k s_k B_k``, :data:`EXPLOSION_FACTOR`)."""
+    c = unpack(p)
+    failures = over = 0
+    for i in range(state.shape[1]):
+        x, v, q, w = load(state, i)
+        v, w = step_maps(v, w, c)
+        m = body_model(model, i)
+        reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (roots[i] * roots[i])
+        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reachable)
+        failures += 1 if failed else 0
+        over += beyond(w, c, ok)
+    return step_code(failures, min(over, 1))
+
+
+@kernel
+def segment_kicks(p, model, state, wrenches, lengths, fraction):
+    """:func:`kick` of every body for ``fraction`` of its segment ``lengths[i]`` (none where
+    0) under its wrench in ``wrenches`` (6, N), in place on ``v, w``."""
+    c = unpack(p)
+    for i in range(state.shape[1]):
+        if lengths[i] > 0.0:
+            fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
+            tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+            x, v, q, w = load(state, i)
+            m = body_model(model, i)
+            v, w = kick(x, v, q, w, (fb, tb), m, c, fraction * lengths[i])
+            store(state, i, x, v, q, w)
 
 
 @kernel
@@ -304,7 +429,7 @@ def finish_pass(p, model, state, before, status, command):
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
         old = load(before, i)
-        reachable = reachable_energy(old, wrench(p, command, i), m, c, c.h * c.substeps)
+        reachable = reachable_energy(old, wrench(p, c, model, command, i), m, c, c.h * c.substeps)
         ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
@@ -318,7 +443,7 @@ def derivatives(p, model, state, command, out):
     :func:`rigid_env.core.dynamics.accelerations`, the right-hand side a reference solver needs."""
     c = unpack(p)
     for i in range(state.shape[1]):
-        act = wrench(p, command, i)
+        act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
         a, alpha = accelerations(x, v, q, w, act, body_model(model, i), c, True)
         out[i, 0], out[i, 1], out[i, 2] = a

@@ -17,9 +17,19 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.effects import ForceEffect, StepMap, pack
+from rigid_env.core.effects import ForceEffect, StepMap, Thrusters, pack
 from rigid_env.core.integrators import get_integrator
-from rigid_env.core.layout import FAILED, FROZEN, HEALTHY, Params, decode, unpack
+from rigid_env.core.layout import (
+    FAILED,
+    FROZEN,
+    HEALTHY,
+    MODEL_WIDTH,
+    STATE_WIDTH,
+    THRUST,
+    Params,
+    decode,
+    unpack,
+)
 from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
@@ -177,7 +187,13 @@ class World:
         stability = self._integrator.stability
         control = None if self.tolerances is None else (*self.tolerances, self._adaptive)
         self.params = pack(
-            self.effects, self.h, self._substeps, self.max_angular_speed, stability, control
+            self.effects,
+            self.h,
+            self._substeps,
+            self.max_angular_speed,
+            stability,
+            control=control,
+            dt=self._dt,
         )
         """The world's parameters for the compiled step: the named :class:`Params`
         (:attr:`parameters`), then the actuators' maps (:mod:`rigid_env.core.layout`)."""
@@ -187,10 +203,19 @@ class World:
             check_state(state)
             n = state.n
         self._n = int(n)
-        self._cols = cols = np.zeros((13, self._n))
+        hw = self.parameters
+        # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed).
+        width = STATE_WIDTH + (self.action_dim if hw.lagged != 0.0 else 0)
+        self._cols = cols = np.zeros((width, self._n))
+        self.thrust_factors = np.ones((self._n, self.action_dim))
+        """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
+        ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
+        self._noisy = hw.noisy != 0.0
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((6, self._n))
-        self._copy_before_step = (on_error == "raise" and self._n > 1) or self.substeps > 1
+        self._copy_before_step = (
+            (on_error == "raise" and self._n > 1) or self.substeps > 1 or hw.lagged != 0.0
+        )
         self._state.q[:, 0] = 1.0
         if state is not None:
             self._state.assign(state)
@@ -205,7 +230,8 @@ class World:
         self.step_count = 0
         self.set_model(model)
         serial = self._integrator.world_step_threads is None or not threaded(self._n)
-        self._direct = serial and not self._copy_before_step  # step() calls the kernel itself
+        # step() calls the kernel itself (a noisy world appends its factors to the command)
+        self._direct = serial and not self._copy_before_step and not self._noisy
 
     # ---- settings, read-only: a new world for new ones --------------------------------------
     def _read_only(name: str, doc: str) -> property:  # type: ignore[misc]
@@ -241,7 +267,7 @@ class World:
         kept = self.tolerances if get_integrator(name).error_control else None
         rtol = rtol if rtol is not None or kept is None else kept[0]
         atol = atol if atol is not None or kept is None else kept[1]
-        return World(
+        world = World(
             self.model,
             self.effects,
             name,
@@ -255,6 +281,11 @@ class World:
             max_substeps=DEFAULT_MAX_SUBSTEPS if kept is None else kept[2],
             adaptive=self._adaptive,
         )
+        world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]  # the thrust levels, if they lag
+        maps = self.body_maps
+        if maps is not None:
+            world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])
+        return world
 
     # ---------------------------------------------------------------------------------------
     @property
@@ -272,12 +303,43 @@ class World:
     @property
     def rows(self) -> FloatArray:
         """(N, 13) the state as rows ``(x, v, q, w)``: a view of :attr:`columns`."""
-        return self._cols.T
+        return self._cols[:STATE_WIDTH].T
 
     @property
     def columns(self) -> FloatArray:
-        """(13, N) the state as columns ``(x, v, q, w)``: what the compiled step advances."""
-        return self._cols
+        """(13, N) the state as columns ``(x, v, q, w)``: what the compiled step advances
+        (with the thrust levels after them where the thrusters lag)."""
+        return self._cols[:STATE_WIDTH]
+
+    @property
+    def thrust_levels(self) -> FloatArray | None:
+        """(N, A) each command component's thrust now, in units of its ``max_force`` (signed),
+        where the thrusters lag (a view: editable, part of the state); else None."""
+        return self._cols[THRUST:].T if self._cols.shape[0] > STATE_WIDTH else None
+
+    @property
+    def thrust_noise(self) -> FloatArray:
+        """(A,) each command component's noise ``SIGMA`` (0 for an ideal one)."""
+        out = np.zeros(self.action_dim)
+        k = 0
+        for e in self.force_effects:
+            if isinstance(e, Thrusters):
+                out[k : k + e.noise.shape[0]] = e.noise
+            k += getattr(e, "force_map", np.zeros((0, 3))).shape[0]
+        return out
+
+    def draw_thrust_factors(self, rng: np.random.Generator, rows: ArrayLike | None = None) -> None:
+        """Draw the next step's :attr:`thrust_factors` ``max(0, 1 + SIGMA xi)``, ``xi`` standard
+        normal from ``rng`` (a valve does not pull), for the bodies ``rows`` (default all), row
+        after row (the generator's stream in that order); nothing is drawn for a world without
+        noise."""
+        if not self._noisy:
+            return
+        sigma = self.thrust_noise
+        index = slice(None) if rows is None else np.atleast_1d(rows)
+        n = self._n if rows is None else index.size
+        xi = rng.standard_normal((n, sigma.size))
+        self.thrust_factors[index] = np.maximum(0.0, 1.0 + sigma * xi)
 
     @property
     def no_failures(self) -> BoolArray:
@@ -325,13 +387,44 @@ class World:
         if model.n not in (1, self._n):
             raise ValueError(f"model: has {model.n} bodies but the world has {self._n}")
         self.model = model
+        maps = getattr(self, "_model_cols", None)
         self._model_cols = model.columns(self._n)
+        if maps is not None and maps.shape[0] > MODEL_WIDTH:  # keep the bodies' own maps
+            self._model_cols = np.vstack([self._model_cols, maps[MODEL_WIDTH:]])
         self._check_asymmetry()
         # the compiled step's arrays but the command (whose place is last); an error-controlled
         # integrator also writes the substeps each body took
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
         if self._integrator.error_control:
             self._arrays += (self._counts,)
+
+    @property
+    def body_maps(self) -> FloatArray | None:
+        """(N, A, 6) each body's own actuator maps ``(force, torque)`` at ``|u| = 1`` (body
+        frame) once :meth:`set_body_maps` gave them (a view: editable), else None (the world's
+        maps for every body)."""
+        if self._model_cols.shape[0] == MODEL_WIDTH:
+            return None
+        return self._model_cols[MODEL_WIDTH:].T.reshape(self._n, self.action_dim, 6)
+
+    def set_body_maps(self, force_map: ArrayLike, torque_map: ArrayLike) -> None:
+        """Give every body its own actuator maps (e.g. a misaligned thruster per episode):
+        ``force_map``, ``torque_map`` (N, A, 3) body-frame force and torque of each command
+        component at ``|u| = 1`` [N], [N m]. The hardware model (lag, pulse width, ...) stays
+        the world's."""
+        f = np.asarray(force_map, dtype=np.float64)
+        t = np.asarray(torque_map, dtype=np.float64)
+        shape = (self._n, self.action_dim, 3)
+        finite = np.isfinite(f).all() and np.isfinite(t).all()
+        if f.shape != shape or t.shape != shape or not finite:
+            raise ValueError(
+                f"force_map, torque_map: expected finite arrays of shape {shape}, got "
+                f"{f.shape} and {t.shape}"
+            )
+        rows = np.concatenate([f, t], axis=2).reshape(self._n, 6 * self.action_dim).T
+        self._model_cols = np.ascontiguousarray(np.vstack([self._model_cols[:MODEL_WIDTH], rows]))
+        self.params[Params._fields.index("body_maps")] = 1.0
+        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -343,6 +436,7 @@ class World:
             raise ValueError(f"state: has {state.n} bodies, this world has {self.n}")
         check_state(state)
         self._state.assign(state)
+        self._cols[STATE_WIDTH:] = 0.0  # thrust levels (where they lag): valves closed
         self._status[:] = 0
         self.step_count = 0
 
@@ -393,6 +487,8 @@ class World:
             u = self._no_command
         else:  # a view of the state: copied, as the compiled step's arrays must not overlap
             u = command.copy() if command.base is self._cols else command
+        if self._noisy:  # the core reads the thrust factors after the command's A components
+            u = self._with_factors(u)
         # A failed body is left at its state before the step: by the kernel itself for one
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
@@ -404,6 +500,17 @@ class World:
             arrays = (*self._arrays, u)
             code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
         return self._outcome(code, backup)
+
+    def _with_factors(self, command: FloatArray) -> FloatArray:
+        """(N, 2A) the command (N | 1, A) and then :attr:`thrust_factors`, checked."""
+        f = np.asarray(self.thrust_factors, dtype=np.float64)
+        if f.shape != (self._n, self.action_dim) or not np.all(np.isfinite(f) & (f >= 0.0)):
+            raise ValueError(
+                f"thrust_factors: expected finite factors >= 0 of shape ({self._n}, "
+                f"{self.action_dim}), got shape {f.shape}; draw them with draw_thrust_factors"
+            )
+        u = np.broadcast_to(command, (self._n, self.action_dim))
+        return np.ascontiguousarray(np.concatenate([u, f], axis=1))
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the world step's ``code`` (:mod:`rigid_env.core.stepping`)."""
@@ -524,7 +631,10 @@ class World:
         world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A):
         the right-hand side ``v' = F / m``, ``I w' = tau - w x I w`` of the compiled step."""
         cols = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]).T)
-        model = self.model.columns(cols.shape[1])
+        n = cols.shape[1]
+        model = self._model_cols if n == self._n else self.model.columns(n)
+        if model.shape[0] > MODEL_WIDTH and n != self._n:
+            raise ValueError(f"x, v, q, w: the bodies have their own maps, give {self._n} rows")
         u = self._check_action(action)
         out = np.empty((cols.shape[1], 6))
         derivatives(self.params, model, cols, self._no_command if u is None else u, out)

@@ -22,6 +22,26 @@ ALL_ENV_IDS = [
 ]
 
 
+#: Registered variants of a task with other defaults: id -> (task, max_episode_steps, kwargs).
+VARIANTS: dict[str, tuple[str, int, dict]] = {
+    # Detumble on realistic cold-gas thrusters where half the episodes lose a thruster (stuck
+    # off, stuck on or degraded) from a random step in the first 20 (1 s) on; a 2 degree
+    # misalignment per episode. The observation does not say which (info does).
+    "DetumbleFaults-v0": (
+        "Detumble",
+        400,
+        {
+            "thrusters": "realistic",
+            "randomization": {
+                "thruster_misalignment": 2.0,
+                "thruster_faults": {"probability": 0.5, "within_steps": 20},
+            },
+        },
+    ),
+}
+ALL_ENV_IDS += [f"RigidEnv/{variant}" for variant in VARIANTS]
+
+
 def _register_all() -> None:
     for name, (module, steps, newest) in TASKS.items():
         for version in range(newest + 1):
@@ -34,6 +54,17 @@ def _register_all() -> None:
                 vector_entry_point=f"rigid_env.envs.{module}:{name}VectorEnv",
                 max_episode_steps=steps,
                 kwargs={"version": version} if version else {},
+            )
+    for variant, (name, steps, kwargs) in VARIANTS.items():
+        env_id = f"RigidEnv/{variant}"
+        if env_id not in registry:
+            module = TASKS[name][0]
+            register(
+                id=env_id,
+                entry_point=f"rigid_env.envs.{module}:{name}Env",
+                vector_entry_point=f"rigid_env.envs.{module}:{name}VectorEnv",
+                max_episode_steps=steps,
+                kwargs=kwargs,
             )
 
 

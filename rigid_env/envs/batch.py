@@ -17,9 +17,11 @@ from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
 from rigid_env.core import threads
-from rigid_env.core.effects import LinearActuator
+from rigid_env.core.effects import LinearActuator, Thrusters
+from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as K
+from rigid_env.envs.hardware import FAULT_KINDS, Fault, draw_fault, misaligned, with_preset
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
 from rigid_env.render import Frame, TaskView
@@ -94,8 +96,12 @@ class TaskBatch:
         name = type(self).__name__.removesuffix("Task")
         settings, self.params = parse_kwargs(self.params_model, name, kwargs)
         self.settings: EnvSettings = settings
-        self.scene: Scene = load_scene(
-            settings.scene if settings.scene is not None else scene_path(self.scene_name)
+        self.scene: Scene = with_preset(
+            load_scene(
+                settings.scene if settings.scene is not None else scene_path(self.scene_name)
+            ),
+            settings.thrusters,
+            settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
         )
         self.world = self.scene.build_world(
             n=self.n,
@@ -160,6 +166,10 @@ class TaskBatch:
         """(N, obs_dim) the latest observations (overwritten by every step and reset, unless
         :meth:`observe` gave them away: then a new buffer is written)."""
         self._obs_given = False
+        self.faults: list[Fault | None] = [None] * n
+        """Each env's thruster fault in its episode (``randomization.thruster_faults``), or None."""
+        self._thrusters = [e for e in self.world.force_effects if isinstance(e, Thrusters)]
+        self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
         self._check_extra_observations()
@@ -244,7 +254,26 @@ class TaskBatch:
             raise ValueError(_NON_FINITE_ACTION)
         if self.thrust_scale is not None:
             np.multiply(self.last_action, self.thrust_scale, out=self.command)
+        if self.randomization.thruster_faults is not None:
+            if self.command is self.last_action:  # a command apart from the action from now on
+                self.command = self.last_action.copy()
+            elif self.thrust_scale is None:
+                self.command[:] = self.last_action
+            for i, fault in enumerate(self.faults):
+                if fault is not None:
+                    fault.apply(self.command[i], int(self.steps[i]))
         return self.last_action
+
+    def _draw_thrust_factors(
+        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
+    ) -> None:
+        """Each env's thrust noise factors for this step from its own generator (factor 1,
+        nothing drawn, for envs about to restart: as a single env's generator sees it)."""
+        for k, rng in enumerate(rngs):
+            if skip is not None and skip[k]:
+                self.world.thrust_factors[k] = 1.0
+            else:
+                self.world.draw_thrust_factors(rng, rows=k)
 
     def step(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
@@ -261,6 +290,8 @@ class TaskBatch:
             the body is frozen at its last finite state and the episode must end). Views of
             the task's buffers, valid until the next step.
         """
+        if self._noisy:
+            self._draw_thrust_factors(rngs, restarting)
         failed = self.world.advance(self.command)
         self.steps += 1
         self._own_obs(keep=False)
@@ -272,6 +303,8 @@ class TaskBatch:
     def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
         """:meth:`step` of a task of one env: its record as Python values and whether its body
         failed."""
+        if self._noisy:
+            self._draw_thrust_factors([rng])
         failed = self.world.advance(self.command)
         self.steps[0] += 1
         self._own_obs(keep=False)
@@ -318,11 +351,15 @@ class TaskBatch:
         idx = np.asarray(idx, dtype=np.int64)
         s = self.world.state
         draws = []
-        randomized = self.randomization.physical or self.randomization.thrust > 0.0
+        r = self.randomization
+        randomized = r.physical or r.thrust > 0.0 or r.hardware
         for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
             if randomized:
                 self._randomize(i, rngs[k])
+        levels = self.world.thrust_levels
+        if levels is not None:
+            levels[idx] = 0.0  # valves closed at the start of an episode
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
@@ -366,6 +403,31 @@ class TaskBatch:
                 self.thrust_scale = np.ones((self.n, self.action_dim))
                 self.command = self.last_action * self.thrust_scale
             self.thrust_scale[i] = random_thrust(rng, r, self.action_dim)
+        if r.thruster_misalignment > 0.0:
+            self._misalign(i, rng, r.thruster_misalignment)
+        if r.thruster_faults is not None:
+            self.faults[i] = draw_fault(rng, r.thruster_faults, self.action_dim)
+
+    def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
+        """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""
+        if self.world.body_maps is None:  # first misaligned reset: every body its own maps
+            maps = np.broadcast_to(
+                self.world.params[MAPS : MAPS + 6 * self.action_dim].reshape(-1, 6),
+                (self.n, self.action_dim, 6),
+            )
+            self.world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])
+        maps = self.world.body_maps
+        k = 0
+        for effect in self.world.force_effects:
+            if not isinstance(effect, LinearActuator):
+                continue
+            rows = effect.force_map.shape[0]
+            if isinstance(effect, Thrusters):
+                d = misaligned(effect.directions, rng, degrees)
+                force = d * effect.max_force[:, None]
+                maps[i, k : k + rows, :3] = force
+                maps[i, k : k + rows, 3:] = np.cross(effect.points, force)
+            k += rows
 
     def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
         """The latest observations, the caller's to keep: (N, obs_dim) (the buffer itself,
@@ -388,10 +450,32 @@ class TaskBatch:
             "is_success": success.copy(),  # SB3 EvalCallback logs this key
             "numerical_error": self.world.failed.copy(),
             "angular_velocity_world": r["w_world"].copy(),
+            **self._fault_infos(),
         }
         if self.world.tolerances is not None:
             out["substeps"] = self.world.substeps_taken.copy()
         return out
+
+    def _fault_infos(self) -> dict[str, NDArray[Any]]:
+        """Where faults are drawn: each env's failed thruster (-1: none), the step its fault
+        starts, its kind (index in :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and
+        level, and whether it acts now."""
+        if self.randomization.thruster_faults is None:
+            return {}
+        f = [
+            (-1, -1, -1, 0.0)
+            if x is None
+            else (x.thruster, x.step, FAULT_KINDS.index(x.kind), x.level)
+            for x in self.faults
+        ]
+        thruster, step, kind, level = (np.array(c) for c in zip(*f, strict=True))
+        return {
+            "fault_thruster": thruster,
+            "fault_step": step,
+            "fault_kind": kind,
+            "fault_level": level.astype(np.float64),
+            "fault_active": (thruster >= 0) & (self.steps > step),
+        }
 
     def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
@@ -405,6 +489,7 @@ class TaskBatch:
             "is_success": r.success,
             "numerical_error": bool(self.world.failed[0]),
             "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
+            **{k: v[0].item() for k, v in self._fault_infos().items()},
         }
         if self.world.tolerances is not None:
             out["substeps"] = int(self.world.substeps_taken[0])
@@ -423,6 +508,18 @@ class TaskBatch:
         """Env ``i``'s numbers for :attr:`TaskView.readouts` (none by default)."""
         return ()
 
+    def delivered_thrust(self, i: int) -> FloatArray:
+        """(A,) env ``i``'s thrust in the last step in units of each max force, as delivered:
+        the lagged level at the step's end where the thrusters lag, else the command after
+        faults (an on/off duty is the step's mean level), times the step's noise factors."""
+        levels = self.world.thrust_levels
+        if levels is not None:
+            return np.clip(levels[i], -1.0, 1.0)
+        out = self.command[i].copy()
+        if self._noisy:
+            out *= self.world.thrust_factors[i]
+        return np.clip(out, -1.0, 1.0)
+
     def frame(self, i: int = 0) -> Frame:
         """The numbers of env ``i``'s current frame."""
         if not 0 <= i < self.n:
@@ -432,7 +529,7 @@ class TaskBatch:
             q=s.q[i].copy(),
             w_body=s.w[i].copy(),
             height=float(s.x[i, 2]),
-            command=self.last_action[i].copy(),
+            command=self.delivered_thrust(i),
             step=int(self.steps[i]),
             angular_speed=float(self.angular_speed()[i]),
             fuel=float(self.fuel[i]),

@@ -20,6 +20,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
 from rigid_env.config_files import ConfigFileError, error_line
+from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
 from rigid_env.scene_sections import Quantity
 
@@ -54,6 +55,8 @@ Fraction = quantity("relative half-width", ge=0, lt=1)
 """A relative half-width in [0, 1)."""
 NoiseRate = quantity("rad/s", ge=0)
 """A standard deviation of an angular speed [rad/s], >= 0."""
+TiltDegrees = quantity("deg", ge=0, le=90)
+"""A tilt angle [deg] in [0, 90]."""
 
 
 def task_version(newest: int) -> Any:
@@ -103,6 +106,17 @@ class Randomization(BaseModel):
     sensor_noise: NoiseRate = 0.0
     """Standard deviation of Gaussian noise on the observed angular velocity [rad/s], >= 0
     (drawn every step for every env: a per-env loop, so off by default)."""
+    thruster_misalignment: TiltDegrees = 0.0
+    """Largest tilt of a thruster's direction [deg] in [0, 90]: per episode each thruster is
+    tilted by an angle uniform in [0, this] about a uniform axis normal to it."""
+    thruster_faults: ThrusterFaults | None = None
+    """Per-episode faults: a mapping of probability (in [0, 1]), kinds (stuck_off, stuck_on,
+    degraded), within_steps, stuck_level, degraded_fraction (None: no faults)."""
+
+    @property
+    def hardware(self) -> bool:
+        """Whether any thruster draw is needed at reset (misalignment, faults)."""
+        return self.thruster_misalignment > 0.0 or self.thruster_faults is not None
 
     @property
     def physical(self) -> bool:
@@ -138,7 +152,12 @@ class EnvSettings(BaseModel):
     """The observed orientation: "quaternion" (canonical, 4 numbers) or "sixd" (the first two
     columns of the rotation matrix, 6 numbers)."""
     randomization: Annotated[Randomization, BeforeValidator(_none_is_empty)] = Randomization()
-    """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise (None: none)."""
+    """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise,
+    thruster_misalignment, thruster_faults (None: none)."""
+    thrusters: Literal["ideal", "realistic"] = "ideal"
+    """The thrusters' hardware: "ideal" (as the scene says) or "realistic" (a cold-gas attitude
+    thruster: on/off firing, a lag, a minimum impulse bit and thrust noise;
+    :mod:`rigid_env.envs.hardware`)."""
 
 
 def parse_kwargs(
