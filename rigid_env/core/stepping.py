@@ -150,14 +150,16 @@ def beyond(w, c, ok):
     return 1 if ok & fast & (c.stable_speed != 0.0) else 0
 
 
-def integrate(step, x, v, q, w, act, m, c, counts, i):
-    """``step`` of body ``i`` over ``c.h``. ``counts`` None: a fixed-step integrator, whose step
-    returns ``(x, v, q, w)``; else (N,) int64: an error-controlled one, whose step also returns
-    the substeps it took, added to ``counts[i]``. Compiled, the choice is made by the type of
-    ``counts`` (the overload below), so a fixed-step integrator's loop is unchanged."""
+def integrate(step, body, act, m, c, h, counts, i):
+    """``step`` of body ``i``, ``body = (x, v, q, w)``, over ``h``. ``counts`` None: a
+    fixed-step integrator, whose step returns ``(x, v, q, w)``; else (N,) int64: an
+    error-controlled one, whose step also returns the substeps it took, added to ``counts[i]``.
+    Compiled, the choice is made by the type of ``counts`` (the overload below), so a fixed-step
+    integrator's loop is unchanged."""
+    x, v, q, w = body
     if counts is None:
-        return step(x, v, q, w, act, m, c, c.h)
-    x, v, q, w, n = step(x, v, q, w, act, m, c, c.h)
+        return step(x, v, q, w, act, m, c, h)
+    x, v, q, w, n = step(x, v, q, w, act, m, c, h)
     counts[i] += n
     return x, v, q, w
 
@@ -173,12 +175,18 @@ def _none(counts):
 
 
 @overload(integrate, inline="always")
-def _integrate(step, x, v, q, w, act, m, c, counts, i):
+def _integrate(step, body, act, m, c, h, counts, i):
     if _none(counts):
-        return lambda step, x, v, q, w, act, m, c, counts, i: step(x, v, q, w, act, m, c, c.h)
 
-    def counted(step, x, v, q, w, act, m, c, counts, i):
-        x1, v1, q1, w1, n = step(x, v, q, w, act, m, c, c.h)
+        def fixed(step, body, act, m, c, h, counts, i):
+            x, v, q, w = body
+            return step(x, v, q, w, act, m, c, h)
+
+        return fixed
+
+    def counted(step, body, act, m, c, h, counts, i):
+        x, v, q, w = body
+        x1, v1, q1, w1, n = step(x, v, q, w, act, m, c, h)
         counts[i] += n
         return x1, v1, q1, w1
 
@@ -210,7 +218,7 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
     m = body_model(model, i)
     w = limit_speed(w0, c)
     reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
-    x, v, q, w = integrate(step, x0, v0, q0, w, act, m, c, counts, i)
+    x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
     ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
@@ -218,12 +226,16 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
 
 
 @pass_kernel
-def hardware_substep(step, p, c, model, command, state, status, k, last, i):
+def hardware_substep(step, p, model, command, world, when, i, counts):
     """:func:`substep` ``k`` of body ``i`` with thrusters as hardware
     (:mod:`rigid_env.core.thrusters`): the speed limit, then one ``step`` per segment of the
     substep ``[k h, (k + 1) h]`` (split at the on/off switch times inside it), each with the
     thrusters' wrench held over it; on the ``last`` substep (which ends at ``dt``) also
-    :func:`step_maps`; then the :func:`guard`. Returns ``(failed, beyond)``."""
+    :func:`step_maps`; then the :func:`guard`. ``world = (state, status)``, ``when = (k,
+    last)``; ``counts`` as :func:`integrate`'s. Returns ``(failed, beyond)``."""
+    state, status = world
+    k, last = when
+    c = unpack(p)
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     x, v, q, w = x0, v0, q0, limit_speed(w0, c)
@@ -234,7 +246,7 @@ def hardware_substep(step, p, c, model, command, state, status, k, last, i):
         end = next_switch(p, c, command, i, t, t1)
         act = segment_wrench(p, c, model, command, state, i, t, end - t)
         root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
-        x, v, q, w = step(x, v, q, w, act, m, c, end - t)
+        x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
     if last:
         v, w = step_maps(v, w, c)
@@ -244,15 +256,18 @@ def hardware_substep(step, p, c, model, command, state, status, k, last, i):
 
 
 @pass_kernel
-def hardware_advance(step, p, c, model, state, status, command, start, stop):
-    """:func:`advance` of bodies ``start <= i < stop`` whose thrusters are hardware: each
-    body's substeps by :func:`hardware_substep`. Returns the step's code."""
+def hardware_advance(step, p, model, world, command, bodies, counts):
+    """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) whose thrusters are
+    hardware: each body's substeps by :func:`hardware_substep`. Returns the step's code."""
+    c = unpack(p)
+    start, stop = bodies
+    clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
     for i in range(start, stop):
         for k in range(substeps):
             last = k == substeps - 1
-            failed, past = hardware_substep(step, p, c, model, command, state, status, k, last, i)
+            failed, past = hardware_substep(step, p, model, command, world, (k, last), i, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -287,7 +302,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
     start, stop = bodies
     c = unpack(p)
     if c.hardware != 0.0:
-        return hardware_advance(step, p, c, model, state, status, command, start, stop)
+        return hardware_advance(step, p, model, (state, status), command, bodies, counts)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench into its column of wrenches
             fb, tb = wrench(p, c, model, command, i)

@@ -166,6 +166,12 @@ def test_every_integrator_keeps_its_order_across_a_pulse(name: str) -> None:
             world.step(np.array([d]))
             w0 = transverse_w(w0, d * dt, (1 - d) * dt)
         errors.append(abs(complex(*world.state.w[0, :2]) - w0))
+    if INTEGRATORS[name].error_control:
+        # dop853 controls its error to the world's tolerances (rtol = atol = 1e-10 by default):
+        # split at the switches, the pulse is as smooth to it as any step, so the error stays
+        # within 20 tolerances at any substep count (no order to measure at round-off).
+        assert max(errors) < 20 * 1e-10, errors
+        return
     assert errors[0] / errors[1] > 0.7 * 2**order, errors
 
 
