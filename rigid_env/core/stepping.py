@@ -5,7 +5,7 @@ state. Written once; the compiled integrators (:func:`advance`) and the array in
 
 Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.layout`), the state
 columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
-``wrenches`` (6, N) and the ``command`` (N | 1, A).
+``wrenches`` (WRENCH_WIDTH, N) and the ``command`` (N | 1, A).
 """
 
 from __future__ import annotations
@@ -22,10 +22,13 @@ from rigid_env.core.layout import (
     BAD_COMMAND,
     FAILED,
     HEALTHY,
+    REACH,
     beyond_of,
     body_model,
+    common,
     failures_of,
     load,
+    rare,
     step_code,
     store,
     unpack,
@@ -33,6 +36,9 @@ from rigid_env.core.layout import (
 from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
+
+NO_WRENCH = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+"""The wrench of a world without actuators: constants the compiler folds."""
 
 
 # ---- one body ---------------------------------------------------------------------------------
@@ -92,14 +98,14 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 
 @kernel
-def reachable_energy(old, act, m, c, h):
+def reachable_energy(old, reach, m, c, h):
     """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
-    with under the wrench ``act``, the world's gravity and its gravity gradient
-    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
-    (:func:`force_reach`) and ``dV`` the most kinetic energy the gravity-gradient torque can
-    give (:func:`gradient_reach`)."""
+    with under forces of reach ``reach`` (:func:`force_reach`: the wrench held over the step
+    and the world's gravity) and the gravity gradient (:data:`EXPLOSION_FACTOR`): ``(10
+    (sqrt(E0) + h B + sqrt(dV)))^2``, ``B = reach / sqrt(2)`` and ``dV`` the most kinetic
+    energy the gravity-gradient torque can give (:func:`gradient_reach`)."""
     x, v, _, w = old
-    root = math.sqrt(kinetic_energy(v, w, m)) + h * force_reach(act, m, c) * math.sqrt(0.5)
+    root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
     root += gradient_reach(x, m, c)
     return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
 
@@ -110,8 +116,7 @@ def force_reach(act, m, c):
     gravity: ``(|F| + m |g|) / sqrt(m) + |tau| / sqrt(I_min)``."""
     fb, tb = act
     g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
-    inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
-    return (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+    return (norm(fb) + g) * m.inv_sqrt_mass + norm(tb) * m.inv_sqrt_inertia
 
 
 @kernel
@@ -217,7 +222,7 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
     act = (fb, tb)
     m = body_model(model, i)
     w = limit_speed(w0, c)
-    reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
+    reachable = reachable_energy((x0, v0, q0, w), wrenches[REACH, i], m, c, c.h)
     x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
@@ -226,13 +231,14 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
 
 
 @pass_kernel
-def hardware_substep(step, p, model, command, world, when, i, counts):
-    """:func:`substep` ``k`` of body ``i`` with thrusters as hardware
-    (:mod:`rigid_env.core.thrusters`): the speed limit, then one ``step`` per segment of the
-    substep ``[k h, (k + 1) h]`` (split at the on/off switch times inside it), each with the
-    thrusters' wrench held over it; on the ``last`` substep (which ends at ``dt``) also
-    :func:`step_maps`; then the :func:`guard`. ``world = (state, status)``, ``when = (k,
-    last)``; ``counts`` as :func:`integrate`'s. Returns ``(failed, beyond)``."""
+def body_substep(step, p, model, command, world, when, i, counts):
+    """:func:`substep` ``k`` of body ``i``, every effect included (:func:`body_advance`): the
+    speed limit, then one ``step`` per segment of the substep ``[k h, (k + 1) h]`` (with
+    thrusters as hardware, :mod:`rigid_env.core.thrusters`, split at the on/off switch times
+    inside it; else one segment), each with the thrusters' wrench held over it; on the
+    ``last`` substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
+    ``world = (state, status)``, ``when = (k, last)``; ``counts`` as :func:`integrate`'s.
+    Returns ``(failed, beyond)``."""
     state, status = world
     k, last = when
     c = unpack(p)
@@ -243,8 +249,12 @@ def hardware_substep(step, p, model, command, world, when, i, counts):
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
-        end = next_switch(p, c, command, i, t, t1)
-        act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        if c.hardware != 0.0:
+            end = next_switch(p, c, command, i, t, t1)
+            act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        else:
+            end = t1
+            act = wrench(p, c, model, command, i)
         root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
         x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
@@ -256,9 +266,10 @@ def hardware_substep(step, p, model, command, world, when, i, counts):
 
 
 @pass_kernel
-def hardware_advance(step, p, model, world, command, bodies, counts):
-    """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) whose thrusters are
-    hardware: each body's substeps by :func:`hardware_substep`. Returns the step's code."""
+def body_advance(step, p, model, world, command, bodies, counts):
+    """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) body by body, every effect
+    included (the :data:`rigid_env.core.layout.RARE` ones too): each body's substeps by
+    :func:`body_substep`. Returns the step's code."""
     c = unpack(p)
     start, stop = bodies
     clear_counts(counts, bodies)
@@ -267,7 +278,7 @@ def hardware_advance(step, p, model, world, command, bodies, counts):
     for i in range(start, stop):
         for k in range(substeps):
             last = k == substeps - 1
-            failed, past = hardware_substep(step, p, model, command, world, (k, last), i, counts)
+            failed, past = body_substep(step, p, model, command, world, (k, last), i, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -279,7 +290,10 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
     """One world step of the bodies ``start <= i < stop`` (``bodies``), in passes whose loops
     the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
     body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
-    any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`).
+    any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`). These
+    passes see the flags of the rarely used effects (:data:`rigid_env.core.layout.RARE`) as the
+    constant 0, so a disabled one adds nothing to their loops; a world that has one is stepped
+    body by body instead (:func:`body_advance`), every effect included.
 
     The world's arrays must not overlap (:data:`rigid_env.core.jit.world_kernel` compiles on
     that promise); they come one by one, as a tuple they would cost atomic reference counts.
@@ -301,13 +315,18 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
                 return BAD_COMMAND
     start, stop = bodies
     c = unpack(p)
-    if c.hardware != 0.0:
-        return hardware_advance(step, p, model, (state, status), command, bodies, counts)
+    if rare(c):
+        return body_advance(step, p, model, (state, status), command, bodies, counts)
+    c = common(c)
     if command.shape[1] > 0:
-        for i in range(start, stop):  # each body's wrench into its column of wrenches
+        for i in range(start, stop):  # each body's wrench and its reach into its column
             fb, tb = wrench(p, c, model, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+            wrenches[REACH, i] = force_reach((fb, tb), body_model(model, i), c)
+    else:
+        for i in range(start, stop):  # no actuators: gravity's reach alone
+            wrenches[REACH, i] = force_reach(NO_WRENCH, body_model(model, i), c)
     clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
@@ -444,7 +463,8 @@ def finish_pass(p, model, state, before, status, command):
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
         old = load(before, i)
-        reachable = reachable_energy(old, wrench(p, c, model, command, i), m, c, c.h * c.substeps)
+        reach = force_reach(wrench(p, c, model, command, i), m, c)
+        reachable = reachable_energy(old, reach, m, c, c.h * c.substeps)
         ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
