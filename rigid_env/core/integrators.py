@@ -34,7 +34,6 @@ from rigid_env.core.stepping import (
     advance,
     energy_roots,
     finish_pass,
-    hardware_finish_pass,
     kicks,
     limit_speed_pass,
     over_threads,
@@ -412,8 +411,9 @@ def exact_free(
     if c.hardware != 0.0:
         with np.errstate(all="ignore"):
             roots = _exact_free_hardware(p, model, state, wrenches, command, inertia, isotropic)
-        return hardware_finish_pass(p, model, state, before, status, roots)
+        return finish_pass(p, model, state, before, status, roots)
     with np.errstate(all="ignore"):
+        roots = energy_roots(p, model, state, command, c.h * c.substeps)
         for _ in range(int(c.substeps)):
             limit_speed_pass(p, state)
             if c.any_force != 0.0:
@@ -423,7 +423,7 @@ def exact_free(
             if c.any_force != 0.0:
                 kicks(p, model, state, command, 0.5 * c.h)
             q[:] = quat_normalize(q)
-    return finish_pass(p, model, state, before, status, command)
+    return finish_pass(p, model, state, before, status, roots)
 
 
 def _exact_free_hardware(
@@ -450,7 +450,7 @@ def _exact_free_hardware(
     for k in range(substeps):
         limit_speed_pass(p, state)
         if roots is None:  # sqrt(E) at the start, then the reach s B of every segment
-            roots = energy_roots(p, model, state)
+            roots = energy_roots(p, model, state, command, 0.0)
         t[:] = k * c.h
         t1 = c.dt if k == substeps - 1 else (k + 1) * c.h
         while segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):

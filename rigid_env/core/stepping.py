@@ -16,7 +16,7 @@ import numpy as np
 from numba import prange, types
 from numba.extending import overload
 
-from rigid_env.core.dynamics import accelerations, kick, kinetic_energy, wrench
+from rigid_env.core.dynamics import ZERO_WRENCH, accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
@@ -36,9 +36,6 @@ from rigid_env.core.layout import (
 from rigid_env.core.maths import axpy, norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
-
-NO_WRENCH = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-"""The wrench of a world without actuators: constants the compiler folds."""
 
 
 # ---- one body ---------------------------------------------------------------------------------
@@ -326,7 +323,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
             wrenches[REACH, i] = force_reach((fb, tb), body_model(model, i), c)
     else:
         for i in range(start, stop):  # no actuators: gravity's reach alone
-            wrenches[REACH, i] = force_reach(NO_WRENCH, body_model(model, i), c)
+            wrenches[REACH, i] = force_reach(ZERO_WRENCH, body_model(model, i), c)
     clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
@@ -407,22 +404,28 @@ def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
 
 
 @kernel
-def energy_roots(p, model, state):
-    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)], plus the gravity gradient's
-    :func:`gradient_reach`."""
+def energy_roots(p, model, state, command, span):
+    """(N,) each body's ``sqrt(E)`` [J^(1/2)] plus the gravity gradient's
+    :func:`gradient_reach` and, for ``span > 0`` [s], the reach ``span B`` of the command's
+    wrench held over it (:func:`reachable_energy`; thrusters as hardware add their segments'
+    instead, :func:`segments_pass`)."""
     c = unpack(p)
     out = np.empty(state.shape[1])
     for i in range(state.shape[1]):
         x, v, _, w = load(state, i)
         m = body_model(model, i)
         out[i] = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+        if span > 0.0:
+            out[i] += span * force_reach(wrench(p, c, model, command, i), m, c) * math.sqrt(0.5)
     return out
 
 
 @kernel
-def hardware_finish_pass(p, model, state, before, status, roots):
-    """:func:`finish_pass` of thrusters as hardware, each body's reach ``roots`` (N,) summed
-    over its segments (``sqrt(E0) + sum_k s_k B_k``, :data:`EXPLOSION_FACTOR`)."""
+def finish_pass(p, model, state, before, status, roots):
+    """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
+    of every body against its columns ``before`` the step, with the reach ``roots`` (N,) it
+    had over the step (:func:`energy_roots`, ``(10 root)^2`` of :data:`EXPLOSION_FACTOR`).
+    Returns the step's code."""
     c = unpack(p)
     failures = over = 0
     for i in range(state.shape[1]):
@@ -449,26 +452,6 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
             m = body_model(model, i)
             v, w = kick(x, v, q, w, (fb, tb), m, c, fraction * lengths[i])
             store(state, i, x, v, q, w)
-
-
-@kernel
-def finish_pass(p, model, state, before, status, command):
-    """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
-    of every body against its columns ``before`` the step (the energy it may reach over the
-    whole world step, ``substeps h``). Returns the step's code."""
-    c = unpack(p)
-    failures = over = 0
-    for i in range(state.shape[1]):
-        x, v, q, w = load(state, i)
-        v, w = step_maps(v, w, c)
-        m = body_model(model, i)
-        old = load(before, i)
-        reach = force_reach(wrench(p, c, model, command, i), m, c)
-        reachable = reachable_energy(old, reach, m, c, c.h * c.substeps)
-        ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
-        failures += 1 if failed else 0
-        over += beyond(w, c, ok)
-    return step_code(failures, min(over, 1))
 
 
 @kernel
