@@ -208,11 +208,12 @@ def _clear_counts(counts, bodies):
 
 
 @pass_kernel
-def substep(step, c, model, wrenches, state, status, last, i, counts):
+def substep(step, c, model, wrenches, state, status, at, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
     limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
-    Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps each body
-    took (:func:`integrate`)."""
+    ``at = (i, last)``. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the
+    substeps each body took (:func:`integrate`)."""
+    i, last = at
     x0, v0, q0, w0 = load(state, i)
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
@@ -283,7 +284,7 @@ def body_advance(step, p, model, world, command, bodies, counts):
 
 # ---- the world step of a compiled integrator -------------------------------------------------
 @pass_kernel
-def advance(step, p, model, state, status, wrenches, command, bodies, counts=None):
+def advance(step, p, model, world, command, bodies, counts=None):
     """One world step of the bodies ``start <= i < stop`` (``bodies``), in passes whose loops
     the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
     body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
@@ -298,6 +299,8 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
     substep, else before the failing substep, which :class:`rigid_env.core.world.World`
     replaces by the one before the world step); a frozen body is left alone.
 
+    ``world = (state, status, wrenches)``: the state columns, the bodies' status and the
+    scratch of each body's wrench and reach (:data:`rigid_env.core.layout.WRENCH_WIDTH`).
     ``counts``: None for a fixed-step integrator; for an error-controlled one (N,) int64, set
     to the substeps each body took (over the ``substeps`` passes).
 
@@ -311,6 +314,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
             if not math.isfinite(command[r, a]):
                 return BAD_COMMAND
     start, stop = bodies
+    state, status, wrenches = world
     c = unpack(p)
     if rare(c):
         return body_advance(step, p, model, (state, status), command, bodies, counts)
@@ -333,7 +337,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
             # An unsigned index: no wraparound of negative indices to compute, which would
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
-            failed, past = substep(step, c, model, wrenches, state, status, last, j, counts)
+            failed, past = substep(step, c, model, wrenches, state, status, (j, last), counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -380,13 +384,16 @@ def kicks(p, model, state, command, h):
 
 
 @kernel
-def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
+def segments_pass(p, model, state, command, span, out):
     """The next segment of every body with thrusters as hardware (``exact_free``'s
-    :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
-    switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
-    the body has reached ``t1``) and its thrusters' wrench into ``wrenches`` (6, N), lagging
-    levels advanced in ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether
-    some body has a segment."""
+    :func:`body_substep`), ``span = (t, t1)``, ``out = (lengths, wrenches, roots)``: from each
+    body's time ``t[i]`` (advanced in place) to the next switch time or ``t1`` [s from the
+    step's start], its length into ``lengths`` (N,) (0 when the body has reached ``t1``) and
+    its thrusters' wrench into ``wrenches`` (WRENCH_WIDTH, N), lagging levels advanced in
+    ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether some body has a
+    segment."""
+    t, t1 = span
+    lengths, wrenches, roots = out
     c = unpack(p)
     more = False
     for i in range(state.shape[1]):
