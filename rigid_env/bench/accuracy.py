@@ -51,7 +51,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -68,7 +68,7 @@ from rigid_env.bench.reference import (
     reference_trajectory,
 )
 from rigid_env.bench.report import Panel, Section, Series, Table
-from rigid_env.bench.timing import Case, measure
+from rigid_env.bench.timing import CLOCKS, Case, measure
 from rigid_env.core.effects import ForceEffect
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import quat_angle_between
@@ -136,6 +136,9 @@ class Sweep:
         check_reference: also solve the force scenes at 10x tighter tolerances to estimate
             the reference's error.
         rtols: the error-controlled integrator's tolerances.
+        clock: what a cost is measured in (:data:`rigid_env.bench.timing.CLOCKS`): wall time,
+            or the process's CPU time (steadier on a shared machine; run it on one core,
+            ``taskset -c 0``, so that no pass is split over threads that wait for a core).
     """
 
     name: str
@@ -145,6 +148,7 @@ class Sweep:
     timing_steps: int
     check_reference: bool
     rtols: tuple[float, ...] = DOP853_RTOLS
+    clock: str = "wall"
 
 
 FULL = Sweep("full", (1, 2, 5, 10, 20, 50), None, 15, 10, True)
@@ -398,7 +402,9 @@ def run_case(
         for p, w in zip(timed, worlds, strict=True)
     ]
     with np.errstate(all="ignore"):
-        timings = measure(cases, min_time=0.0, repeats=sweep.repeats, warmup=False)
+        timings = measure(
+            cases, min_time=0.0, repeats=sweep.repeats, warmup=False, clock=sweep.clock
+        )
     for p, case in zip(timed, cases, strict=True):
         t = timings[case.name]
         p.step_time_s = t.per_unit
@@ -412,7 +418,7 @@ def run_case(
         mine = peer_rows(name, [p for p in points if p.integrator == integ or math.isnan(p.rtol)],
                          rk4_order)  # fmt: skip
         commands = {1: act1, N_TIMING: act_n}
-        time_peers(mine, scene, commands.__getitem__, integ, horizon, N_TIMING, sweep.repeats)
+        time_peers(mine, scene, commands.__getitem__, integ, horizon, N_TIMING, sweep)
         rows += mine
     log(f"[{name}] timed dop853 beside SciPy's DOP853 at {len(rows)} tolerances")
     return points, ref_info, rows
@@ -568,7 +574,8 @@ def header(points: Sequence[Point], sweep: Sweep, machine: str, elapsed: float) 
         f" ({sweep.name} sweep) on {datetime.date.today().isoformat()} in {elapsed:.0f} s.",
         f"Machine: {machine}.",
         "",
-        f"**Cost** = wall time per simulated second for a batch of N = {N_TIMING} bodies "
+        f"**Cost** = {'wall' if sweep.clock == 'wall' else 'CPU'} time per simulated second "
+        f"for a batch of N = {N_TIMING} bodies "
         f"(median of {sweep.repeats} timed runs of {sweep.timing_steps} steps, all settings "
         "of a scene timed in turn in the same run). **Error** = `err_state`, the maximum "
         f"over the run (checkpoints every {SAMPLE_INTERVAL:g} s) of the largest of: body "
@@ -649,12 +656,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action="store_true",
         help="reduced sweep (3 step sizes, 1 s horizon) that finishes within a minute",
     )
+    parser.add_argument(
+        "--clock",
+        choices=CLOCKS,
+        default="wall",
+        help="wall: time.perf_counter (default); cpu: CPU time of the process, steadier on a "
+        "busy machine (run it on one core: taskset -c 0)",
+    )
     parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark and write its figure and tables to ``args.out``; returns 0."""
-    sweep = QUICK if args.quick else FULL
+    sweep = replace(QUICK if args.quick else FULL, clock=args.clock)
     out = report.prepare_out(args.out, OUTPUTS, args.force)
     machine = f"{report.machine()}, {report.versions()}"
     print(f"accuracy benchmark ({sweep.name} sweep) on {machine}", flush=True)

@@ -54,6 +54,14 @@ class PointLike(Protocol):
     def ok(self) -> bool: ...
 
 
+class SweepLike(Protocol):
+    """What this module reads of the benchmark's settings
+    (:class:`rigid_env.bench.accuracy.Sweep`)."""
+
+    repeats: int
+    clock: str
+
+
 @dataclass
 class PeerRow:
     """dop853 at one tolerance on one scene, beside its peers (costs in s per simulated s)."""
@@ -115,11 +123,11 @@ def time_peers(
     integrator: str,
     horizon: float,
     n_batch: int,
-    repeats: int,
+    sweep: SweepLike,
 ) -> None:
     """Fill ``per_body``, ``scipy_per_body`` and ``scipy_batch`` of ``rows``: every case timed in
-    turn, ``repeats`` rounds (:func:`rigid_env.bench.timing.measure`), the median per
-    simulated second. ``action(n)``: the constant command of ``n`` bodies."""
+    turn, ``sweep.repeats`` rounds on ``sweep.clock`` (:func:`rigid_env.bench.timing.measure`),
+    the median per simulated second. ``action(n)``: the constant command of ``n`` bodies."""
     cases, fill = [], []
     for row in rows:
         tol = {"rtol": row.rtol, "atol": row.rtol}
@@ -143,7 +151,7 @@ def time_peers(
         )  # fmt: skip
         fill.append((row, "scipy_batch", span))
     with np.errstate(all="ignore"):
-        timings = measure(cases, min_time=0.0, repeats=repeats)
+        timings = measure(cases, min_time=0.0, repeats=sweep.repeats, clock=sweep.clock)
     for case, (row, field, _) in zip(cases, fill, strict=True):
         setattr(row, field, timings[case.name].per_unit)
 

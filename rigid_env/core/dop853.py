@@ -286,13 +286,12 @@ def dop853(x, v, q, w, act, m, p, h):
     """The registry's per-body step: :func:`dormand_prince` with the world's tolerances
     (``p``: the named parameters of :mod:`rigid_env.core.layout`). Returns
     ``(x, v, q, w, substeps)``."""
-    return dormand_prince(
-        x, v, q, w, act, m, p, h, p.rtol, p.atol, int(p.max_substeps), p.adaptive != 0.0
-    )
+    control = (p.rtol, p.atol, int(p.max_substeps), p.adaptive != 0.0)
+    return dormand_prince((x, v, q, w), act, m, p, h, control)
 
 
 @called
-def dormand_prince(x, v, q, w, act, m, p, h, rtol, atol, max_substeps, adaptive):
+def dormand_prince(body, act, m, p, h, control):
     """One body over a step ``h`` by Dormand-Prince 8(5,3).
 
     ``adaptive``: substeps until the step's end, each accepted when its error measure
@@ -304,14 +303,14 @@ def dormand_prince(x, v, q, w, act, m, p, h, rtol, atol, max_substeps, adaptive)
     the last.
 
     Args:
-        x, v, q, w: the body's state (x, v world frame [m, m/s]; q body -> world; w body
-            frame [rad/s]).
+        body: the body's state ``(x, v, q, w)`` (x, v world frame [m, m/s]; q body -> world;
+            w body frame [rad/s]).
         act: the actuators' force and torque, body frame [N, N m], constant over ``h``.
         m, p: the body's model and the world's parameters, named (:mod:`rigid_env.core.layout`).
         h: the step [s].
-        rtol, atol: relative and absolute tolerance of each substep's error.
-        max_substeps: the most substeps (accepted or rejected) the step may take.
-        adaptive: False: one fixed step of ``h``, no error control.
+        control: ``(rtol, atol, max_substeps, adaptive)``: the relative and absolute
+            tolerance of each substep's error, the most substeps (accepted or rejected) the
+            step may take, and False for one fixed step of ``h`` (no error control).
 
     Returns:
         ``(x, v, q, w, substeps)``: the state after ``h`` (q renormalised) and the substeps
@@ -319,7 +318,8 @@ def dormand_prince(x, v, q, w, act, m, p, h, rtol, atol, max_substeps, adaptive)
         whose error measure is not finite, returns a NaN state (the world's guard keeps the
         body at its last state) with ``substeps = max_substeps + 1`` or the substeps tried.
     """
-    y = pack(x, v, q, w)
+    rtol, atol, max_substeps, adaptive = control
+    y = pack(*body)
     k1 = rhs(y, act, m, p)
     if not adaptive:
         y1, _ = _stages(y, k1, h, act, m, p)

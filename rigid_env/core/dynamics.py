@@ -50,17 +50,21 @@ def wrench(p, c, model, command, i):
     sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own, :func:`map_row`), summed
     in a fixed order."""
     r = 0 if command.shape[0] == 1 else i
-    fx = fy = fz = tx = ty = tz = 0.0
+    act = ZERO_WRENCH
     for a in range(command.shape[1]):
-        f, t = map_row(p, c, model, a, i)
-        u = command[r, a]
-        fx += u * f[0]
-        fy += u * f[1]
-        fz += u * f[2]
-        tx += u * t[0]
-        ty += u * t[1]
-        tz += u * t[2]
-    return (fx, fy, fz), (tx, ty, tz)
+        act = add_scaled(act, command[r, a], map_row(p, c, model, a, i))
+    return act
+
+
+ZERO_WRENCH = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+"""No force and no torque: constants the compiler folds."""
+
+
+@kernel
+def add_scaled(act, u, row):
+    """``act + u row`` of two ``(force, torque)`` pairs: a wrench plus a command component's
+    map row scaled by its level ``u``."""
+    return axpy(act[0], u, row[0]), axpy(act[1], u, row[1])
 
 
 @kernel

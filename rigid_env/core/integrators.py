@@ -34,7 +34,6 @@ from rigid_env.core.stepping import (
     advance,
     energy_roots,
     finish_pass,
-    hardware_finish_pass,
     kicks,
     limit_speed_pass,
     over_threads,
@@ -412,8 +411,9 @@ def exact_free(
     if c.hardware != 0.0:
         with np.errstate(all="ignore"):
             roots = _exact_free_hardware(p, model, state, wrenches, command, inertia, isotropic)
-        return hardware_finish_pass(p, model, state, before, status, roots)
+        return finish_pass(p, model, state, before, status, roots)
     with np.errstate(all="ignore"):
+        roots = energy_roots(p, model, state, command, c.h * c.substeps)
         for _ in range(int(c.substeps)):
             limit_speed_pass(p, state)
             if c.any_force != 0.0:
@@ -423,7 +423,7 @@ def exact_free(
             if c.any_force != 0.0:
                 kicks(p, model, state, command, 0.5 * c.h)
             q[:] = quat_normalize(q)
-    return finish_pass(p, model, state, before, status, command)
+    return finish_pass(p, model, state, before, status, roots)
 
 
 def _exact_free_hardware(
@@ -450,10 +450,10 @@ def _exact_free_hardware(
     for k in range(substeps):
         limit_speed_pass(p, state)
         if roots is None:  # sqrt(E) at the start, then the reach s B of every segment
-            roots = energy_roots(p, model, state)
+            roots = energy_roots(p, model, state, command, 0.0)
         t[:] = k * c.h
         t1 = c.dt if k == substeps - 1 else (k + 1) * c.h
-        while segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
+        while segments_pass(p, model, state, command, (t, t1), (lengths, wrenches, roots)):
             moving = lengths > 0.0
             segment_kicks(p, model, state, wrenches, lengths, 0.5)
             x += np.where(moving[:, None], lengths[:, None] * v, 0.0)
@@ -472,12 +472,12 @@ def _exact_free_hardware(
 # per call, and a closure would not be cached.
 @world_kernel
 def _explicit_euler(p, m, s, f, b, u):
-    return advance(explicit_euler, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(explicit_euler, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _explicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(explicit_euler, p, m, s, f, b, u, (i, j))
+    return advance(explicit_euler, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -487,12 +487,12 @@ def _explicit_euler_threads(world, i, j, t):
 
 @world_kernel
 def _symplectic_euler(p, m, s, f, b, u):
-    return advance(symplectic_euler, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(symplectic_euler, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _symplectic_euler_range(p, m, s, f, b, u, i, j):
-    return advance(symplectic_euler, p, m, s, f, b, u, (i, j))
+    return advance(symplectic_euler, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -502,12 +502,12 @@ def _symplectic_euler_threads(world, i, j, t):
 
 @world_kernel
 def _implicit_euler(p, m, s, f, b, u):
-    return advance(implicit_euler, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(implicit_euler, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _implicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_euler, p, m, s, f, b, u, (i, j))
+    return advance(implicit_euler, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -517,12 +517,12 @@ def _implicit_euler_threads(world, i, j, t):
 
 @world_kernel
 def _leapfrog(p, m, s, f, b, u):
-    return advance(leapfrog, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(leapfrog, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _leapfrog_range(p, m, s, f, b, u, i, j):
-    return advance(leapfrog, p, m, s, f, b, u, (i, j))
+    return advance(leapfrog, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -532,12 +532,12 @@ def _leapfrog_threads(world, i, j, t):
 
 @world_kernel
 def _midpoint(p, m, s, f, b, u):
-    return advance(midpoint, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(midpoint, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _midpoint_range(p, m, s, f, b, u, i, j):
-    return advance(midpoint, p, m, s, f, b, u, (i, j))
+    return advance(midpoint, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -547,12 +547,12 @@ def _midpoint_threads(world, i, j, t):
 
 @world_kernel
 def _rk4(p, m, s, f, b, u):
-    return advance(rk4, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(rk4, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _rk4_range(p, m, s, f, b, u, i, j):
-    return advance(rk4, p, m, s, f, b, u, (i, j))
+    return advance(rk4, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -562,12 +562,12 @@ def _rk4_threads(world, i, j, t):
 
 @world_kernel
 def _implicit_gyro(p, m, s, f, b, u):
-    return advance(implicit_gyro, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(implicit_gyro, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _implicit_gyro_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_gyro, p, m, s, f, b, u, (i, j))
+    return advance(implicit_gyro, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -577,12 +577,12 @@ def _implicit_gyro_threads(world, i, j, t):
 
 @world_kernel
 def _splitting(p, m, s, f, b, u):
-    return advance(splitting, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(splitting, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _splitting_range(p, m, s, f, b, u, i, j):
-    return advance(splitting, p, m, s, f, b, u, (i, j))
+    return advance(splitting, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -592,12 +592,12 @@ def _splitting_threads(world, i, j, t):
 
 @world_kernel
 def _yoshida4(p, m, s, f, b, u):
-    return advance(yoshida4, p, m, s, f, b, u, (0, s.shape[1]))
+    return advance(yoshida4, p, m, (s, f, b), u, (0, s.shape[1]))
 
 
 @world_kernel
 def _yoshida4_range(p, m, s, f, b, u, i, j):
-    return advance(yoshida4, p, m, s, f, b, u, (i, j))
+    return advance(yoshida4, p, m, (s, f, b), u, (i, j))
 
 
 @threads_kernel
@@ -608,12 +608,12 @@ def _yoshida4_threads(world, i, j, t):
 # An error-controlled method's entries take the (N,) substep counts ``n`` before the command.
 @world_kernel
 def _dop853(p, m, s, f, b, n, u):
-    return advance(dop853, p, m, s, f, b, u, (0, s.shape[1]), n)
+    return advance(dop853, p, m, (s, f, b), u, (0, s.shape[1]), n)
 
 
 @world_kernel
 def _dop853_range(p, m, s, f, b, n, u, i, j):
-    return advance(dop853, p, m, s, f, b, u, (i, j), n)
+    return advance(dop853, p, m, (s, f, b), u, (i, j), n)
 
 
 @threads_kernel

@@ -49,6 +49,8 @@ class Body(NamedTuple):
     inv_inertia_y: float
     inv_inertia_z: float
     isotropic: float  # 1: three equal moments (no gyroscopic term), else 0
+    inv_sqrt_mass: float  # 1 / sqrt(mass), for the guard's reach [1/kg^(1/2)]
+    inv_sqrt_inertia: float  # 1 / sqrt(least principal moment), the same [1/(kg^(1/2) m)]
 
 
 class Params(NamedTuple):
@@ -102,6 +104,13 @@ MODEL_WIDTH = len(Body._fields)
 actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH + 6 a`` ..
 ``+ 5`` hold component ``a``'s ``(force, torque)`` at ``|u| = 1`` (body frame), as the rows of
 :data:`MAPS` do for all bodies."""
+WRENCH_WIDTH = 7
+"""Rows of the world step's scratch columns ``wrenches`` (WRENCH_WIDTH, N): each body's
+actuator force (0:3) and torque (3:6), body frame, held over the world step, and its
+:data:`REACH`."""
+REACH = 6
+"""Row of ``wrenches`` holding each body's force reach for the guard
+(:func:`rigid_env.core.stepping.force_reach`), computed once per world step."""
 STATE_WIDTH = 13
 """Rows of the state columns: ``x`` (0:3), ``v`` (3:6), ``q`` (6:10), ``w`` (10:13)."""
 THRUST = STATE_WIDTH
@@ -204,6 +213,59 @@ def _unpack(p):
 @overload(body_model, inline="always")
 def _body_model(model, i):
     return lambda model, i: _read(model, i, _BODY0)
+
+
+RARE = ("gravity_gradient", "hardware")
+"""The flags of the effects that only the per-body passes carry
+(:func:`rigid_env.core.stepping.advance`): the vectorised passes see them as the constant 0 of
+:func:`common`, so their code is not in those loops at all (a flag read from the array would
+keep it there: the compiler computes both sides of a branch inside a vectorised loop)."""
+
+
+def rare(c: Params) -> bool:
+    """Whether one of the :data:`RARE` flags of ``c`` is set."""
+    return any(getattr(c, name) != 0.0 for name in RARE)
+
+
+@intrinsic
+def _rare(typingctx, c):
+    def codegen(context, builder, sig, args):
+        out = cgutils.false_bit
+        zero = context.get_constant(types.float64, 0.0)
+        for name in RARE:
+            flag = builder.extract_value(args[0], Params._fields.index(name))
+            out = builder.or_(out, builder.fcmp_unordered("!=", flag, zero))
+        return out
+
+    return types.boolean(c), codegen
+
+
+@overload(rare, inline="always")
+def _overload_rare(c):
+    return lambda c: _rare(c)
+
+
+def common(c: Params) -> Params:
+    """``c`` with the :data:`RARE` flags 0; compiled, 0 as constants that remove the effects'
+    branches from the code."""
+    return c._replace(**dict.fromkeys(RARE, 0.0))
+
+
+@intrinsic
+def _common(typingctx, c):
+    def codegen(context, builder, sig, args):
+        out = args[0]
+        zero = context.get_constant(types.float64, 0.0)
+        for name in RARE:
+            out = builder.insert_value(out, zero, Params._fields.index(name))
+        return out
+
+    return c(c), codegen
+
+
+@overload(common, inline="always")
+def _overload_common(c):
+    return lambda c: _common(c)
 
 
 def thruster(p: FloatArray, actions: int, a: int) -> Thruster:

@@ -65,12 +65,15 @@ class BodyModel:
     def rows(self) -> FloatArray:
         """(N | 1, MODEL_WIDTH) model rows for the compiled kernels, the numbers of
         :class:`rigid_env.core.layout.Body` in its order: mass, principal moments, their
-        reciprocals and an isotropy flag (no gyroscopic term), one row per body or one shared."""
+        reciprocals, an isotropy flag (no gyroscopic term) and the guard's square roots, one row per
+        body or one shared."""
         n, inertia, inv_inertia = self.n, self.inertia, 1.0 / self.inertia
         named = {
             "mass": self.mass,
             "inv_mass": 1.0 / self.mass,
             "isotropic": isotropic_rows(inertia).astype(np.float64),
+            "inv_sqrt_mass": 1.0 / np.sqrt(self.mass),
+            "inv_sqrt_inertia": 1.0 / np.sqrt(inertia.min(axis=1)),
         }
         for k, axis in enumerate("xyz"):
             named[f"inertia_{axis}"], named[f"inv_inertia_{axis}"] = (

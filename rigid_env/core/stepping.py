@@ -5,7 +5,7 @@ state. Written once; the compiled integrators (:func:`advance`) and the array in
 
 Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.layout`), the state
 columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
-``wrenches`` (6, N) and the ``command`` (N | 1, A).
+``wrenches`` (WRENCH_WIDTH, N) and the ``command`` (N | 1, A).
 """
 
 from __future__ import annotations
@@ -16,16 +16,19 @@ import numpy as np
 from numba import prange, types
 from numba.extending import overload
 
-from rigid_env.core.dynamics import accelerations, kick, kinetic_energy, wrench
+from rigid_env.core.dynamics import ZERO_WRENCH, accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
     FAILED,
     HEALTHY,
+    REACH,
     beyond_of,
     body_model,
+    common,
     failures_of,
     load,
+    rare,
     step_code,
     store,
     unpack,
@@ -92,14 +95,14 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 
 @kernel
-def reachable_energy(old, act, m, c, h):
+def reachable_energy(old, reach, m, c, h):
     """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
-    with under the wrench ``act``, the world's gravity and its gravity gradient
-    (:data:`EXPLOSION_FACTOR`): ``(10 (sqrt(E0) + h B + sqrt(dV)))^2``, ``B`` the forces' reach
-    (:func:`force_reach`) and ``dV`` the most kinetic energy the gravity-gradient torque can
-    give (:func:`gradient_reach`)."""
+    with under forces of reach ``reach`` (:func:`force_reach`: the wrench held over the step
+    and the world's gravity) and the gravity gradient (:data:`EXPLOSION_FACTOR`): ``(10
+    (sqrt(E0) + h B + sqrt(dV)))^2``, ``B = reach / sqrt(2)`` and ``dV`` the most kinetic
+    energy the gravity-gradient torque can give (:func:`gradient_reach`)."""
     x, v, _, w = old
-    root = math.sqrt(kinetic_energy(v, w, m)) + h * force_reach(act, m, c) * math.sqrt(0.5)
+    root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
     root += gradient_reach(x, m, c)
     return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
 
@@ -110,8 +113,7 @@ def force_reach(act, m, c):
     gravity: ``(|F| + m |g|) / sqrt(m) + |tau| / sqrt(I_min)``."""
     fb, tb = act
     g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
-    inv_i = max(m.inv_inertia_x, m.inv_inertia_y, m.inv_inertia_z)
-    return (norm(fb) + g) * math.sqrt(m.inv_mass) + norm(tb) * math.sqrt(inv_i)
+    return (norm(fb) + g) * m.inv_sqrt_mass + norm(tb) * m.inv_sqrt_inertia
 
 
 @kernel
@@ -206,18 +208,19 @@ def _clear_counts(counts, bodies):
 
 
 @pass_kernel
-def substep(step, c, model, wrenches, state, status, last, i, counts):
+def substep(step, c, model, wrenches, state, status, at, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
     limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
-    Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps each body
-    took (:func:`integrate`)."""
+    ``at = (i, last)``. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the
+    substeps each body took (:func:`integrate`)."""
+    i, last = at
     x0, v0, q0, w0 = load(state, i)
     fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
     act = (fb, tb)
     m = body_model(model, i)
     w = limit_speed(w0, c)
-    reachable = reachable_energy((x0, v0, q0, w), act, m, c, c.h)
+    reachable = reachable_energy((x0, v0, q0, w), wrenches[REACH, i], m, c, c.h)
     x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
@@ -226,13 +229,14 @@ def substep(step, c, model, wrenches, state, status, last, i, counts):
 
 
 @pass_kernel
-def hardware_substep(step, p, model, command, world, when, i, counts):
-    """:func:`substep` ``k`` of body ``i`` with thrusters as hardware
-    (:mod:`rigid_env.core.thrusters`): the speed limit, then one ``step`` per segment of the
-    substep ``[k h, (k + 1) h]`` (split at the on/off switch times inside it), each with the
-    thrusters' wrench held over it; on the ``last`` substep (which ends at ``dt``) also
-    :func:`step_maps`; then the :func:`guard`. ``world = (state, status)``, ``when = (k,
-    last)``; ``counts`` as :func:`integrate`'s. Returns ``(failed, beyond)``."""
+def body_substep(step, p, model, command, world, when, i, counts):
+    """:func:`substep` ``k`` of body ``i``, every effect included (:func:`body_advance`): the
+    speed limit, then one ``step`` per segment of the substep ``[k h, (k + 1) h]`` (with
+    thrusters as hardware, :mod:`rigid_env.core.thrusters`, split at the on/off switch times
+    inside it; else one segment), each with the thrusters' wrench held over it; on the
+    ``last`` substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
+    ``world = (state, status)``, ``when = (k, last)``; ``counts`` as :func:`integrate`'s.
+    Returns ``(failed, beyond)``."""
     state, status = world
     k, last = when
     c = unpack(p)
@@ -243,8 +247,12 @@ def hardware_substep(step, p, model, command, world, when, i, counts):
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
-        end = next_switch(p, c, command, i, t, t1)
-        act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        if c.hardware != 0.0:
+            end = next_switch(p, c, command, i, t, t1)
+            act = segment_wrench(p, c, model, command, state, i, t, end - t)
+        else:
+            end = t1
+            act = wrench(p, c, model, command, i)
         root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
         x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
@@ -256,9 +264,10 @@ def hardware_substep(step, p, model, command, world, when, i, counts):
 
 
 @pass_kernel
-def hardware_advance(step, p, model, world, command, bodies, counts):
-    """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) whose thrusters are
-    hardware: each body's substeps by :func:`hardware_substep`. Returns the step's code."""
+def body_advance(step, p, model, world, command, bodies, counts):
+    """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) body by body, every effect
+    included (the :data:`rigid_env.core.layout.RARE` ones too): each body's substeps by
+    :func:`body_substep`. Returns the step's code."""
     c = unpack(p)
     start, stop = bodies
     clear_counts(counts, bodies)
@@ -267,7 +276,7 @@ def hardware_advance(step, p, model, world, command, bodies, counts):
     for i in range(start, stop):
         for k in range(substeps):
             last = k == substeps - 1
-            failed, past = hardware_substep(step, p, model, command, world, (k, last), i, counts)
+            failed, past = body_substep(step, p, model, command, world, (k, last), i, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -275,11 +284,14 @@ def hardware_advance(step, p, model, world, command, bodies, counts):
 
 # ---- the world step of a compiled integrator -------------------------------------------------
 @pass_kernel
-def advance(step, p, model, state, status, wrenches, command, bodies, counts=None):
+def advance(step, p, model, world, command, bodies, counts=None):
     """One world step of the bodies ``start <= i < stop`` (``bodies``), in passes whose loops
     the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
     body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
-    any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`).
+    any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`). These
+    passes see the flags of the rarely used effects (:data:`rigid_env.core.layout.RARE`) as the
+    constant 0, so a disabled one adds nothing to their loops; a world that has one is stepped
+    body by body instead (:func:`body_advance`), every effect included.
 
     The world's arrays must not overlap (:data:`rigid_env.core.jit.world_kernel` compiles on
     that promise); they come one by one, as a tuple they would cost atomic reference counts.
@@ -287,6 +299,8 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
     substep, else before the failing substep, which :class:`rigid_env.core.world.World`
     replaces by the one before the world step); a frozen body is left alone.
 
+    ``world = (state, status, wrenches)``: the state columns, the bodies' status and the
+    scratch of each body's wrench and reach (:data:`rigid_env.core.layout.WRENCH_WIDTH`).
     ``counts``: None for a fixed-step integrator; for an error-controlled one (N,) int64, set
     to the substeps each body took (over the ``substeps`` passes).
 
@@ -300,14 +314,20 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
             if not math.isfinite(command[r, a]):
                 return BAD_COMMAND
     start, stop = bodies
+    state, status, wrenches = world
     c = unpack(p)
-    if c.hardware != 0.0:
-        return hardware_advance(step, p, model, (state, status), command, bodies, counts)
+    if rare(c):
+        return body_advance(step, p, model, (state, status), command, bodies, counts)
+    c = common(c)
     if command.shape[1] > 0:
-        for i in range(start, stop):  # each body's wrench into its column of wrenches
+        for i in range(start, stop):  # each body's wrench and its reach into its column
             fb, tb = wrench(p, c, model, command, i)
             wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
             wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+            wrenches[REACH, i] = force_reach((fb, tb), body_model(model, i), c)
+    else:
+        for i in range(start, stop):  # no actuators: gravity's reach alone
+            wrenches[REACH, i] = force_reach(ZERO_WRENCH, body_model(model, i), c)
     clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
@@ -317,7 +337,7 @@ def advance(step, p, model, state, status, wrenches, command, bodies, counts=Non
             # An unsigned index: no wraparound of negative indices to compute, which would
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
-            failed, past = substep(step, c, model, wrenches, state, status, last, j, counts)
+            failed, past = substep(step, c, model, wrenches, state, status, (j, last), counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -364,13 +384,16 @@ def kicks(p, model, state, command, h):
 
 
 @kernel
-def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
+def segments_pass(p, model, state, command, span, out):
     """The next segment of every body with thrusters as hardware (``exact_free``'s
-    :func:`hardware_substep`): from each body's time ``t[i]`` (advanced in place) to the next
-    switch time or ``t1`` [s from the step's start], its length into ``lengths`` (N,) (0 when
-    the body has reached ``t1``) and its thrusters' wrench into ``wrenches`` (6, N), lagging
-    levels advanced in ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether
-    some body has a segment."""
+    :func:`body_substep`), ``span = (t, t1)``, ``out = (lengths, wrenches, roots)``: from each
+    body's time ``t[i]`` (advanced in place) to the next switch time or ``t1`` [s from the
+    step's start], its length into ``lengths`` (N,) (0 when the body has reached ``t1``) and
+    its thrusters' wrench into ``wrenches`` (WRENCH_WIDTH, N), lagging levels advanced in
+    ``state``, its reach ``s B`` added to ``roots`` (N,). Returns whether some body has a
+    segment."""
+    t, t1 = span
+    lengths, wrenches, roots = out
     c = unpack(p)
     more = False
     for i in range(state.shape[1]):
@@ -388,22 +411,28 @@ def segments_pass(p, model, state, command, t, t1, lengths, wrenches, roots):
 
 
 @kernel
-def energy_roots(p, model, state):
-    """(N,) ``sqrt(E)`` of each body's kinetic energy [J^(1/2)], plus the gravity gradient's
-    :func:`gradient_reach`."""
+def energy_roots(p, model, state, command, span):
+    """(N,) each body's ``sqrt(E)`` [J^(1/2)] plus the gravity gradient's
+    :func:`gradient_reach` and, for ``span > 0`` [s], the reach ``span B`` of the command's
+    wrench held over it (:func:`reachable_energy`; thrusters as hardware add their segments'
+    instead, :func:`segments_pass`)."""
     c = unpack(p)
     out = np.empty(state.shape[1])
     for i in range(state.shape[1]):
         x, v, _, w = load(state, i)
         m = body_model(model, i)
         out[i] = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+        if span > 0.0:
+            out[i] += span * force_reach(wrench(p, c, model, command, i), m, c) * math.sqrt(0.5)
     return out
 
 
 @kernel
-def hardware_finish_pass(p, model, state, before, status, roots):
-    """:func:`finish_pass` of thrusters as hardware, each body's reach ``roots`` (N,) summed
-    over its segments (``sqrt(E0) + sum_k s_k B_k``, :data:`EXPLOSION_FACTOR`)."""
+def finish_pass(p, model, state, before, status, roots):
+    """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
+    of every body against its columns ``before`` the step, with the reach ``roots`` (N,) it
+    had over the step (:func:`energy_roots`, ``(10 root)^2`` of :data:`EXPLOSION_FACTOR`).
+    Returns the step's code."""
     c = unpack(p)
     failures = over = 0
     for i in range(state.shape[1]):
@@ -430,25 +459,6 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
             m = body_model(model, i)
             v, w = kick(x, v, q, w, (fb, tb), m, c, fraction * lengths[i])
             store(state, i, x, v, q, w)
-
-
-@kernel
-def finish_pass(p, model, state, before, status, command):
-    """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
-    of every body against its columns ``before`` the step (the energy it may reach over the
-    whole world step, ``substeps h``). Returns the step's code."""
-    c = unpack(p)
-    failures = over = 0
-    for i in range(state.shape[1]):
-        x, v, q, w = load(state, i)
-        v, w = step_maps(v, w, c)
-        m = body_model(model, i)
-        old = load(before, i)
-        reachable = reachable_energy(old, wrench(p, c, model, command, i), m, c, c.h * c.substeps)
-        ok, failed = guard(state, status, i, (x, v, q, w), old, m, reachable)
-        failures += 1 if failed else 0
-        over += beyond(w, c, ok)
-    return step_code(failures, min(over, 1))
 
 
 @kernel

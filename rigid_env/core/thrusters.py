@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import math
 
+from rigid_env.core.dynamics import ZERO_WRENCH, add_scaled
 from rigid_env.core.jit import kernel
 from rigid_env.core.layout import THRUST, map_row, thruster
 
@@ -77,7 +78,7 @@ def segment_wrench(p, c, model, command, state, i, t, s):
     s]`` (no switch inside): each component's level (its mean over the segment where it lags,
     whose state in ``state`` advances to the segment's end) times its map row
     (:func:`rigid_env.core.layout.map_row`)."""
-    fx = fy = fz = tx = ty = tz = 0.0
+    act = ZERO_WRENCH
     actions = int(c.actions)
     for a in range(actions):
         level, off = firing(p, c, command, i, a)
@@ -90,11 +91,5 @@ def segment_wrench(p, c, model, command, state, i, t, s):
             # (1 - e^{-x}) / x by expm1: no cancellation for a segment short against TAU.
             g = target + (g0 - target) * (-math.expm1(-x) / x)
             state[THRUST + a, i] = target + (g0 - target) * math.exp(-x)
-        f, tq = map_row(p, c, model, a, i)
-        fx += g * f[0]
-        fy += g * f[1]
-        fz += g * f[2]
-        tx += g * tq[0]
-        ty += g * tq[1]
-        tz += g * tq[2]
-    return (fx, fy, fz), (tx, ty, tz)
+        act = add_scaled(act, g, map_row(p, c, model, a, i))
+    return act

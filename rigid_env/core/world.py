@@ -26,6 +26,7 @@ from rigid_env.core.layout import (
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
+    WRENCH_WIDTH,
     Params,
     decode,
     unpack,
@@ -212,7 +213,7 @@ class World:
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
         self._noisy = hw.noisy != 0.0
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
-        self._wrenches = np.zeros((6, self._n))
+        self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
             (on_error == "raise" and self._n > 1) or self.substeps > 1 or hw.lagged != 0.0
         )
@@ -229,6 +230,7 @@ class World:
         self._warned = self._warned_asymmetry = False
         self.step_count = 0
         self.set_model(model)
+        self._world_step = self._integrator.world_step
         serial = self._integrator.world_step_threads is None or not threaded(self._n)
         # step() calls the kernel itself (a noisy world appends its factors to the command)
         self._direct = serial and not self._copy_before_step and not self._noisy
@@ -392,8 +394,11 @@ class World:
         if maps is not None and maps.shape[0] > MODEL_WIDTH:  # keep the bodies' own maps
             self._model_cols = np.vstack([self._model_cols, maps[MODEL_WIDTH:]])
         self._check_asymmetry()
-        # the compiled step's arrays but the command (whose place is last); an error-controlled
-        # integrator also writes the substeps each body took
+        self._set_arrays()
+
+    def _set_arrays(self) -> None:
+        """The compiled step's arrays but the command (whose place is last); an
+        error-controlled integrator also writes the substeps each body took."""
         self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
         if self._integrator.error_control:
             self._arrays += (self._counts,)
@@ -424,7 +429,7 @@ class World:
         rows = np.concatenate([f, t], axis=2).reshape(self._n, 6 * self.action_dim).T
         self._model_cols = np.ascontiguousarray(np.vstack([self._model_cols[:MODEL_WIDTH], rows]))
         self.params[Params._fields.index("body_maps")] = 1.0
-        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        self._set_arrays()
 
     def reset(self, state: State) -> None:
         """Replace the state (copied), clear failures and the step counter.
@@ -468,11 +473,23 @@ class World:
             ValueError: if ``action`` has the wrong shape or a non-finite entry.
             NumericalInstabilityError: if a state turns non-finite with ``on_error="raise"``.
         """
-        a = action  # first the common case: a float64 command array, used as it is
-        if self._direct and type(a) is np.ndarray and a.dtype is _FLOAT64:
-            u = a[None] if a.shape == self._one_command else a if a.shape in self._shapes else None
-            if u is not None and u.flags.c_contiguous and a.base is not self._cols:
-                code = self._integrator.world_step(*self._arrays, u)
+        a = action  # first the common cases: no command, or a float64 array used as it is
+        if self._direct:
+            u = None
+            if a is None:
+                u = self._no_command
+            elif type(a) is np.ndarray and a.dtype is _FLOAT64:
+                u = (
+                    a[None]
+                    if a.shape == self._one_command
+                    else a
+                    if a.shape in self._shapes
+                    else None
+                )
+                if u is not None and not (u.flags.c_contiguous and a.base is not self._cols):
+                    u = None
+            if u is not None:
+                code = self._world_step(*self._arrays, u)
                 if code == 0:
                     self.step_count += 1
                     return self._none_failed

@@ -345,6 +345,23 @@ def test_scene_hardware_keys_reach_the_world() -> None:
 
 
 # ---- per-body maps: a misaligned thruster --------------------------------------------------
+@pytest.mark.parametrize("integrator", list(INTEGRATORS))
+def test_body_maps_equal_to_the_worlds_change_nothing(integrator: str) -> None:
+    """A world whose bodies get the world's own maps steps bit for bit as before, with every
+    integrator (an error-controlled one keeps its substep counts: the maps replace the step's
+    arrays)."""
+    for hardware in ({}, {"lag": [0.02], "on_off": [True]}):
+        plain = thruster_world(integrator=integrator, n=2, **hardware)
+        mapped = thruster_world(integrator=integrator, n=2, **hardware)
+        fmap = np.tile([[[0.0, 2.0, 0.0]]], (2, 1, 1))
+        mapped.set_body_maps(fmap, np.cross([0.5, 0.0, 0.0], fmap))
+        for _ in range(3):
+            plain.step(np.array([0.6]))
+            mapped.step(np.array([0.6]))
+        np.testing.assert_array_equal(plain.rows, mapped.rows)
+        np.testing.assert_array_equal(plain.substeps_taken, mapped.substeps_taken)
+
+
 def test_body_maps_equal_to_the_worlds_change_nothing_and_a_tilt_turns_the_torque() -> None:
     """A world whose bodies get the world's own maps steps bit for bit as before; a body whose
     thruster is tilted by 90 degrees (direction y -> z at r = (0.5, 0, 0)) gets the torque

@@ -23,6 +23,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
+from rigid_env.core.layout import WRENCH_WIDTH
 
 from roundoff import U
 
@@ -495,7 +496,13 @@ def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
     serial, ranges, threads = (world.columns.copy() for _ in range(3))
 
     def arrays(cols: FloatArray) -> tuple:
-        out = (world.params, world.model_columns, cols, np.zeros(n, np.uint8), np.zeros((6, n)))
+        out = (
+            world.params,
+            world.model_columns,
+            cols,
+            np.zeros(n, np.uint8),
+            np.zeros((WRENCH_WIDTH, n)),
+        )
         return (*out, np.zeros(n, np.int64)) if info.error_control else out  # substep counts
 
     for u in commands:
