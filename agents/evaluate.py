@@ -65,7 +65,10 @@ def run_episodes(
     """Run ``episodes`` episodes at once in the native vector env (episode ``k`` resets with
     ``seed + k``); per-episode arrays ``(episodes,)``: ``success``, ``final_angular_speed``
     [rad/s], ``fuel`` [N s], ``return``, ``length`` [steps], ``time_to_success`` [s] (NaN
-    where the episode does not end in success) and ``numerical_error``."""
+    where the episode does not end in success) and ``numerical_error``; on an env that draws
+    thruster faults also ``fault_kind`` (index in
+    :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and ``fault_active`` (the fault
+    had started when the episode ended), as its last ``info`` reports them."""
     env = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
@@ -80,6 +83,9 @@ def run_episodes(
     success = np.zeros(n, dtype=bool)
     first_success = np.full(n, np.nan)
     numerical = np.zeros(n, dtype=bool)
+    faults = "fault_kind" in info
+    fault_kind = np.full(n, -1, dtype=np.int64)
+    fault_active = np.zeros(n, dtype=bool)
     step = 0
     while not done.all():
         action = policy(obs)
@@ -95,11 +101,14 @@ def run_episodes(
         fuel[ended] = info["fuel"][ended]
         success[ended] = info["success"][ended]
         numerical[ended] = info["numerical_error"][ended]
+        if faults:
+            fault_kind[ended] = info["fault_kind"][ended]
+            fault_active[ended] = info["fault_active"][ended]
         done |= ended
     env.close()
     # An episode that touched success and lost it again has no time to success.
     first_success[~success] = np.nan
-    return {
+    out = {
         "success": success,
         "final_angular_speed": final_speed,
         "fuel": fuel,
@@ -108,6 +117,9 @@ def run_episodes(
         "time_to_success": first_success,
         "numerical_error": numerical,
     }
+    if faults:
+        out.update(fault_kind=fault_kind, fault_active=fault_active)
+    return out
 
 
 def rollout(
