@@ -80,7 +80,6 @@ def test_conditions_keep_a_variants_registered_randomisation(monkeypatch):
     assert len(seen) == 2 * len(CONDITIONS)  # the model and the controllers, per condition
     registered = gym.spec(env_id).kwargs
     for kwargs in seen:
-        assert kwargs["thrusters"] == "realistic"
         for key in ("thruster_misalignment", "thruster_faults"):
             assert kwargs["randomization"][key] == registered["randomization"][key]
     # 64 episodes at a fault probability of 0.5 all draw none with probability 2^-64.
