@@ -50,7 +50,7 @@ from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer, path
 from .controllers import CONTROLLERS
-from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
+from .env_kwargs import check_env_kwargs, merge_env_kwargs, over_registered, parse_env_kwargs
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
@@ -65,7 +65,10 @@ def run_episodes(
     """Run ``episodes`` episodes at once in the native vector env (episode ``k`` resets with
     ``seed + k``); per-episode arrays ``(episodes,)``: ``success``, ``final_angular_speed``
     [rad/s], ``fuel`` [N s], ``return``, ``length`` [steps], ``time_to_success`` [s] (NaN
-    where the episode does not end in success) and ``numerical_error``."""
+    where the episode does not end in success) and ``numerical_error``; on an env that draws
+    thruster faults also ``fault_kind`` (index in
+    :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and ``fault_active`` (the fault
+    had started when the episode ended), as its last ``info`` reports them."""
     env = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
@@ -80,6 +83,9 @@ def run_episodes(
     success = np.zeros(n, dtype=bool)
     first_success = np.full(n, np.nan)
     numerical = np.zeros(n, dtype=bool)
+    faults = "fault_kind" in info
+    fault_kind = np.full(n, -1, dtype=np.int64)
+    fault_active = np.zeros(n, dtype=bool)
     step = 0
     while not done.all():
         action = policy(obs)
@@ -95,11 +101,14 @@ def run_episodes(
         fuel[ended] = info["fuel"][ended]
         success[ended] = info["success"][ended]
         numerical[ended] = info["numerical_error"][ended]
+        if faults:
+            fault_kind[ended] = info["fault_kind"][ended]
+            fault_active[ended] = info["fault_active"][ended]
         done |= ended
     env.close()
     # An episode that touched success and lost it again has no time to success.
     first_success[~success] = np.nan
-    return {
+    out = {
         "success": success,
         "final_angular_speed": final_speed,
         "fuel": fuel,
@@ -108,6 +117,9 @@ def run_episodes(
         "time_to_success": first_success,
         "numerical_error": numerical,
     }
+    if faults:
+        out.update(fault_kind=fault_kind, fault_active=fault_active)
+    return out
 
 
 def rollout(
@@ -297,13 +309,16 @@ def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
 
 
 def resolve_env_kwargs(
-    model: Path | None, env_kwargs: dict[str, Any] | None = None
+    model: Path | None, env_kwargs: dict[str, Any] | None = None, env_id: str | None = None
 ) -> dict[str, Any]:
     """The env kwargs an evaluation runs with: the model's recorded ones (its sidecar's
     ``env_kwargs``: ``agents.train`` records the training ones less the randomisation, by
-    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them."""
+    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them, and (given
+    ``env_id``) a mapping the id registers kept under them key by key
+    (:func:`agents.env_kwargs.over_registered`: DetumbleFaults-v0 keeps its faults)."""
     meta = read_sidecar(model) if model is not None and model.exists() else None
-    return merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
+    kwargs = merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
+    return kwargs if env_id is None else over_registered(env_id, kwargs)
 
 
 def evaluate(
@@ -330,7 +345,7 @@ def evaluate(
         raise EvaluationError(
             f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
         )
-    kwargs = resolve_env_kwargs(model, env_kwargs)
+    kwargs = resolve_env_kwargs(model, env_kwargs, env_id)
     if "render_mode" in kwargs:  # gym.make takes it; the evaluation's vector env would not
         raise EvaluationError(
             f"--env-kwargs: render_mode={kwargs['render_mode']}: an evaluation runs all episodes "
@@ -403,7 +418,7 @@ def record_video(
 ) -> None:
     """One episode of the model (or the PD controller without a model) as a GIF or an MP4,
     written to exactly ``path`` (complete or not at all)."""
-    kwargs = resolve_env_kwargs(model, env_kwargs)
+    kwargs = resolve_env_kwargs(model, env_kwargs, env_id)
     env = gym.make(env_id, render_mode="rgb_array", **kwargs)
     policy = load_policy(model, env_id, kwargs) if model is not None else CONTROLLERS["pd"](env)
     obs, _ = env.reset(seed=seed)
@@ -470,7 +485,7 @@ def main(argv: list[str] | None = None) -> int:
             check_video_path(args.video, args.force)
         only = args.only.split(",") if args.only else None
         results = evaluate(model, args.env, args.episodes, args.seed, only, env_kwargs)
-        used = resolve_env_kwargs(model, env_kwargs)
+        used = resolve_env_kwargs(model, env_kwargs, args.env)
     except EvaluationError as exc:
         print(f"agents.evaluate: error: {exc}", file=sys.stderr)
         return 2

@@ -1,7 +1,10 @@
 """The tasks that ship a training configuration per algorithm (``configs/agents/<algo>_<task>
 .yaml``) and a pretrained policy (``agents/pretrained/ppo_<task>.zip``): what the demo, the
 baselines and their tests loop over. A registered task not listed here (a new one, before
-anyone trains it) is an environment like any other, and the suite stays green without it."""
+anyone trains it) is an environment like any other, and the suite stays green without it.
+
+Registered variants of a task (:data:`rigid_env.envs.VARIANTS`) may ship a PPO configuration and
+policy too (:data:`VARIANTS`); the demo plays the tasks only, the policy tests every policy."""
 
 from __future__ import annotations
 
@@ -15,3 +18,14 @@ TASKS: dict[str, tuple[str, int, int]] = {name: REGISTERED[name] for name in SHI
 
 ENV_IDS = [f"RigidEnv/{name}-v{newest}" for name, (_, _, newest) in TASKS.items()]
 """The newest id of each shipped task: the one its policy was trained on."""
+
+VARIANTS: dict[str, str] = {"RigidEnv/DetumbleFaults-v0": "detumble_faults"}
+"""Variant id -> the stem of its files: ``configs/agents/ppo_<stem>.yaml`` and
+``agents/pretrained/ppo_<stem>.zip`` (PPO only)."""
+
+POLICIES: dict[str, str] = {
+    **{f"RigidEnv/{name}-v{newest}": module for name, (module, _, newest) in TASKS.items()},
+    **VARIANTS,
+}
+"""Env id -> stem of its pretrained policy ``agents/pretrained/ppo_<stem>.zip``: every policy
+that ships, the tasks' and the variants'."""

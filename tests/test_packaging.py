@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 import rigid_env
-from agents.shipped import ENV_IDS as SHIPPED_IDS
+from agents.shipped import POLICIES
 from rigid_env.resources import SCENE_DIR, data_path, data_roots, pretrained_path, scene_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NOT_BUILT = (".git", ".venv", "build", "dist", "runs", "results", "docs", "tests", "*.egg-info")
 NOT_BUILT += ("__pycache__", ".pytest_cache", ".ruff_cache", ".hypothesis", "videos")
 
-# Run inside the installed copy: every env, a pretrained policy per task, every agent config.
+# Run inside the installed copy: every env with a shipped policy under it, every agent config.
 USE_INSTALLED = """
 import json, sys
 from pathlib import Path
@@ -39,7 +39,7 @@ import numpy as np
 import rigid_env
 from rigid_env.agents.config import load_config
 from rigid_env.agents.evaluate import load_policy
-from rigid_env.agents.shipped import ENV_IDS
+from rigid_env.agents.shipped import POLICIES
 from rigid_env.agents.vec_adapter import RigidBodySB3VecEnv
 from rigid_env.resources import SCENE_DIR, data_path
 
@@ -53,7 +53,7 @@ pretrained = {json.loads(p.read_text())["env_id"]: p.with_suffix(".zip")
               for p in sorted(data_path("agents/pretrained").glob("*.json"))}
 out["pretrained"] = sorted(str(p) for p in pretrained.values())
 steps = {}
-for env_id in ENV_IDS:
+for env_id in POLICIES:
     env = gym.make(env_id)
     obs, _ = env.reset(seed=0)
     policy = load_policy(pretrained[env_id], env_id)
@@ -124,8 +124,9 @@ def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> No
 def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     installed: Path, tmp_path: Path
 ) -> None:
-    """From a folder outside the checkout: every registered env (single, native vector, SB3
-    adapter) steps under its task's pretrained policy; every agent config loads."""
+    """From a folder outside the checkout: every env with a shipped policy
+    (``agents.shipped.POLICIES``: the tasks' and the variants') steps in its single, native
+    vector and SB3 adapter forms under that policy; every agent config loads."""
     python, env = _python_outside(installed)
     proc = subprocess.run(
         [*python, "-c", textwrap.dedent(USE_INSTALLED)],
@@ -140,8 +141,8 @@ def test_installed_wheel_makes_steps_and_loads_policies_and_configs(
     assert Path(out["rigid_env"]).is_relative_to(installed)
     assert Path(out["scene_dir"]).is_relative_to(installed)
     assert out["top_level_agents"] is None
-    assert out["steps"] == dict.fromkeys(SHIPPED_IDS, True)
-    assert len(out["pretrained"]) == len(SHIPPED_IDS)
+    assert out["steps"] == dict.fromkeys(POLICIES, True)
+    assert len(out["pretrained"]) == len(POLICIES)
     assert all(Path(p).is_relative_to(installed) for p in out["pretrained"])
     assert len(out["configs"]) == len(list(ROOT.glob("configs/agents/*.yaml")))
 

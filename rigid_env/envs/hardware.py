@@ -2,20 +2,23 @@
 draws of the randomisation keys ``thruster_misalignment`` and ``thruster_faults`` (each from the
 generator it is given, an env's own).
 
-The ``realistic`` preset models a small cold-gas attitude thruster (nitrogen, a solenoid valve
-fired on/off), at the order of magnitude the literature gives; the numbers are per thruster,
-relative to the scene's ``max_force`` where they scale with it:
+The ``realistic`` preset models a small cold-gas attitude thruster (a gas fed through a
+solenoid valve fired on/off); the numbers are per thruster, relative to the scene's
+``max_force`` where they scale with it. What each rests on:
 
-* ``mode: on_off``: cold-gas attitude thrusters are solenoid valves, open or shut; attitude
-  control modulates the pulse width (Wie, *Space Vehicle Dynamics and Control*, 2nd ed., 2008,
-  Sec. 7.3 on pulse-width pulse-frequency modulation; Sidi, *Spacecraft Dynamics and Control*,
-  1997, Ch. 7).
-* ``lag: 0.01`` s: the valve's opening and the pressure build-up in the line take a few to
-  ~10 ms (Wertz and Larson, *Space Mission Analysis and Design*, 3rd ed., 1999, Sec. 17.4 on
-  cold-gas systems; Sidi, Ch. 7, models the thrust rise as a first-order lag of that order).
+* ``mode: on_off``: cold-gas thruster valves are opened and shut, in pairs for a torque, and the
+  systems are used for pulsing (Brown, *Elements of Spacecraft Design*, AIAA 2002, Secs. 4.3 and
+  4.8); attitude control modulates the pulse width (pulse-width pulse-frequency modulation:
+  Wie, *Space Vehicle Dynamics and Control*, AIAA 1998; Sidi, *Spacecraft Dynamics and Control*,
+  Cambridge 1997).
 * ``min_impulse``: a minimum on-time of 10 ms, ``max_force * 0.01 s`` (1 mN s at the 0.1 N of
-  the shipped scenes: the order SMAD lists for small cold-gas thrusters, 1e-4 to 1e-2 N s).
-* ``noise: 0.05``: thrust repeatability of a few per cent from pulse to pulse (SMAD Sec. 17.4).
+  the shipped scenes). VACCO's MiPS cold-gas system (isobutane) lists a minimum pulse duration
+  of 0.01 s and a minimum impulse bit of 0.55 mN s at 55 mN of thrust (Osiander, Darrin and
+  Champion, eds., *MEMS and Microstructures in Aerospace Applications*, CRC 2006, Ch. 11,
+  Table 11.8).
+* ``lag: 0.01`` s (the thrust's rise and decay) and ``noise: 0.05`` (thrust repeatability per
+  pulse): typical values, not verified against a datasheet; no source found gives a cold-gas
+  valve's thrust time constant or its pulse-to-pulse scatter.
 
 A fault (:class:`Fault`) acts on the command an env sends: stuck off (0), stuck on at a level
 (the valve held at that command whatever is sent) or degraded to a fraction of the command.

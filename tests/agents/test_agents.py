@@ -14,11 +14,13 @@ import yaml
 
 from agents.config import ConfigError, load_config
 from agents.controllers import PD_LAWS, BoundedAllocator, PDController
-from agents.demo import env_id, pretrained_model
+from agents.demo import pretrained_model
 from agents.evaluate import evaluate
 from agents.evaluate import main as evaluate_main
 from agents.shipped import ENV_IDS as SHIPPED_IDS
+from agents.shipped import POLICIES
 from agents.shipped import TASKS as SHIPPED_TASKS
+from agents.shipped import VARIANTS as SHIPPED_VARIANTS
 from agents.vec_adapter import RigidBodySB3VecEnv
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -251,13 +253,14 @@ def test_evaluate_cli_errors(tmp_path, capsys):
     assert evaluate_main(["none", "--env", "RigidEnv/Nope-v0"]) == 2
 
 
-@pytest.mark.parametrize("task", list(SHIPPED_TASKS))
+@pytest.mark.parametrize("env_id", list(POLICIES))
 @pytest.mark.slow
-def test_pretrained_policy_reaches_its_bar(task):
-    """Each shipped policy, on 20 fixed seeds nobody trained on, succeeds on at least 19 (the
-    issue's 95 %) and spends at most 1.5x the PD controller's fuel on the same episodes."""
-    model = pretrained_model(task)
-    res = evaluate(model, env_id(task), episodes=20, seed=777_000, only=["model", "pd"])
+def test_pretrained_policy_reaches_its_bar(env_id):
+    """Each shipped policy (the tasks' and the variants'), on 20 fixed seeds nobody trained on,
+    succeeds on at least 19 (the issue's 95 %) and spends at most 1.5x the PD controller's fuel
+    on the same episodes."""
+    model = PRETRAINED / f"ppo_{POLICIES[env_id]}.zip"
+    res = evaluate(model, env_id, episodes=20, seed=777_000, only=["model", "pd"])
     assert res["model"]["success_rate"] >= 0.95, res["model"]
     assert res["model"]["mean_fuel"] <= 1.5 * res["pd"]["mean_fuel"], res
 
@@ -294,6 +297,11 @@ def test_every_shipped_task_has_its_configs_policy_and_pd_law():
         for algo in ("ppo", "sac", "td3"):
             assert (root / "configs" / "agents" / f"{algo}_{module}.yaml").exists()
         assert pretrained_model(name).exists()
+    for variant_id, stem in SHIPPED_VARIANTS.items():
+        assert gym.spec(variant_id).kwargs  # a registered variant, not a task's plain id
+        assert load_config(root / "configs" / "agents" / f"ppo_{stem}.yaml").env_id == variant_id
+        assert (PRETRAINED / f"ppo_{stem}.zip").exists()
+    assert set(POLICIES) == set(SHIPPED_IDS) | set(SHIPPED_VARIANTS)
 
 
 def test_task_without_a_pd_law_is_a_loud_error():

@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
+import gymnasium as gym
 import pytest
 
-from agents.baselines import CONDITIONS, find_run, main, summary_table
+import agents.baselines as baselines
+from agents.baselines import CONDITIONS, METRICS, Run, evaluate_runs, find_run, main, summary_table
 from agents.env_kwargs import merge_env_kwargs
 from agents.evaluate import EvaluationError
 
@@ -57,3 +61,29 @@ def test_unfinished_run_and_existing_results_are_refused(tmp_path, capsys):
     assert main([str(tmp_path), "--out", str(out)]) == 2
     assert "pass --force" in capsys.readouterr().err
     assert (out / "results.md").read_text() == "earlier\n"
+
+
+def test_conditions_keep_a_variants_registered_randomisation(monkeypatch):
+    """DetumbleFaults-v0 registers its misalignment and faults under ``randomization``;
+    ``gym.make`` would replace that mapping whole with a condition's, so every condition is
+    merged into the registered kwargs key by key: the episodes of each still draw faults."""
+    seen = []
+
+    def record(model, env_id, episodes, seed, only, kwargs):
+        seen.append(kwargs)
+        return {name: dict.fromkeys(METRICS, 0.0) for name in only}
+
+    monkeypatch.setattr(baselines, "evaluate", record)
+    env_id = "RigidEnv/DetumbleFaults-v0"
+    run = Run(Path("run"), env_id, "ppo", 0, 1, {})
+    evaluate_runs([run], episodes=1, seed=0)
+    assert len(seen) == 2 * len(CONDITIONS)  # the model and the controllers, per condition
+    registered = gym.spec(env_id).kwargs
+    for kwargs in seen:
+        for key in ("thruster_misalignment", "thruster_faults"):
+            assert kwargs["randomization"][key] == registered["randomization"][key]
+    # 64 episodes at a fault probability of 0.5 all draw none with probability 2^-64.
+    env = gym.make_vec(env_id, num_envs=64, vectorization_mode="vector_entry_point", **seen[0])
+    _, info = env.reset(seed=0)
+    assert (info["fault_kind"] >= 0).any() and (info["fault_kind"] < 0).any()
+    env.close()
