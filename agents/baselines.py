@@ -17,11 +17,11 @@ seeds) under each of :data:`CONDITIONS`:
 * ``dt 0.1`` and ``dt 0.2``: the control step doubled and quadrupled (the tasks' is 0.05 s),
   so each action holds that much longer.
 
-A model is run with the env kwargs its sidecar records, the condition's merged over them, and a
-mapping the id registers kept under them key by key (:func:`agents.env_kwargs.over_registered`:
-``gym.make`` would replace a registered ``randomization`` whole, so
-``RigidEnv/DetumbleFaults-v0``'s ``nominal`` keeps its misalignment and faults and turns the rest
-off, its ``randomised`` adds mass, inertia, thrust and noise to them).
+A model is run with the env kwargs its sidecar records, the condition's merged over them; a
+registered variant merges them into its own defaults key by key
+(:func:`rigid_env.envs.variant_kwargs`), so ``RigidEnv/DetumbleFaults-v0``'s ``nominal`` keeps
+its misalignment and faults and turns the rest off, its ``randomised`` adds mass, inertia,
+thrust and noise to them.
 ``<out>/results.md`` is the summary (per row: success rate as the mean over seeds with the
 worst and best seed, fuel and its ratio to the PD controller's on the same episodes, time to
 success over the successful episodes only, success under each other condition);
@@ -42,7 +42,6 @@ import numpy as np
 from rigid_env.config_files import read_yaml
 
 from ._cli import OneLineParser, folder_problem, integer, path
-from .env_kwargs import over_registered
 from .evaluate import EvaluationError, evaluate
 
 _OFF = {"mass": 0.0, "inertia": 0.0, "thrust": 0.0, "sensor_noise": 0.0}
@@ -125,7 +124,7 @@ def evaluate_runs(runs: list[Run], episodes: int, seed: int) -> list[dict[str, A
     records: list[dict[str, Any]] = []
     for env_id in dict.fromkeys(r.env_id for r in runs):  # in the order given
         for condition, over in CONDITIONS.items():
-            kwargs = over_registered(env_id, over)
+            kwargs = over
             for run in (r for r in runs if r.env_id == env_id):
                 res = evaluate(run.model, env_id, episodes, seed, ["model"], kwargs)["model"]
                 records.append(_record(env_id, run.label, run.seed, condition, run.timesteps, res))

@@ -32,7 +32,7 @@ from rigid_env.config_files import (
 
 from .algorithms import Hyperparams, PolicyKwargs, argument_problems
 from .algorithms import algorithm_class as algorithm_class  # re-exported
-from .env_kwargs import check_env_kwargs, over_registered
+from .env_kwargs import check_env_kwargs
 
 ALGOS = ("ppo", "sac", "td3", "tqc")
 MAX_ENVS = 65_536
@@ -168,7 +168,6 @@ class TrainConfig(BaseModel):
         env_id = info.data.get("env_id")
         if env_id is None:
             return env_kwargs
-        env_kwargs = over_registered(env_id, env_kwargs)  # DetumbleFaults-v0 keeps its faults
         try:
             check_env_kwargs(env_id, env_kwargs).close()
         except ValueError as exc:

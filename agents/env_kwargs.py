@@ -68,21 +68,6 @@ def merge_env_kwargs(base: dict[str, Any], over: dict[str, Any]) -> dict[str, An
     return out
 
 
-def over_registered(env_id: str, env_kwargs: dict[str, Any]) -> dict[str, Any]:
-    """``env_kwargs`` with each mapping that ``env_id`` also registers merged into the registered
-    one key by key (``gym.make`` would put it in the registered one's place whole: a
-    ``randomization`` given to ``RigidEnv/DetumbleFaults-v0`` would drop its misalignment and
-    faults); every other value as given. An id that registers no mapping (every task's own ids)
-    gets ``env_kwargs`` back unchanged."""
-    registered = gym.spec(env_id).kwargs if env_id in gym.registry else {}
-    return {
-        key: merge_env_kwargs(registered[key], value)
-        if isinstance(value, dict) and isinstance(registered.get(key), dict)
-        else copy.deepcopy(value)
-        for key, value in env_kwargs.items()
-    }
-
-
 def _merge(into: dict[str, Any], new: dict[str, Any]) -> None:
     for key, value in new.items():
         if isinstance(value, dict) and isinstance(into.get(key), dict):

@@ -50,7 +50,7 @@ from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer, path
 from .controllers import CONTROLLERS
-from .env_kwargs import check_env_kwargs, merge_env_kwargs, over_registered, parse_env_kwargs
+from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
@@ -313,12 +313,11 @@ def resolve_env_kwargs(
 ) -> dict[str, Any]:
     """The env kwargs an evaluation runs with: the model's recorded ones (its sidecar's
     ``env_kwargs``: ``agents.train`` records the training ones less the randomisation, by
-    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them, and (given
-    ``env_id``) a mapping the id registers kept under them key by key
-    (:func:`agents.env_kwargs.over_registered`: DetumbleFaults-v0 keeps its faults)."""
+    :func:`agents.bar.evaluation_env_kwargs`), with ``env_kwargs`` merged over them (a
+    registered variant such as DetumbleFaults-v0 merges them into its own defaults in turn,
+    :func:`rigid_env.envs.variant_kwargs`)."""
     meta = read_sidecar(model) if model is not None and model.exists() else None
-    kwargs = merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
-    return kwargs if env_id is None else over_registered(env_id, kwargs)
+    return merge_env_kwargs((meta or {}).get("env_kwargs") or {}, env_kwargs or {})
 
 
 def evaluate(

@@ -27,6 +27,7 @@ import numpy as np
 from gymnasium.utils import seeding
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvStepReturn
 
+from rigid_env.envs import variant_kwargs
 from rigid_env.envs.batch import TaskBatch
 
 RENDER_MODES = (None, "rgb_array")
@@ -87,8 +88,10 @@ class RigidBodySB3VecEnv(VecEnv):
         vec_cls = gym.envs.registration.load_env_creator(entry)
         self.env_id = env_id
         # The id's registered kwargs first (a task version: RigidEnv/Reorient-v1 is version=1),
-        # the caller's over them, as gym.make merges them.
-        self.task: TaskBatch = vec_cls.task_cls(num_envs, **{**spec.kwargs, **kwargs})
+        # the caller's over them, as gym.make merges them (a variant merges them into its own).
+        self.task: TaskBatch = vec_cls.task_cls(
+            num_envs, **variant_kwargs({**spec.kwargs, **kwargs})
+        )
         self.max_episode_steps = (
             spec.max_episode_steps
             if max_episode_steps is None

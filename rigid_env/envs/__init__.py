@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import copy
+
 from gymnasium.envs.registration import register, registry
 
 #: (task module, max_episode_steps, newest version) of every registered task. Every version
@@ -42,6 +44,30 @@ VARIANTS: dict[str, tuple[str, int, dict]] = {
 ALL_ENV_IDS += [f"RigidEnv/{variant}" for variant in VARIANTS]
 
 
+def variant_kwargs(kwargs: dict) -> dict:
+    """The keyword arguments a task env is made with: for a registered variant (``variant``
+    names it; the registration passes it) the variant's defaults with ``kwargs`` merged over
+    them, mappings key by key, so that ``gym.make("RigidEnv/DetumbleFaults-v0",
+    randomization={"inertia": 0.3})`` keeps the variant's misalignment and faults (Gymnasium
+    would hand over the given mapping in place of the registered one); None switches a mapping
+    off. Without ``variant``, ``kwargs`` as given."""
+    kwargs = dict(kwargs)
+    name = kwargs.pop("variant", None)
+    if name is None:
+        return kwargs
+    if name not in VARIANTS:
+        raise ValueError(f"variant: {name!r} is not one of {sorted(VARIANTS)}")
+    return _merged(VARIANTS[name][2], kwargs)
+
+
+def _merged(base: dict, over: dict) -> dict:
+    out = copy.deepcopy(base)
+    for key, value in over.items():
+        both = isinstance(value, dict) and isinstance(out.get(key), dict)
+        out[key] = _merged(out[key], value) if both else copy.deepcopy(value)
+    return out
+
+
 def _register_all() -> None:
     for name, (module, steps, newest) in TASKS.items():
         for version in range(newest + 1):
@@ -64,7 +90,7 @@ def _register_all() -> None:
                 entry_point=f"rigid_env.envs.{module}:{name}Env",
                 vector_entry_point=f"rigid_env.envs.{module}:{name}VectorEnv",
                 max_episode_steps=steps,
-                kwargs=kwargs,
+                kwargs={"variant": variant, **kwargs},
             )
 
 

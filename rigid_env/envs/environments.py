@@ -19,6 +19,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.envs import variant_kwargs
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.render import TaskRenderer
 
@@ -87,7 +88,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
             raise ValueError(
                 f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']}"
             )
-        self.task = task_class(self, task)(1, **kwargs)
+        self.task = task_class(self, task)(1, **variant_kwargs(kwargs))
         self.observation_space = self.task.single_observation_space
         self.action_space = self.task.single_action_space
         self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.task.dt))}
@@ -173,7 +174,7 @@ class RigidBodyVectorEnv(VectorEnv):
                 f"render_mode: {render_mode!r} is not one of {self.metadata['render_modes']} "
                 "(a vector env renders sub-environment 0 as an RGB array)"
             )
-        self.task = task_class(self, task)(num_envs, **kwargs)
+        self.task = task_class(self, task)(num_envs, **variant_kwargs(kwargs))
         self.num_envs = self.task.n
         self.max_episode_steps = max_episode_steps
         self.single_observation_space = self.task.single_observation_space

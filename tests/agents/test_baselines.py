@@ -64,9 +64,9 @@ def test_unfinished_run_and_existing_results_are_refused(tmp_path, capsys):
 
 
 def test_conditions_keep_a_variants_registered_randomisation(monkeypatch):
-    """DetumbleFaults-v0 registers its misalignment and faults under ``randomization``;
-    ``gym.make`` would replace that mapping whole with a condition's, so every condition is
-    merged into the registered kwargs key by key: the episodes of each still draw faults."""
+    """DetumbleFaults-v0 registers its misalignment and faults under ``randomization``; a
+    condition's ``randomization`` adds to it key by key (:func:`rigid_env.envs.variant_kwargs`):
+    the env of every condition keeps them, and its episodes still draw faults."""
     seen = []
 
     def record(model, env_id, episodes, seed, only, kwargs):
@@ -78,10 +78,13 @@ def test_conditions_keep_a_variants_registered_randomisation(monkeypatch):
     run = Run(Path("run"), env_id, "ppo", 0, 1, {})
     evaluate_runs([run], episodes=1, seed=0)
     assert len(seen) == 2 * len(CONDITIONS)  # the model and the controllers, per condition
-    registered = gym.spec(env_id).kwargs
+    registered = gym.spec(env_id).kwargs["randomization"]
     for kwargs in seen:
-        for key in ("thruster_misalignment", "thruster_faults"):
-            assert kwargs["randomization"][key] == registered["randomization"][key]
+        env = gym.make(env_id, **kwargs)
+        drawn = env.unwrapped.task.randomization
+        assert drawn.thruster_misalignment == registered["thruster_misalignment"]
+        assert drawn.thruster_faults.probability == registered["thruster_faults"]["probability"]
+        env.close()
     # 64 episodes at a fault probability of 0.5 all draw none with probability 2^-64.
     env = gym.make_vec(env_id, num_envs=64, vectorization_mode="vector_entry_point", **seen[0])
     _, info = env.reset(seed=0)

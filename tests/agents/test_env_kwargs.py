@@ -1,33 +1,50 @@
-"""agents.env_kwargs: a keyword given to a registered variant adds to the mapping it registers."""
+"""A keyword given to a registered variant adds to the mapping it registers, in gym.make and in
+the agents' configs and evaluations."""
 
 from __future__ import annotations
 
 import json
 
 import gymnasium as gym
+import pytest
 import yaml
 
 from agents.config import load_config
 from agents.controllers import CONTROLLERS
-from agents.env_kwargs import over_registered
 from agents.evaluate import main as evaluate_main
 from agents.evaluate import run_episodes
 
 FAULTS = "RigidEnv/DetumbleFaults-v0"
 
 
-def test_a_variants_registered_mapping_is_merged_not_replaced():
-    """DetumbleFaults-v0 registers ``randomization`` (misalignment, faults): a given
-    ``randomization`` adds its keys to it; other values are as given; None switches it off; a
-    task's own id (which registers no mapping) gets its kwargs back unchanged."""
-    registered = gym.spec(FAULTS).kwargs["randomization"]
+@pytest.mark.parametrize("vector", [False, True])
+def test_a_variants_registered_mapping_is_merged_not_replaced(vector: bool):
+    """DetumbleFaults-v0 registers ``randomization`` (misalignment, faults): ``gym.make`` and
+    ``gym.make_vec`` with a ``randomization`` of one's own add its keys to the variant's (where
+    Gymnasium alone would replace the mapping and drop the faults); None switches it off; the
+    spec is untouched; a task's own id takes its kwargs as given."""
     before = json.dumps(gym.spec(FAULTS).kwargs, sort_keys=True)
-    out = over_registered(FAULTS, {"randomization": {"inertia": 0.3}, "dt": 0.1})
-    assert out == {"randomization": {**registered, "inertia": 0.3}, "dt": 0.1}
-    assert json.dumps(gym.spec(FAULTS).kwargs, sort_keys=True) == before  # the spec untouched
-    assert over_registered(FAULTS, {"randomization": None}) == {"randomization": None}
-    plain = {"randomization": {"inertia": 0.3}}
-    assert over_registered("RigidEnv/Detumble-v0", plain) == plain
+
+    def randomization(env_id: str, **kwargs):
+        if vector:
+            env = gym.make_vec(env_id, 2, vectorization_mode="vector_entry_point", **kwargs)
+        else:
+            env = gym.make(env_id, **kwargs)
+        r = env.unwrapped.task.randomization if not vector else env.task.randomization
+        env.close()
+        return r
+
+    mixed = randomization(FAULTS, randomization={"inertia": 0.3})
+    assert mixed.inertia == 0.3
+    assert mixed.thruster_misalignment == 2.0
+    assert mixed.thruster_faults is not None and mixed.thruster_faults.probability == 0.5
+    off = randomization(FAULTS, randomization=None)
+    assert off.thruster_faults is None and off.thruster_misalignment == 0.0
+    assert json.dumps(gym.spec(FAULTS).kwargs, sort_keys=True) == before
+    plain = randomization("RigidEnv/Detumble-v0", randomization={"inertia": 0.3})
+    assert plain.inertia == 0.3 and plain.thruster_faults is None
+    with pytest.raises(ValueError, match="variant: 'nope' is not one of"):
+        gym.make("RigidEnv/Detumble-v0", variant="nope")
 
 
 def test_a_variants_faults_survive_a_training_config_and_an_evaluation(tmp_path, capsys):
@@ -46,9 +63,8 @@ def test_a_variants_faults_survive_a_training_config_and_an_evaluation(tmp_path,
             }
         )
     )
-    registered = gym.spec(FAULTS).kwargs["randomization"]
     resolved = load_config(cfg).env_kwargs["randomization"]
-    assert resolved == {**registered, "inertia": 0.3}
+    assert resolved == {"inertia": 0.3}  # the env adds the variant's own (above)
 
     args = ["none", "--env", FAULTS, "--episodes", "2", "--only", "pd", "--json"]
     assert evaluate_main([*args, "--env-kwargs", "randomization.inertia=0.3"]) == 0
