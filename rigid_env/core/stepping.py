@@ -71,12 +71,12 @@ def step_maps(v, w, c):
 
 
 @kernel
-def _finite(x, v, q, w):
+def _finite(x, q, energy):
     """Whether every number of a body's state is finite, without a branch: ``a - a`` is 0 for a
-    finite ``a`` and NaN for an inf or a NaN."""
-    z = (x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (v[0] - v[0]) + (v[1] - v[1])
-    z += (v[2] - v[2]) + (q[0] - q[0]) + (q[1] - q[1]) + (q[2] - q[2]) + (q[3] - q[3])
-    return z + ((w[0] - w[0]) + (w[1] - w[1]) + (w[2] - w[2])) == 0.0
+    finite ``a`` and NaN for an inf or a NaN; ``v`` and ``w`` by their kinetic ``energy`` (a
+    sum of their squares with positive weights: finite only where they are)."""
+    z = (x[0] - x[0]) + (x[1] - x[1]) + (x[2] - x[2]) + (energy - energy)
+    return z + ((q[0] - q[0]) + (q[1] - q[1]) + (q[2] - q[2]) + (q[3] - q[3])) == 0.0
 
 
 EXPLOSION_FACTOR = 10.0
@@ -138,7 +138,8 @@ def guard(state, status, i, new, old, m, reachable):
     x, v, q, w = new
     x0, v0, q0, w0 = old
     healthy = status[i] == HEALTHY
-    ok = healthy & _finite(x, v, q, w) & (kinetic_energy(v, w, m) <= reachable)
+    energy = kinetic_energy(v, w, m)
+    ok = healthy & _finite(x, q, energy) & (energy <= reachable)
     failed = healthy & ~ok
     status[i] = FAILED if failed else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
