@@ -184,6 +184,7 @@ class TaskBatch:
         """(N,) world steps each env holds an action for in its episode (its control period
         over ``dt``; ``randomization.action_repeat``)."""
         self._repeating = max(repeats) > 1
+        self._observes_period = settings.observe_control_period
         self._check_extra_observations()
 
     # ---- task interface ------------------------------------------------------------------
@@ -221,7 +222,7 @@ class TaskBatch:
         """Write the control period ``k dt`` [s] of the envs ``idx`` (default all) into their
         last observation column, where it is observed (after the task's pass, which knows
         nothing of it)."""
-        if self.settings.observe_control_period:
+        if self._observes_period:
             rows = slice(None) if idx is None else idx
             period = np.minimum(self.repeats[rows] * self.dt, PERIOD_BOUND)
             self.obs[rows, -1] = period.astype(np.float32)
@@ -324,7 +325,8 @@ class TaskBatch:
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
-        self._observe_period()
+        if self._observes_period:
+            self._observe_period()
         return self.record["reward"], self.record["terminated"].copy(), failed
 
     def _step_repeated(
@@ -400,7 +402,8 @@ class TaskBatch:
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
-        self._observe_period()
+        if self._observes_period:
+            self._observe_period()
         return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
