@@ -64,15 +64,17 @@ def run_episodes(
 ) -> dict[str, np.ndarray]:
     """Run ``episodes`` episodes at once in the native vector env (episode ``k`` resets with
     ``seed + k``); per-episode arrays ``(episodes,)``: ``success``, ``final_angular_speed``
-    [rad/s], ``fuel`` [N s], ``return``, ``length`` [steps], ``time_to_success`` [s] (NaN
-    where the episode does not end in success) and ``numerical_error``; on an env that draws
-    thruster faults also ``fault_kind`` (index in
+    [rad/s], ``fuel`` [N s], ``return``, ``length`` [steps], ``time_to_success`` [s] (the end of
+    the step in which success first holds, a step lasting ``k dt`` where an action is held for
+    ``k`` world steps; NaN where the episode does not end in success) and
+    ``numerical_error``; on an env that draws thruster faults also ``fault_kind`` (index in
     :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and ``fault_active`` (the fault
     had started when the episode ended), as its last ``info`` reports them."""
     env = gym.make_vec(
         env_id, num_envs=episodes, vectorization_mode="vector_entry_point", **(env_kwargs or {})
     )
-    dt = env.unwrapped.task.dt if hasattr(env.unwrapped, "task") else env.task.dt
+    task = env.unwrapped.task if hasattr(env.unwrapped, "task") else env.task
+    dt = task.dt
     obs, info = env.reset(seed=seed)
     n = episodes
     returns = np.zeros(n)
@@ -87,14 +89,16 @@ def run_episodes(
     fault_kind = np.full(n, -1, dtype=np.int64)
     fault_active = np.zeros(n, dtype=bool)
     step = 0
+    world_steps = np.zeros(n, dtype=np.int64)  # of dt each: a step holds its action repeats
     while not done.all():
         action = policy(obs)
-        obs, reward, terminated, truncated, info = env.step(action)
         step += 1
+        world_steps += task.repeats  # the episode's (an autoreset draws anew only after its end)
+        obs, reward, terminated, truncated, info = env.step(action)
         live = ~done
         returns[live] += reward[live]
         hit = live & info["success"] & np.isnan(first_success)
-        first_success[hit] = step * dt
+        first_success[hit] = world_steps[hit] * dt
         ended = live & (terminated | truncated)
         length[ended] = step
         final_speed[ended] = info["angular_speed"][ended]

@@ -32,6 +32,9 @@ FloatArray = NDArray[np.float64]
 
 _NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
 
+PERIOD_BOUND = 10.0
+"""[s] the observed control period (``observe_control_period``) is clipped into [0, this]."""
+
 
 def as_num_envs(value: Any) -> int:
     """``value`` as a number of envs (an integer >= 1, NumPy's included), or a one-line
@@ -134,10 +137,14 @@ class TaskBatch:
                 np.full(3, K.W_OBS_BOUND),
                 np.ones(3),
                 np.full(len(self.extra_observations), self.extra_bound),
+                np.full(int(settings.observe_control_period), PERIOD_BOUND),
             ]
         ).astype(np.float32)
         self.obs_dim = bound.size
-        self.single_observation_space = spaces.Box(-bound, bound, dtype=np.float32)
+        low = -bound
+        if settings.observe_control_period:
+            low[-1] = 0.0
+        self.single_observation_space = spaces.Box(low, bound, dtype=np.float32)
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
         common = {
             "dt": self.dt,
@@ -172,6 +179,12 @@ class TaskBatch:
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
+        repeats = self.randomization.action_repeat or (1,)
+        self.repeats = np.full(n, repeats[0], dtype=np.int64)
+        """(N,) world steps each env holds an action for in its episode (its control period
+        over ``dt``; ``randomization.action_repeat``)."""
+        self._repeating = max(repeats) > 1
+        self._observes_period = settings.observe_control_period
         self._check_extra_observations()
 
     # ---- task interface ------------------------------------------------------------------
@@ -200,7 +213,19 @@ class TaskBatch:
         out["fine_w"] = slice(rot + 3, rot + 6)
         for k, name in enumerate(self.extra_observations):
             out[name] = slice(rot + 6 + k, rot + 7 + k)
+        if self.settings.observe_control_period:
+            end = rot + 6 + len(self.extra_observations)
+            out["control_period"] = slice(end, end + 1)
         return out
+
+    def _observe_period(self, idx: NDArray[np.int64] | None = None) -> None:
+        """Write the control period ``k dt`` [s] of the envs ``idx`` (default all) into their
+        last observation column, where it is observed (after the task's pass, which knows
+        nothing of it)."""
+        if self._observes_period:
+            rows = slice(None) if idx is None else idx
+            period = np.minimum(self.repeats[rows] * self.dt, PERIOD_BOUND)
+            self.obs[rows, -1] = period.astype(np.float32)
 
     def _check_extra_observations(self) -> None:
         """Run the compiled pass once on a scratch env (compiling it, or loading it from the
@@ -290,6 +315,8 @@ class TaskBatch:
             the body is frozen at its last finite state and the episode must end). Views of
             the task's buffers, valid until the next step.
         """
+        if self._repeating:
+            return self._step_repeated(rngs, restarting)
         if self._noisy:
             self._draw_thrust_factors(rngs, restarting)
         failed = self.world.advance(self.command)
@@ -298,11 +325,75 @@ class TaskBatch:
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
+        if self._observes_period:
+            self._observe_period()
         return self.record["reward"], self.record["terminated"].copy(), failed
+
+    def _step_repeated(
+        self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+        """:meth:`step` where env ``i`` holds its command for :attr:`repeats` ``[i]`` world steps:
+        exactly the steps (world step, then the task's pass) a caller would make by sending the
+        same action that many times, stopped after one that ends the episode; the reward is
+        their sum (so an episode's return is the same however its actions are grouped), the
+        record, fuel and observation those of the last. Envs about to restart are not stepped
+        (their state is drawn anew)."""
+        reward = np.zeros(self.n)
+        ended = np.zeros(self.n, dtype=bool) if restarting is None else restarting.copy()
+        failed_any = np.zeros(self.n, dtype=bool)
+        for r in range(int(self.repeats.max())):
+            stepping = (self.repeats > r) & ~ended
+            if not stepping.any():
+                break
+            failed = self._step_some(stepping, rngs)
+            failed_any |= failed
+            reward[stepping] += self.record["reward"][stepping]
+            ended |= stepping & (self.record["terminated"] | failed)
+        self.steps += 1
+        self._observe_period()
+        return reward, self.record["terminated"].copy(), failed_any
+
+    def _step_some(
+        self, stepping: NDArray[np.bool_], rngs: Sequence[np.random.Generator]
+    ) -> NDArray[np.bool_]:
+        """One world step and pass of the envs in ``stepping``, the others held: their bodies
+        frozen in the world (:attr:`World.failed`: a frozen body is left as it is), their
+        lagged thrust levels kept, nothing drawn from their generators, and the pass run over
+        the stepping envs only. Returns the world step's failed mask."""
+        world = self.world
+        held = ~stepping & ~world.failed
+        if self._noisy:
+            self._draw_thrust_factors(rngs, ~stepping)
+        levels = world.thrust_levels
+        kept = None if levels is None else levels[held].copy()
+        world.failed[held] = True
+        failed = world.advance(self.command)
+        world.failed[held] = False
+        if levels is not None:
+            levels[held] = kept
+        self._own_obs(keep=True)
+        if stepping.all():
+            arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
+                                  self._noise(rngs), self.record, self.obs)  # fmt: skip
+            self._pass(arrays, True)
+            return failed
+        idx = np.flatnonzero(stepping)
+        record, obs = self.record[idx], self.obs[idx]
+        cols = np.ascontiguousarray(world.columns[:, idx])
+        model = np.ascontiguousarray(world.model_columns[:, idx])
+        noise = self._noise([rngs[i] for i in idx])
+        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise, record,
+                                obs), True)  # fmt: skip
+        self.record[idx], self.obs[idx] = record, obs
+        return failed
 
     def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
         """:meth:`step` of a task of one env: its record as Python values and whether its body
         failed."""
+        if self._repeating:
+            reward, _, failed_any = self._step_repeated([rng])
+            record = K.EnvRecord._make(self.record.item(0))
+            return record._replace(reward=float(reward[0])), bool(failed_any[0])
         if self._noisy:
             self._draw_thrust_factors([rng])
         failed = self.world.advance(self.command)
@@ -311,6 +402,8 @@ class TaskBatch:
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
+        if self._observes_period:
+            self._observe_period()
         return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
@@ -352,7 +445,7 @@ class TaskBatch:
         s = self.world.state
         draws = []
         r = self.randomization
-        randomized = r.physical or r.thrust > 0.0 or r.hardware
+        randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
         for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
             if randomized:
@@ -380,6 +473,7 @@ class TaskBatch:
         self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise,
                                 record, obs), False)  # fmt: skip
         self.record[idx], self.obs[idx] = record, obs
+        self._observe_period(idx)
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
         r = self.randomization
@@ -407,6 +501,9 @@ class TaskBatch:
             self._misalign(i, rng, r.thruster_misalignment)
         if r.thruster_faults is not None:
             self.faults[i] = draw_fault(rng, r.thruster_faults, self.action_dim)
+        if r.drawn_repeat:
+            choices = r.action_repeat
+            self.repeats[i] = choices[int(rng.integers(len(choices)))]
 
     def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
         """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""

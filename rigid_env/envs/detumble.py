@@ -103,11 +103,15 @@ class DetumbleEnv(RigidBodyEnv):
 
     ``gym.make("RigidEnv/Detumble-v0", max_initial_spin=3.0, success_threshold=0.05,
     fuel_weight=0.1, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
-    rotation_repr="quaternion", randomization=None, render_mode=None)``; ``randomization`` takes
-    ``{"mass": a, "inertia": a, "thrust": a, "sensor_noise": sigma}``. ``"mass"`` changes nothing
-    here: the thrusters are pure couples (no net force), so the mass enters only the translation,
-    which nothing observes or rewards; the moments are drawn on their own by ``"inertia"`` (not
-    scaled with the mass). It matters only where forces move the centre of mass (TumblingFall).
+    rotation_repr="quaternion", randomization=None, observe_control_period=False,
+    render_mode=None)``; ``randomization`` takes ``{"mass": a, "inertia": a, "thrust": a,
+    "sensor_noise": sigma, "action_repeat": [k, ...]}`` (each action held for ``k`` world steps,
+    ``k`` drawn per episode; ``observe_control_period=True`` observes ``k dt`` [s] last; see
+    :class:`rigid_env.envs.params.Randomization`) and the thrusters' keys. ``"mass"`` changes
+    nothing here: the thrusters are pure couples (no net force), so the mass enters only the
+    translation, which nothing observes or rewards; the moments are drawn on their own by
+    ``"inertia"`` (not scaled with the mass). It matters only where forces move the centre of
+    mass (TumblingFall).
 
     ## Info
 

@@ -59,6 +59,28 @@ TiltDegrees = quantity("deg", ge=0, le=90)
 """A tilt angle [deg] in [0, 90]."""
 
 
+def _repeats(value: Any) -> Any:
+    """``randomization.action_repeat`` checked: None, or distinct integers >= 1."""
+    if value is None:
+        return None
+    fix = "give distinct integers >= 1, e.g. [1, 2, 4] (a range as its list: [1, 2, 3, 4])"
+    if not isinstance(value, list | tuple) or not value:
+        raise ValueError(
+            f"must be a non-empty list of world steps per action, got {value!r}; {fix}"
+        )
+    for k in value:
+        integral = isinstance(k, int | np.integer) and not isinstance(k, bool | np.bool_)
+        if not integral or k < 1:
+            raise ValueError(f"must hold integers >= 1, got {k!r}; {fix}")
+    if len(set(value)) != len(value):
+        raise ValueError(f"lists a repeat twice, got {list(value)!r}; {fix}")
+    return tuple(int(k) for k in value)
+
+
+ActionRepeats = Annotated[tuple[int, ...] | None, BeforeValidator(_repeats)]
+"""World steps per action: None, or a tuple of distinct integers >= 1."""
+
+
 def task_version(newest: int) -> Any:
     """The task's version (the ``-vK`` of its id), an integer from 0 to ``newest``."""
 
@@ -112,11 +134,20 @@ class Randomization(BaseModel):
     thruster_faults: ThrusterFaults | None = None
     """Per-episode faults: a mapping of probability (in [0, 1]), kinds (stuck_off, stuck_on,
     degraded), within_steps, stuck_level, degraded_fraction (None: no faults)."""
+    action_repeat: ActionRepeats = None
+    """The control period in world steps: each action is held for ``k`` steps of ``dt`` (the
+    physics step unchanged), ``k`` drawn per episode uniformly from this list of distinct
+    integers >= 1 (one entry: that repeat in every episode, nothing drawn; None: 1)."""
 
     @property
     def hardware(self) -> bool:
         """Whether any thruster draw is needed at reset (misalignment, faults)."""
         return self.thruster_misalignment > 0.0 or self.thruster_faults is not None
+
+    @property
+    def drawn_repeat(self) -> bool:
+        """Whether a control period is drawn at reset (more than one ``action_repeat``)."""
+        return self.action_repeat is not None and len(self.action_repeat) > 1
 
     @property
     def physical(self) -> bool:
@@ -153,7 +184,10 @@ class EnvSettings(BaseModel):
     columns of the rotation matrix, 6 numbers)."""
     randomization: Annotated[Randomization, BeforeValidator(_none_is_empty)] = Randomization()
     """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise,
-    thruster_misalignment, thruster_faults (None: none)."""
+    thruster_misalignment, thruster_faults, action_repeat (None: none)."""
+    observe_control_period: Annotated[bool, Field(strict=True)] = False
+    """Append the control period ``k dt`` [s] (``randomization.action_repeat``; ``dt`` alone
+    without it) to the observation, clipped into [0, 10] s."""
     thrusters: Literal["ideal", "realistic"] = "ideal"
     """The thrusters' hardware: "ideal" (as the scene says) or "realistic" (a cold-gas attitude
     thruster: on/off firing, a lag, a minimum impulse bit and thrust noise;

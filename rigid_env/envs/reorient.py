@@ -131,8 +131,9 @@ class ReorientEnv(RigidBodyEnv):
     ## Arguments
 
     ``max_initial_spin=1.0, success_angle=5 deg, success_spin=0.05, fuel_weight=0.05``, plus
-    the common ``integrator, dt, substeps, scene, rotation_repr, randomization, render_mode``.
-    As in Detumble, ``randomization={"mass": a}`` changes nothing (pure couples, no gravity).
+    the common ``integrator, dt, substeps, scene, rotation_repr, randomization,
+    observe_control_period, render_mode``. As in Detumble, ``randomization={"mass": a}`` changes
+    nothing (pure couples, no gravity).
 
     ## Version History
 
