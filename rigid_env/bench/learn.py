@@ -13,7 +13,8 @@ issue 24), shortened: it stops at its first evaluation that meets the bar, or af
 the PD controller's fuel), so *time to bar* is the wall-clock (and process CPU time) and the
 env-steps from the start of training to that evaluation. Each final model is then evaluated on
 100 further episodes (seeds 12345 + k, which no training or training-time evaluation used).
-env-steps/s is over the whole run, evaluations included.
+env-steps/s is over the whole run, evaluations included; training env-steps/s leaves out the
+wall-clock of the periodic evaluations (the configs evaluate at different rates).
 
 Writes ``results.md`` (tables), ``results.csv`` (one row per run) and ``time_to_bar.png``
 (success of each evaluation against training wall-clock, one curve per run) to ``--out``
@@ -53,6 +54,7 @@ class LearnRow:
     seconds: float  # training wall-clock
     cpu_seconds: float  # process CPU time of the training
     steps_per_s: float
+    train_steps_per_s: float  # env-steps per wall-clock second outside the periodic evaluations
     bar_steps: float  # env-steps at the first evaluation at the bar (nan: never)
     bar_seconds: float
     bar_cpu_seconds: float
@@ -150,9 +152,23 @@ def train_one(
                 return False
             return True
 
+    class EvaluationTimer(BaseCallback):
+        """Adds up the wall-clock the run's periodic evaluations take (the configs evaluate at
+        different rates: that is not the training path's speed)."""
+
+        def _on_training_start(self) -> None:
+            evaluation = next(
+                c for c in self.locals["callback"].callbacks if isinstance(c, DurableEvaluation)
+            )
+            evaluation.evaluation = _Timed(evaluation.evaluation, spent)
+
+        def _on_step(self) -> bool:
+            return True
+
+    spent = [0.0]
     t0, c0 = time.perf_counter(), time.process_time()
     stop = [StopAtBar()] if previous or math.isfinite(limit_s) else []
-    run_dir = train(cfg, runs_dir, progress=False, callbacks=stop)
+    run_dir = train(cfg, runs_dir, progress=False, callbacks=[EvaluationTimer(), *stop])
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     side = json.loads((run_dir / "model.json").read_text())
     with np.load(run_dir / "eval" / "evaluations.npz") as h:
@@ -171,6 +187,7 @@ def train_one(
             seconds=seconds,
             cpu_seconds=cpu,
             steps_per_s=steps / seconds,
+            train_steps_per_s=steps / (seconds - spent[0]),
             bar_steps=bar[0],
             bar_seconds=bar[1],
             bar_cpu_seconds=bar[2],
@@ -180,6 +197,24 @@ def train_one(
             history=str(run_dir / "eval" / "evaluations.npz"),
         )
     )
+
+
+class _Timed:
+    """A run's evaluation (a callable with attributes) whose calls add their wall-clock to
+    ``spent[0]``."""
+
+    def __init__(self, evaluation: Any, spent: list[float]) -> None:
+        self._evaluation, self._spent = evaluation, spent
+
+    def __call__(self, *args: Any, **kwargs: Any) -> Any:
+        t = time.perf_counter()
+        try:
+            return self._evaluation(*args, **kwargs)
+        finally:
+            self._spent[0] += time.perf_counter() - t
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._evaluation, name)
 
 
 def _first_at_bar(hist: dict[str, np.ndarray]) -> tuple[float, float, float]:
@@ -255,20 +290,21 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
         f"{args.previous_limit:.0f} s.",
         "",
         "| task | config | seed | time to bar [s] | CPU to bar [s] | env-steps to bar | "
-        "trained [s] | env-steps | env-steps/s | final success | fuel / PD | stopped |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "trained [s] | env-steps | env-steps/s | training env-steps/s | final success | "
+        "fuel / PD | stopped |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         lines.append(
             f"| {r.task} | {r.config} | {r.seed} | {r.bar_seconds:.1f} | {r.bar_cpu_seconds:.1f}"
             f" | {r.bar_steps:,.0f} | {r.seconds:.1f} | {r.steps:,} | {r.steps_per_s:,.0f} | "
-            f"{r.success:.2f} | {r.fuel_ratio:.2f} | {r.stopped} |"
+            f"{r.train_steps_per_s:,.0f} | {r.success:.2f} | {r.fuel_ratio:.2f} | {r.stopped} |"
         )
     lines += [
         "",
         "| task | shipped: median (worst) time to bar [s] | previous: median time to bar [s] | "
-        "env-steps/s shipped / previous |",
-        "|---|---|---|---|",
+        "env-steps/s shipped / previous | training env-steps/s shipped / previous |",
+        "|---|---|---|---|---|",
     ]
     for task in TASKS:
         new = [r for r in rows if r.task == task and r.config == "shipped"]
@@ -277,14 +313,19 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
             continue
         bar = [r.bar_seconds for r in new]
         worst = max(bar) if not any(math.isnan(b) for b in bar) else math.nan
-        ratio = (
-            _median([r.steps_per_s for r in new]) / _median([r.steps_per_s for r in old])
+        ratio, training = (
+            (
+                _median([r.steps_per_s for r in new]) / _median([r.steps_per_s for r in old]),
+                _median([r.train_steps_per_s for r in new])
+                / _median([r.train_steps_per_s for r in old]),
+            )
             if old
-            else math.nan
+            else (math.nan, math.nan)
         )
         old_bar = _median([r.bar_seconds for r in old]) if old else math.nan
         lines.append(
-            f"| {task} | {_median(bar):.1f} ({worst:.1f}) | {old_bar:.1f} | {ratio:.2f}x |"
+            f"| {task} | {_median(bar):.1f} ({worst:.1f}) | {old_bar:.1f} | {ratio:.2f}x | "
+            f"{training:.2f}x |"
         )
     return "\n".join(lines) + "\n"
 
