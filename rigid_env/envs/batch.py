@@ -367,10 +367,12 @@ class TaskBatch:
         levels = world.thrust_levels
         kept = None if levels is None else levels[held].copy()
         world.failed[held] = True
-        failed = world.advance(self.command)
-        world.failed[held] = False
-        if levels is not None:
-            levels[held] = kept
+        try:
+            failed = world.advance(self.command)
+        finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
+            world.failed[held] = False
+            if levels is not None:
+                levels[held] = kept
         self._own_obs(keep=True)
         if stepping.all():
             arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
