@@ -335,6 +335,7 @@ def _figure(rows: list[LearnRow], path: Path) -> None:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
 
     tasks = [t for t in TASKS if any(r.task == t for r in rows)]
     fig, axes = plt.subplots(1, len(tasks), figsize=(4 * len(tasks), 3.4), sharey=True)
@@ -350,6 +351,7 @@ def _figure(rows: list[LearnRow], path: Path) -> None:
         ax.set_title(task)
         ax.set_xlabel("training wall-clock [s]")
         ax.set_xscale("log")
+        ax.xaxis.set_minor_formatter(NullFormatter())  # labels at decades only: no overlaps
     np.atleast_1d(axes)[0].set_ylabel("success, 100 held-out episodes")
     np.atleast_1d(axes)[0].legend(fontsize=7)
     fig.tight_layout()
