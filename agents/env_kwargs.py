@@ -7,7 +7,6 @@ an hour into a run.
 
 from __future__ import annotations
 
-import copy
 import json
 import re
 from collections.abc import Sequence
@@ -16,6 +15,7 @@ from typing import Any
 import gymnasium as gym
 
 import rigid_env  # noqa: F401  (registers the ids)
+from rigid_env.envs import merge_kwargs
 from rigid_env.scene import SceneError
 
 
@@ -40,7 +40,7 @@ def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
                 ) from None
             if not isinstance(value, dict):
                 raise ValueError(f'{text!r} is not a JSON object; write {{"key": value}}')
-            _merge(out, value)
+            out = merge_kwargs(out, value)
             continue
         key, sep, raw = text.partition("=")
         if not sep or not key.strip():
@@ -56,24 +56,14 @@ def parse_env_kwargs(items: Sequence[str]) -> dict[str, Any]:
         for name in reversed(key.strip().split(".")):
             nested = {name: value}
             value = nested
-        _merge(out, nested)
+        out = merge_kwargs(out, nested)
     return out
 
 
-def merge_env_kwargs(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    """``over`` merged into a copy of ``base``, mappings key by key (so
-    ``{"randomization": {"inertia": 0.2}}`` keeps a recorded ``randomization.mass``)."""
-    out = copy.deepcopy(base)
-    _merge(out, copy.deepcopy(over))
-    return out
-
-
-def _merge(into: dict[str, Any], new: dict[str, Any]) -> None:
-    for key, value in new.items():
-        if isinstance(value, dict) and isinstance(into.get(key), dict):
-            _merge(into[key], value)
-        else:
-            into[key] = value
+merge_env_kwargs = merge_kwargs
+"""``over`` merged into a copy of ``base``, mappings key by key (so ``{"randomization":
+{"inertia": 0.2}}`` keeps a recorded ``randomization.mass``): the envs' own merge
+(:func:`rigid_env.envs.merge_kwargs`), which a registered variant applies to its defaults."""
 
 
 def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:

@@ -313,7 +313,7 @@ def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
 
 
 def resolve_env_kwargs(
-    model: Path | None, env_kwargs: dict[str, Any] | None = None, env_id: str | None = None
+    model: Path | None, env_kwargs: dict[str, Any] | None = None
 ) -> dict[str, Any]:
     """The env kwargs an evaluation runs with: the model's recorded ones (its sidecar's
     ``env_kwargs``: ``agents.train`` records the training ones less the randomisation, by
@@ -348,7 +348,7 @@ def evaluate(
         raise EvaluationError(
             f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
         )
-    kwargs = resolve_env_kwargs(model, env_kwargs, env_id)
+    kwargs = resolve_env_kwargs(model, env_kwargs)
     if "render_mode" in kwargs:  # gym.make takes it; the evaluation's vector env would not
         raise EvaluationError(
             f"--env-kwargs: render_mode={kwargs['render_mode']}: an evaluation runs all episodes "
@@ -421,7 +421,7 @@ def record_video(
 ) -> None:
     """One episode of the model (or the PD controller without a model) as a GIF or an MP4,
     written to exactly ``path`` (complete or not at all)."""
-    kwargs = resolve_env_kwargs(model, env_kwargs, env_id)
+    kwargs = resolve_env_kwargs(model, env_kwargs)
     env = gym.make(env_id, render_mode="rgb_array", **kwargs)
     policy = load_policy(model, env_id, kwargs) if model is not None else CONTROLLERS["pd"](env)
     obs, _ = env.reset(seed=seed)
@@ -488,7 +488,7 @@ def main(argv: list[str] | None = None) -> int:
             check_video_path(args.video, args.force)
         only = args.only.split(",") if args.only else None
         results = evaluate(model, args.env, args.episodes, args.seed, only, env_kwargs)
-        used = resolve_env_kwargs(model, env_kwargs, args.env)
+        used = resolve_env_kwargs(model, env_kwargs)
     except EvaluationError as exc:
         print(f"agents.evaluate: error: {exc}", file=sys.stderr)
         return 2

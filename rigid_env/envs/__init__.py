@@ -57,14 +57,17 @@ def variant_kwargs(kwargs: dict) -> dict:
         return kwargs
     if name not in VARIANTS:
         raise ValueError(f"variant: {name!r} is not one of {sorted(VARIANTS)}")
-    return _merged(VARIANTS[name][2], kwargs)
+    return merge_kwargs(VARIANTS[name][2], kwargs)
 
 
-def _merged(base: dict, over: dict) -> dict:
+def merge_kwargs(base: dict, over: dict) -> dict:
+    """``over`` merged into a copy of ``base``, mappings key by key (so ``{"randomization":
+    {"inertia": 0.2}}`` keeps ``base``'s ``randomization.mass``); any other value, None
+    included, replaces ``base``'s. Neither argument is changed."""
     out = copy.deepcopy(base)
     for key, value in over.items():
         both = isinstance(value, dict) and isinstance(out.get(key), dict)
-        out[key] = _merged(out[key], value) if both else copy.deepcopy(value)
+        out[key] = merge_kwargs(out[key], value) if both else copy.deepcopy(value)
     return out
 
 
