@@ -306,6 +306,21 @@ def load(state, i):
 
 
 @kernel
+def load_wrench(wrenches, i):
+    """Body ``i``'s ``(force, torque)`` from its column of ``wrenches`` (:data:`WRENCH_WIDTH`,
+    N)."""
+    f = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
+    return f, (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+
+
+@kernel
+def store_wrench(wrenches, i, act):
+    """Write body ``i``'s ``act = (force, torque)`` into its column of ``wrenches``."""
+    wrenches[0, i], wrenches[1, i], wrenches[2, i] = act[0]
+    wrenches[3, i], wrenches[4, i], wrenches[5, i] = act[1]
+
+
+@kernel
 def store(state, i, x, v, q, w):
     """Write ``(x, v, q, w)`` into column ``i`` of the state columns (13, N)."""
     state[0, i], state[1, i], state[2, i] = x

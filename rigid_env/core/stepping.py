@@ -28,9 +28,11 @@ from rigid_env.core.layout import (
     common,
     failures_of,
     load,
+    load_wrench,
     rare,
     step_code,
     store,
+    store_wrench,
     unpack,
 )
 from rigid_env.core.maths import axpy, norm
@@ -102,8 +104,28 @@ def reachable_energy(old, reach, m, c, h):
     (sqrt(E0) + h B + sqrt(dV)))^2``, ``B = reach / sqrt(2)`` and ``dV`` the most kinetic
     energy the gravity-gradient torque can give (:func:`gradient_reach`)."""
     x, v, _, w = old
-    root = math.sqrt(kinetic_energy(v, w, m)) + h * reach * math.sqrt(0.5)
-    root += gradient_reach(x, m, c)
+    return reachable(energy_root(x, v, w, m, c) + held_reach(h, reach))
+
+
+@kernel
+def energy_root(x, v, w, m, c):
+    """Where a body's reach starts: ``sqrt(E0)`` [J^(1/2)] plus the gravity gradient's
+    ``sqrt(dV)`` (:func:`gradient_reach`)."""
+    return math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+
+
+@kernel
+def held_reach(span, reach):
+    """``span B``: what forces of reach ``reach`` (:func:`force_reach`) held for ``span`` [s]
+    add to ``sqrt(E)``, ``B = reach / sqrt(2)``."""
+    return span * reach * math.sqrt(0.5)
+
+
+@kernel
+def reachable(root):
+    """The most kinetic energy [J] a body of reach ``root`` (``sqrt(E0) + sum span B +
+    sqrt(dV)``) may end with before the guard calls it an explosion: ``(10 root)^2``
+    (:data:`EXPLOSION_FACTOR`)."""
     return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
 
 
@@ -216,9 +238,7 @@ def substep(step, c, model, wrenches, state, status, at, counts):
     substeps each body took (:func:`integrate`)."""
     i, last = at
     x0, v0, q0, w0 = load(state, i)
-    fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
-    tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    act = (fb, tb)
+    act = load_wrench(wrenches, i)
     m = body_model(model, i)
     w = limit_speed(w0, c)
     reachable = reachable_energy((x0, v0, q0, w), wrenches[REACH, i], m, c, c.h)
@@ -244,7 +264,7 @@ def body_substep(step, p, model, command, world, when, i, counts):
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     x, v, q, w = x0, v0, q0, limit_speed(w0, c)
-    root = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x0, m, c)  # + s B a segment
+    root = energy_root(x0, v, w, m, c)  # + s B a segment
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
@@ -254,13 +274,12 @@ def body_substep(step, p, model, command, world, when, i, counts):
         else:
             end = t1
             act = wrench(p, c, model, command, i)
-        root += (end - t) * force_reach(act, m, c) * math.sqrt(0.5)
+        root += held_reach(end - t, force_reach(act, m, c))
         x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
     if last:
         v, w = step_maps(v, w, c)
-    reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable(root))
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -295,7 +314,8 @@ def advance(step, p, model, world, command, bodies, counts=None):
     body by body instead (:func:`body_advance`), every effect included.
 
     The world's arrays must not overlap (:data:`rigid_env.core.jit.world_kernel` compiles on
-    that promise); they come one by one, as a tuple they would cost atomic reference counts.
+    that promise); the entries take them one by one (a tuple from Python would cost atomic
+    reference counts) and hand them on grouped (``world``), which costs nothing once inlined.
     A failed body's column is left at its last finite state (before the world step for one
     substep, else before the failing substep, which :class:`rigid_env.core.world.World`
     replaces by the one before the world step); a frozen body is left alone.
@@ -322,10 +342,9 @@ def advance(step, p, model, world, command, bodies, counts=None):
     c = common(c)
     if command.shape[1] > 0:
         for i in range(start, stop):  # each body's wrench and its reach into its column
-            fb, tb = wrench(p, c, model, command, i)
-            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
-            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
-            wrenches[REACH, i] = force_reach((fb, tb), body_model(model, i), c)
+            act = wrench(p, c, model, command, i)
+            store_wrench(wrenches, i, act)
+            wrenches[REACH, i] = force_reach(act, body_model(model, i), c)
     else:
         for i in range(start, stop):  # no actuators: gravity's reach alone
             wrenches[REACH, i] = force_reach(ZERO_WRENCH, body_model(model, i), c)
@@ -401,11 +420,10 @@ def segments_pass(p, model, state, command, span, out):
         lengths[i] = 0.0
         if t[i] < t1:
             end = next_switch(p, c, command, i, t[i], t1)
-            fb, tb = segment_wrench(p, c, model, command, state, i, t[i], end - t[i])
-            wrenches[0, i], wrenches[1, i], wrenches[2, i] = fb
-            wrenches[3, i], wrenches[4, i], wrenches[5, i] = tb
+            act = segment_wrench(p, c, model, command, state, i, t[i], end - t[i])
+            store_wrench(wrenches, i, act)
             lengths[i] = end - t[i]
-            roots[i] += lengths[i] * force_reach((fb, tb), body_model(model, i), c) * math.sqrt(0.5)
+            roots[i] += held_reach(lengths[i], force_reach(act, body_model(model, i), c))
             t[i] = end
             more = True
     return more
@@ -422,9 +440,9 @@ def energy_roots(p, model, state, command, span):
     for i in range(state.shape[1]):
         x, v, _, w = load(state, i)
         m = body_model(model, i)
-        out[i] = math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+        out[i] = energy_root(x, v, w, m, c)
         if span > 0.0:
-            out[i] += span * force_reach(wrench(p, c, model, command, i), m, c) * math.sqrt(0.5)
+            out[i] += held_reach(span, force_reach(wrench(p, c, model, command, i), m, c))
     return out
 
 
@@ -440,8 +458,7 @@ def finish_pass(p, model, state, before, status, roots):
         x, v, q, w = load(state, i)
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
-        reachable = (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (roots[i] * roots[i])
-        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reachable)
+        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reachable(roots[i]))
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
     return step_code(failures, min(over, 1))
@@ -450,15 +467,13 @@ def finish_pass(p, model, state, before, status, roots):
 @kernel
 def segment_kicks(p, model, state, wrenches, lengths, fraction):
     """:func:`kick` of every body for ``fraction`` of its segment ``lengths[i]`` (none where
-    0) under its wrench in ``wrenches`` (6, N), in place on ``v, w``."""
+    0) under its wrench in ``wrenches`` (WRENCH_WIDTH, N), in place on ``v, w``."""
     c = unpack(p)
     for i in range(state.shape[1]):
         if lengths[i] > 0.0:
-            fb = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
-            tb = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
             x, v, q, w = load(state, i)
             m = body_model(model, i)
-            v, w = kick(x, v, q, w, (fb, tb), m, c, fraction * lengths[i])
+            v, w = kick(x, v, q, w, load_wrench(wrenches, i), m, c, fraction * lengths[i])
             store(state, i, x, v, q, w)
 
 

@@ -230,7 +230,6 @@ class World:
         self._warned = self._warned_asymmetry = False
         self.step_count = 0
         self.set_model(model)
-        self._world_step = self._integrator.world_step
         serial = self._integrator.world_step_threads is None or not threaded(self._n)
         # step() calls the kernel itself (a noisy world appends its factors to the command)
         self._direct = serial and not self._copy_before_step and not self._noisy
@@ -489,7 +488,7 @@ class World:
                 if u is not None and not (u.flags.c_contiguous and a.base is not self._cols):
                     u = None
             if u is not None:
-                code = self._world_step(*self._arrays, u)
+                code = self._integrator.world_step(*self._arrays, u)
                 if code == 0:
                     self.step_count += 1
                     return self._none_failed
