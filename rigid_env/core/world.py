@@ -509,12 +509,17 @@ class World:
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
         backup = self._cols.copy() if self._copy_before_step else None
+        # The passes keep a frozen body's x, v, q, w; its lagging thrust levels (rows from
+        # THRUST, which the hardware advances per segment) come back from the copy.
+        frozen = self._status == FROZEN if self._cols.shape[0] > STATE_WIDTH else None
         entry = self._integrator.world_step_threads
         if entry is None or not threaded(self._n):
             code = self._integrator.world_step(*self._arrays, u)
         else:
             arrays = (*self._arrays, u)
             code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
+        if frozen is not None and frozen.any():
+            self._cols[THRUST:, frozen] = backup[THRUST:, frozen]
         return self._outcome(code, backup)
 
     def _with_factors(self, command: FloatArray) -> FloatArray:

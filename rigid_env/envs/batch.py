@@ -357,22 +357,18 @@ class TaskBatch:
         self, stepping: NDArray[np.bool_], rngs: Sequence[np.random.Generator]
     ) -> NDArray[np.bool_]:
         """One world step and pass of the envs in ``stepping``, the others held: their bodies
-        frozen in the world (:attr:`World.failed`: a frozen body is left as it is), their
-        lagged thrust levels kept, nothing drawn from their generators, and the pass run over
-        the stepping envs only. Returns the world step's failed mask."""
+        frozen in the world (:attr:`World.failed`: a frozen body is left as it is, its thrust
+        levels included), nothing drawn from their generators, and the pass run over the
+        stepping envs only. Returns the world step's failed mask."""
         world = self.world
         held = ~stepping & ~world.failed
         if self._noisy:
             self._draw_thrust_factors(rngs, ~stepping)
-        levels = world.thrust_levels
-        kept = None if levels is None else levels[held].copy()
         world.failed[held] = True
         try:
             failed = world.advance(self.command)
         finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
             world.failed[held] = False
-            if levels is not None:
-                levels[held] = kept
         self._own_obs(keep=True)
         if stepping.all():
             arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,

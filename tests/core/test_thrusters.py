@@ -387,6 +387,20 @@ def test_body_maps_equal_to_the_worlds_change_nothing_and_a_tilt_turns_the_torqu
         world.set_body_maps(fmap[:1], fmap[:1])
 
 
+@pytest.mark.parametrize("integrator", ["rk4", "exact_free", "dop853"])
+def test_a_frozen_body_keeps_its_thrust_levels(integrator: str) -> None:
+    """A frozen body is left as it is, its lagging thrust levels (state, like x, v, q, w)
+    included, while the other body of the batch fires: bit for bit."""
+    world = thruster_world(integrator=integrator, n=2, lag=[0.02])
+    world.step(np.array([0.6]))  # both bodies' levels off zero
+    before, levels = world.rows.copy(), world.thrust_levels.copy()
+    world.failed[1] = True
+    world.step(np.array([0.6]))
+    np.testing.assert_array_equal(world.rows[1], before[1])
+    np.testing.assert_array_equal(world.thrust_levels[1], levels[1])
+    assert world.thrust_levels[0, 0] != levels[0, 0]  # the other one's level moved on
+
+
 def test_hardware_batch_over_threads_equals_one_thread(monkeypatch: pytest.MonkeyPatch) -> None:
     """Thrusters as hardware take the same range entry over Numba's threads: a batch of at
     least ``THREAD_MIN_BODIES`` (lag, on/off, noise, per-body maps) split over two threads
