@@ -234,14 +234,17 @@ def _clear_counts(counts, bodies):
 def substep(step, c, model, wrenches, state, status, at, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
     limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
-    ``at = (i, last)``. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the
-    substeps each body took (:func:`integrate`)."""
-    i, last = at
+    ``at = (i, last, actuated)``: without actuators (``actuated`` False, the same for every
+    body of the pass) the wrench is the constant zero and the reach gravity's, and ``wrenches``
+    is not read. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps
+    each body took (:func:`integrate`)."""
+    i, last, actuated = at
     x0, v0, q0, w0 = load(state, i)
-    act = load_wrench(wrenches, i)
     m = body_model(model, i)
+    act = load_wrench(wrenches, i) if actuated else ZERO_WRENCH
+    reach = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
     w = limit_speed(w0, c)
-    reachable = reachable_energy((x0, v0, q0, w), wrenches[REACH, i], m, c, c.h)
+    reachable = reachable_energy((x0, v0, q0, w), reach, m, c, c.h)
     x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
@@ -340,14 +343,12 @@ def advance(step, p, model, world, command, bodies, counts=None):
     if rare(c):
         return body_advance(step, p, model, (state, status), command, bodies, counts)
     c = common(c)
-    if command.shape[1] > 0:
+    actuated = command.shape[1] > 0
+    if actuated:
         for i in range(start, stop):  # each body's wrench and its reach into its column
             act = wrench(p, c, model, command, i)
             store_wrench(wrenches, i, act)
             wrenches[REACH, i] = force_reach(act, body_model(model, i), c)
-    else:
-        for i in range(start, stop):  # no actuators: gravity's reach alone
-            wrenches[REACH, i] = force_reach(ZERO_WRENCH, body_model(model, i), c)
     clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
@@ -357,7 +358,8 @@ def advance(step, p, model, world, command, bodies, counts=None):
             # An unsigned index: no wraparound of negative indices to compute, which would
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
-            failed, past = substep(step, c, model, wrenches, state, status, (j, last), counts)
+            at = (j, last, actuated)
+            failed, past = substep(step, c, model, wrenches, state, status, at, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
