@@ -650,11 +650,13 @@ class IntegratorInfo:
         order: global order of accuracy on smooth problems.
         note: one line for tables and ``--help``.
         body: the per-body step ``(x, v, q, w, act, m, p, h) -> (x, v, q, w)`` (an
-            error-controlled one also returns the substeps it took); None for an array
-            integrator.
+            error-controlled one takes ``h = (step, first substep)`` and also returns the
+            substeps it took and the substep the next step should try first); None for an
+            array integrator.
         world_step: the world step of all bodies, ``(p, model, state, status, wrenches,
             command) -> code`` (:func:`rigid_env.core.stepping.advance`); an error-controlled
-            integrator's takes the (N,) int64 substep counts before the command.
+            integrator's takes the (2, N) substep counts and carried first substeps before
+            the command.
         world_step_range: the compiled world step of the bodies ``start <= i < stop``, the
             same arguments and then ``start, stop``; None for an array integrator.
         world_step_threads: the range over Numba's threads, ``(world, start, stop, threads)``

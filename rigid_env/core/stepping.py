@@ -177,22 +177,24 @@ def beyond(w, c, ok):
 
 def integrate(step, body, act, m, c, h, counts, i):
     """``step`` of body ``i``, ``body = (x, v, q, w)``, over ``h``. ``counts`` None: a
-    fixed-step integrator, whose step returns ``(x, v, q, w)``; else (N,) int64: an
-    error-controlled one, whose step also returns the substeps it took, added to ``counts[i]``.
-    Compiled, the choice is made by the type of ``counts`` (the overload below), so a fixed-step
-    integrator's loop is unchanged."""
+    fixed-step integrator, whose step returns ``(x, v, q, w)``; else (2, N): an error-controlled
+    one, whose step takes ``(h, counts[1, i])``, the substep to try first (0: its own guess),
+    and returns the substeps it took, added to ``counts[0, i]``, and the substep the next should
+    try first, into ``counts[1, i]``. Compiled, the choice is made by the type of ``counts``
+    (the overload below), so a fixed-step integrator's loop is unchanged."""
     x, v, q, w = body
     if counts is None:
         return step(x, v, q, w, act, m, c, h)
-    x, v, q, w, n = step(x, v, q, w, act, m, c, h)
-    counts[i] += n
+    x, v, q, w, n, first = step(x, v, q, w, act, m, c, (h, counts[1, i]))
+    counts[0, i] += n
+    counts[1, i] = first
     return x, v, q, w
 
 
 def clear_counts(counts, bodies):
-    """``counts[start:stop] = 0`` for ``bodies = (start, stop)``; nothing for None."""
+    """``counts[0, start:stop] = 0`` for ``bodies = (start, stop)``; nothing for None."""
     if counts is not None:
-        counts[bodies[0] : bodies[1]] = 0
+        counts[0, bodies[0] : bodies[1]] = 0
 
 
 def _none(counts):
@@ -211,8 +213,9 @@ def _integrate(step, body, act, m, c, h, counts, i):
 
     def counted(step, body, act, m, c, h, counts, i):
         x, v, q, w = body
-        x1, v1, q1, w1, n = step(x, v, q, w, act, m, c, h)
-        counts[i] += n
+        x1, v1, q1, w1, n, first = step(x, v, q, w, act, m, c, (h, counts[1, i]))
+        counts[0, i] += n
+        counts[1, i] = first
         return x1, v1, q1, w1
 
     return counted
@@ -225,7 +228,7 @@ def _clear_counts(counts, bodies):
 
     def clear(counts, bodies):
         for i in range(bodies[0], bodies[1]):
-            counts[i] = 0
+            counts[0, i] = 0
 
     return clear
 
@@ -325,8 +328,9 @@ def advance(step, p, model, world, command, bodies, counts=None):
 
     ``world = (state, status, wrenches)``: the state columns, the bodies' status and the
     scratch of each body's wrench and reach (:data:`rigid_env.core.layout.WRENCH_WIDTH`).
-    ``counts``: None for a fixed-step integrator; for an error-controlled one (N,) int64, set
-    to the substeps each body took (over the ``substeps`` passes).
+    ``counts``: None for a fixed-step integrator; for an error-controlled one (2, N): row 0
+    set to the substeps each body took (over the ``substeps`` passes), row 1 the substep each
+    tries first, carried from step to step (:func:`integrate`).
 
     Returns:
         the step's code (:func:`rigid_env.core.layout.step_code`), or

@@ -221,7 +221,10 @@ class World:
         if state is not None:
             self._state.assign(state)
         self._status = np.zeros(self._n, dtype=np.uint8)
-        self._counts = np.full(self._n, self._substeps, dtype=np.int64)
+        # An error-controlled integrator's substeps in the last step (row 0) and the substep
+        # each body tries first in the next (row 1, carried; 0: the integrator's own guess).
+        self._counts = np.zeros((2, self._n))
+        self._counts[0] = self._substeps
         self._no_command = np.zeros((1, self.action_dim))
         self._one_command = (self.action_dim,)  # and the shapes of a command as it is used:
         self._shapes = ((1, self.action_dim), (self._n, self.action_dim)) if self.action_dim else ()
@@ -300,6 +303,7 @@ class World:
         if state.n != self._n:
             raise ValueError(f"state: has {state.n} bodies, this world has {self._n}")
         self._state.assign(state)
+        self._counts[1] = 0.0  # dop853 starts again from its own guess, as a new world would
 
     @property
     def rows(self) -> FloatArray:
@@ -364,9 +368,9 @@ class World:
         error-controlled integrator the substeps it tried (accepted or rejected; each costs 11
         evaluations of the dynamics, plus one per accepted substep), over all ``substeps``
         passes; for a fixed-step one ``substeps``."""
-        view = self._counts.view()
-        view.flags.writeable = False
-        return view
+        taken = self._counts[0].astype(np.int64)
+        taken.flags.writeable = False
+        return taken
 
     @property
     def n(self) -> int:
@@ -440,9 +444,17 @@ class World:
             raise ValueError(f"state: has {state.n} bodies, this world has {self.n}")
         check_state(state)
         self._state.assign(state)
-        self._cols[STATE_WIDTH:] = 0.0  # thrust levels (where they lag): valves closed
+        self.restart(slice(None))
         self._status[:] = 0
         self.step_count = 0
+
+    def restart(self, bodies: Any) -> None:
+        """Clear what the ``bodies`` (an index, or a mask, of the N) carry from one step to the
+        next besides their state, as :meth:`reset` does for all: the thrusters' lagging levels
+        (valves closed) and the substep ``dop853`` tries first (its initial-step guess again).
+        For a new episode of some bodies of a world, so that it repeats a fresh world's."""
+        self._cols[STATE_WIDTH:, bodies] = 0.0
+        self._counts[1, bodies] = 0.0
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled with the integrator's name (its compiled step is looked up again)."""
@@ -554,6 +566,7 @@ class World:
             self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
+            self._counts[1] = 0.0  # dop853's carried substeps are the failed step's: dropped
             if limited is not None:
                 raise limited
             bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
@@ -572,7 +585,7 @@ class World:
         if self.tolerances is None:
             return None
         rtol, atol, limit = self.tolerances
-        over = bad & (self._counts > limit)
+        over = bad & (self._counts[0] > limit)
         if not over.any():
             return None
         return SubstepLimitError(

@@ -448,9 +448,7 @@ class TaskBatch:
             draws.append(self.sample(rngs[k]))
             if randomized:
                 self._randomize(i, rngs[k])
-        levels = self.world.thrust_levels
-        if levels is not None:
-            levels[idx] = 0.0  # valves closed at the start of an episode
+        self.world.restart(idx)  # valves closed, dop853 from its own first guess
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
