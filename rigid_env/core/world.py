@@ -233,9 +233,10 @@ class World:
         self._warned = self._warned_asymmetry = False
         self.step_count = 0
         self.set_model(model)
-        serial = self._integrator.world_step_threads is None or not threaded(self._n)
+        self._serial = self._integrator.world_step_threads is None or not threaded(self._n)
+        self._lagged = hw.lagged != 0.0
         # step() calls the kernel itself (a noisy world appends its factors to the command)
-        self._direct = serial and not self._copy_before_step and not self._noisy
+        self._direct = self._serial and not self._copy_before_step and not self._noisy
 
     # ---- settings, read-only: a new world for new ones --------------------------------------
     def _read_only(name: str, doc: str) -> property:  # type: ignore[misc]
@@ -505,7 +506,7 @@ class World:
                     self.step_count += 1
                     return self._none_failed
                 return self._outcome(code, None)
-        return self.advance(self._check_action(action))
+        return self.advance(None if a is None else self._check_action(a))
 
     def advance(self, command: FloatArray | None) -> BoolArray:
         """:meth:`step` with a command of the right shape already: None, or a C-contiguous
@@ -523,12 +524,11 @@ class World:
         backup = self._cols.copy() if self._copy_before_step else None
         # The passes keep a frozen body's x, v, q, w; its lagging thrust levels (rows from
         # THRUST, which the hardware advances per segment) come back from the copy.
-        frozen = self._status == FROZEN if self._cols.shape[0] > STATE_WIDTH else None
-        entry = self._integrator.world_step_threads
-        if entry is None or not threaded(self._n):
+        frozen = self._status == FROZEN if self._lagged else None
+        if self._serial:
             code = self._integrator.world_step(*self._arrays, u)
         else:
-            arrays = (*self._arrays, u)
+            entry, arrays = self._integrator.world_step_threads, (*self._arrays, u)
             code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
         if frozen is not None and frozen.any():
             self._cols[THRUST:, frozen] = backup[THRUST:, frozen]
