@@ -97,14 +97,13 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 
 @kernel
-def reachable_energy(old, reach, m, c, h):
-    """The largest kinetic energy [J] a body at ``old = (x, v, q, w)`` may end a step of ``h``
-    with under forces of reach ``reach`` (:func:`force_reach`: the wrench held over the step
-    and the world's gravity) and the gravity gradient (:data:`EXPLOSION_FACTOR`): ``(10
-    (sqrt(E0) + h B + sqrt(dV)))^2``, ``B = reach / sqrt(2)`` and ``dV`` the most kinetic
-    energy the gravity-gradient torque can give (:func:`gradient_reach`)."""
-    x, v, _, w = old
-    return reachable(energy_root(x, v, w, m, c) + held_reach(h, reach))
+def start_energy(x, v, w, m, c):
+    """Where a body's reach starts, as an energy [J]: its kinetic energy ``E0``, or with the
+    gravity gradient ``(sqrt(E0) + sqrt(dV))^2`` (:func:`gradient_reach`)."""
+    if c.gravity_gradient == 0.0:
+        return kinetic_energy(v, w, m)
+    root = energy_root(x, v, w, m, c)
+    return root * root
 
 
 @kernel
@@ -122,11 +121,17 @@ def held_reach(span, reach):
 
 
 @kernel
-def reachable(root):
-    """The most kinetic energy [J] a body of reach ``root`` (``sqrt(E0) + sum span B +
-    sqrt(dV)``) may end with before the guard calls it an explosion: ``(10 root)^2``
-    (:data:`EXPLOSION_FACTOR`)."""
-    return (EXPLOSION_FACTOR * EXPLOSION_FACTOR) * (root * root)
+def within_reach(energy, reach):
+    """Whether a body may end a step with the kinetic ``energy`` [J] (:data:`EXPLOSION_FACTOR`):
+    ``sqrt(energy) <= 10 (sqrt(start) + span)``, ``reach = (start, span)``: ``start`` the energy
+    the step started from (:func:`start_energy`), ``span`` what the forces add to ``sqrt(E)``
+    over the step (the sum of :func:`held_reach`). Without a square root: with ``d = energy /
+    100 - start - span^2`` that is ``d <= 0`` or ``d^2 <= 4 span^2 start`` (the inequality
+    squared, both sides >= 0 where ``d > 0``). False for a NaN. Where both squares overflow
+    (``d > 1e154`` J and ``span^2 start > 4e307``, far beyond any body's energy) it says within."""
+    start, span = reach
+    d = energy * (1.0 / (EXPLOSION_FACTOR * EXPLOSION_FACTOR)) - start - span * span
+    return (d <= 0.0) | (d * d <= 4.0 * (span * span) * start)
 
 
 @kernel
@@ -152,16 +157,16 @@ def gradient_reach(x, m, c):
 
 
 @kernel
-def guard(state, status, i, new, old, m, reachable):
+def guard(state, status, i, new, old, m, reach):
     """Column ``i`` of ``state`` by selects: a healthy body (:data:`HEALTHY`) takes its finite
-    ``new`` state whose kinetic energy is within ``reachable`` (:func:`reachable_energy`), else
-    keeps ``old`` and gets :data:`FAILED`; a frozen one keeps ``old``. Returns ``(ok,
-    failed)``: whether ``new`` was taken, whether the body failed here."""
+    ``new`` state whose kinetic energy is within ``reach = (start, span)``
+    (:func:`within_reach`), else keeps ``old`` and gets :data:`FAILED`; a frozen one keeps
+    ``old``. Returns ``(ok, failed)``: whether ``new`` was taken, whether the body failed here."""
     x, v, q, w = new
     x0, v0, q0, w0 = old
     healthy = status[i] == HEALTHY
     energy = kinetic_energy(v, w, m)
-    ok = healthy & _finite(x, q, energy) & (energy <= reachable)
+    ok = healthy & _finite(x, q, energy) & within_reach(energy, reach)
     failed = healthy & ~ok
     status[i] = FAILED if failed else status[i]
     store(state, i, x if ok else x0, v if ok else v0, q if ok else q0, w if ok else w0)
@@ -247,11 +252,11 @@ def substep(step, c, model, wrenches, state, status, at, counts):
     act = load_wrench(wrenches, i) if actuated else ZERO_WRENCH
     reach = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
     w = limit_speed(w0, c)
-    reachable = reachable_energy((x0, v0, q0, w), reach, m, c, c.h)
+    reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, reach))
     x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable)
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reach)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -270,7 +275,7 @@ def body_substep(step, p, model, command, world, when, i, counts):
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     x, v, q, w = x0, v0, q0, limit_speed(w0, c)
-    root = energy_root(x0, v, w, m, c)  # + s B a segment
+    start, span = start_energy(x0, v, w, m, c), 0.0  # span: + s B a segment
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
@@ -280,12 +285,12 @@ def body_substep(step, p, model, command, world, when, i, counts):
         else:
             end = t1
             act = wrench(p, c, model, command, i)
-        root += held_reach(end - t, force_reach(act, m, c))
+        span += held_reach(end - t, force_reach(act, m, c))
         x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reachable(root))
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, (start, span))
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -439,8 +444,9 @@ def segments_pass(p, model, state, command, span, out):
 def energy_roots(p, model, state, command, span):
     """(N,) each body's ``sqrt(E)`` [J^(1/2)] plus the gravity gradient's
     :func:`gradient_reach` and, for ``span > 0`` [s], the reach ``span B`` of the command's
-    wrench held over it (:func:`reachable_energy`; thrusters as hardware add their segments'
-    instead, :func:`segments_pass`)."""
+    wrench held over it (:func:`held_reach`; thrusters as hardware add their segments'
+    instead, :func:`segments_pass`): where ``sqrt(E)`` may reach over the step, over 10
+    (:func:`finish_pass`)."""
     c = unpack(p)
     out = np.empty(state.shape[1])
     for i in range(state.shape[1]):
@@ -456,7 +462,7 @@ def energy_roots(p, model, state, command, span):
 def finish_pass(p, model, state, before, status, roots):
     """The end of an array integrator's world step: :func:`step_maps` and the :func:`guard`
     of every body against its columns ``before`` the step, with the reach ``roots`` (N,) it
-    had over the step (:func:`energy_roots`, ``(10 root)^2`` of :data:`EXPLOSION_FACTOR`).
+    had over the step (:func:`energy_roots`; :func:`within_reach` with ``start = root^2``).
     Returns the step's code."""
     c = unpack(p)
     failures = over = 0
@@ -464,7 +470,8 @@ def finish_pass(p, model, state, before, status, roots):
         x, v, q, w = load(state, i)
         v, w = step_maps(v, w, c)
         m = body_model(model, i)
-        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reachable(roots[i]))
+        reach = (roots[i] * roots[i], 0.0)  # sqrt(E) may reach 10 roots[i]
+        ok, failed = guard(state, status, i, (x, v, q, w), load(before, i), m, reach)
         failures += 1 if failed else 0
         over += beyond(w, c, ok)
     return step_code(failures, min(over, 1))
