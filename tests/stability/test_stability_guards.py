@@ -507,3 +507,27 @@ def test_detumble_env_reports_an_explosion_and_truncates():
     assert not error and not truncated
     # Couple x of the scene: two 0.1 N thrusters 0.15 m off the axis; dt = 0.05 s.
     assert w1[0] - w0[0] == pytest.approx(2 * 0.1 * 0.15 * 0.05 / 1.0e-100, rel=1e-9)
+
+
+def test_guard_without_a_square_root_is_the_same_inequality():
+    """The guard's test ``sqrt(E1) <= 10 (sqrt(E0) + s)`` is evaluated squared, without a
+    square root (``within_reach``): on 20,000 random energies and reaches over 1e-30 .. 1e100 J
+    it agrees with the square-root form wherever the two sides differ by more than rounding
+    (a relative 1e-12: both forms round a few times in 1e-16), and a NaN energy is never
+    within."""
+    from rigid_env.core.stepping import EXPLOSION_FACTOR, within_reach
+
+    rng = np.random.default_rng(5)
+    n = 20_000
+    e0 = 10.0 ** rng.uniform(-30, 100, n)
+    span = np.sqrt(e0) * 10.0 ** rng.uniform(-8, 4, n) * (rng.uniform(size=n) > 0.1)
+    # E1 around the bound, from 1e-3 to 1e3 times it
+    bound = (EXPLOSION_FACTOR * (np.sqrt(e0) + span)) ** 2
+    e1 = bound * 10.0 ** rng.uniform(-3, 3, n)
+    rooted = np.sqrt(e1) <= EXPLOSION_FACTOR * (np.sqrt(e0) + span)
+    squared = np.array([within_reach(a, (b, c)) for a, b, c in zip(e1, e0, span, strict=True)])
+    clear = np.abs(e1 / bound - 1.0) > 1e-12
+    assert np.array_equal(squared[clear], rooted[clear])
+    assert rooted.any() and not rooted.all()
+    assert not within_reach(float("nan"), (1.0, 1.0))
+    assert within_reach(0.0, (0.0, 0.0)) and not within_reach(1.0, (0.0, 0.0))
