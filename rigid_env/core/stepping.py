@@ -250,9 +250,9 @@ def substep(step, c, model, wrenches, state, status, at, counts):
     x0, v0, q0, w0 = load(state, i)
     m = body_model(model, i)
     act = load_wrench(wrenches, i) if actuated else ZERO_WRENCH
-    reach = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
+    forces = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
     w = limit_speed(w0, c)
-    reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, reach))
+    reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, forces))
     x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
     if last:
         v, w = step_maps(v, w, c)
