@@ -605,7 +605,8 @@ def _yoshida4_threads(world, i, j, t):
     return over_threads(_yoshida4_range, world, i, j, t)
 
 
-# An error-controlled method's entries take the (N,) substep counts ``n`` before the command.
+# An error-controlled method's entries take its (2, N) counts ``n`` before the command: the
+# substeps each body took, and the substep each tries first in the next step (carried).
 @world_kernel
 def _dop853(p, m, s, f, b, n, u):
     return advance(dop853, p, m, (s, f, b), u, (0, s.shape[1]), n)
