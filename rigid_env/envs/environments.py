@@ -96,6 +96,14 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self._renderer: Any = None
         self._has_reset = False
 
+    @property
+    def dt(self) -> float:
+        """Seconds of simulated time per :meth:`step` [s]: the world's ``dt`` times the
+        episode's action repeat (``randomization={"action_repeat": [...]}`` draws it at each
+        reset; 1 without), as ``dt`` of Gymnasium's MuJoCo envs is the model's step times
+        ``frame_skip``. Through ``gym.make``'s wrappers: ``env.unwrapped.dt``."""
+        return float(self.task.dt * self.task.repeats[0])
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         """Start an episode; ``seed`` reseeds :attr:`np_random`."""
         check_options(options, ())
@@ -218,6 +226,15 @@ class RigidBodyVectorEnv(VectorEnv):
         self.task.reset_envs(np.arange(self.num_envs), self._rngs)
         self._autoreset[:] = False
         return self.task.observe(), self._vector_info(self.task.infos())
+
+    @property
+    def dt(self) -> float | NDArray[np.float64]:
+        """Seconds of simulated time per :meth:`step` [s] of each sub-environment: the world's
+        ``dt`` times its episode's action repeat. A float while every sub-environment has the
+        same period (always, unless ``randomization["action_repeat"]`` lists several), else
+        an (N,) array, sub-environment ``i``'s period in row ``i``."""
+        periods = self.task.dt * self.task.repeats.astype(np.float64)
+        return float(periods[0]) if bool((periods == periods[0]).all()) else periods
 
     def _reset_mask(self, options: dict[str, Any]) -> NDArray[np.bool_] | None:
         """``options["reset_mask"]`` checked as ``SyncVectorEnv`` checks it (same errors)."""
