@@ -52,6 +52,9 @@ PROGRESS_EVERY_S = 10.0
 DEFAULT_OUT = Path("runs/demo")
 PRETRAINED = Path(__file__).resolve().parent / "pretrained"
 RESULT_FILES = ("results.md", "results.csv", "episodes.csv")
+#: How to install the render extras: the package's own name works for a wheel and a checkout
+#: alike (``-e '.[render]'`` works only in a checkout).
+RENDER_EXTRAS_HINT = "pip install 'rigid_env[render]' (in a checkout: pip install -e '.[render]')"
 
 
 class DemoError(ValueError):
@@ -326,7 +329,7 @@ def _check_render_extras() -> None:
     if missing:
         raise DemoError(
             f"demo: the animation needs {', '.join(missing)}; install the render extras with "
-            "pip install -e '.[render]'"
+            f"{RENDER_EXTRAS_HINT}"
         )
 
 

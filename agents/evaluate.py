@@ -513,7 +513,7 @@ def main(argv: list[str] | None = None) -> int:
         except ImportError as exc:
             print(
                 f"agents.evaluate: error: --video: needs {exc.name}; "
-                "pip install -e '.[render]' (results above are complete)",
+                "pip install 'rigid_env[render]' (results above are complete)",
                 file=sys.stderr,
             )
             return 1

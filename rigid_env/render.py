@@ -30,7 +30,7 @@ Occlusion of the thin things (flames, arrow, axes, outlines) by the convex box i
 their sampling: every piece is tested with a ray-box (slab) test from the camera in the body
 frame; a piece with a hidden end is drawn before the box (which covers it), the rest after.
 
-pygame is imported only when a renderer is made (``pip install -e ".[render]"``); in
+pygame is imported only when a renderer is made (``pip install "rigid_env[render]"``); in
 ``rgb_array`` mode ``SDL_VIDEODRIVER`` defaults to ``dummy``, so no display is needed.
 """
 
@@ -131,7 +131,7 @@ def _import_pygame(mode: str) -> Any:
     try:
         import pygame
     except ImportError as exc:
-        raise ImportError('render: pygame is missing; run pip install -e ".[render]"') from exc
+        raise ImportError('render: pygame is missing; run pip install "rigid_env[render]"') from exc
     return pygame
 
 

@@ -148,3 +148,15 @@ def test_animated_episode_is_episode_zero_of_the_table(tmp_path):
     assert shown.final_angular_speed == pytest.approx(row0.final_angular_speed, rel=SAME_EPISODES)
     assert shown.fuel == pytest.approx(row0.fuel, rel=SAME_EPISODES)
     assert shown.time_to_success == pytest.approx(row0.time_to_success)
+
+
+def test_the_render_hint_names_the_package_not_a_checkout(monkeypatch):
+    """A wheel installed without [render]: the hint must work outside a checkout too."""
+    import importlib.util
+
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util, "find_spec", lambda name, *a: None if name == "pygame" else real(name, *a)
+    )
+    with pytest.raises(demo.DemoError, match=r"pip install 'rigid_env\[render\]'"):
+        demo._check_render_extras()
