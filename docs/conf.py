@@ -34,7 +34,8 @@ suppress_warnings = ["myst.header"]  # a generated docstring may start below lev
 
 html_theme = "furo"
 html_title = "rigid_env"
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["custom.css"]
 
 autodoc_member_order = "bysource"
 autodoc_typehints = "description"

@@ -82,6 +82,8 @@ def type_name(annotation: Any) -> str:
         return "None"
     if tp is Any:
         return "any"
+    if _is_model(tp):
+        return "mapping"
     if _is_union(tp):
         return " | ".join(type_name(a) for a in _args(tp))
     origin = typing.get_origin(tp)
@@ -246,7 +248,7 @@ def model_reference(model: type[BaseModel], root: str, level: int = 2) -> str:
         for name, field in m.model_fields.items():
             key = field.alias or name
             for sub in _nested_models(field.annotation):
-                list_of = "..., " in type_name(field.annotation)
+                list_of = ", ...]" in type_name(field.annotation)
                 walk(sub, f"{path}.{key}[k]" if list_of else f"{path}.{key}".lstrip("."))
 
     walk(model, "")
