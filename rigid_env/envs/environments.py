@@ -98,10 +98,10 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
 
     @property
     def dt(self) -> float:
-        """Seconds of simulated time per :meth:`step` [s]: the world's ``dt`` times the
+        """The simulated time of one :meth:`step` in seconds, the world's ``dt`` times the
         episode's action repeat (``randomization={"action_repeat": [...]}`` draws it at each
         reset; 1 without), as ``dt`` of Gymnasium's MuJoCo envs is the model's step times
-        ``frame_skip``. Through ``gym.make``'s wrappers: ``env.unwrapped.dt``."""
+        ``frame_skip``. Through ``gym.make``'s wrappers, read ``env.unwrapped.dt``."""
         return float(self.task.dt * self.task.repeats[0])
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -229,10 +229,10 @@ class RigidBodyVectorEnv(VectorEnv):
 
     @property
     def dt(self) -> float | NDArray[np.float64]:
-        """Seconds of simulated time per :meth:`step` [s] of each sub-environment: the world's
-        ``dt`` times its episode's action repeat. A float while every sub-environment has the
-        same period (always, unless ``randomization["action_repeat"]`` lists several), else
-        an (N,) array, sub-environment ``i``'s period in row ``i``."""
+        """The simulated time of one :meth:`step` of each sub-environment in seconds, the
+        world's ``dt`` times its episode's action repeat. A float while every sub-environment
+        has the same period (always, unless ``randomization["action_repeat"]`` lists several),
+        else an (N,) array, sub-environment ``i``'s period in row ``i``."""
         periods = self.task.dt * self.task.repeats.astype(np.float64)
         return float(periods[0]) if bool((periods == periods[0]).all()) else periods
 
