@@ -93,6 +93,26 @@ class TaskBatch:
     extra_bound: ClassVar[float] = 1.0
     """The task's extra observations are clipped into +-this."""
     target_dim: ClassVar[int] = 0
+    """Numbers of each env's target that :meth:`sample` draws and ``evaluate`` reads in its
+    ``goal`` (at most :data:`~rigid_env.envs.kernels.TARGET_WIDTH`)."""
+    memory_dim: ClassVar[int] = 0
+    """Numbers of task memory ``evaluate`` keeps from step to step (its ``memory`` and
+    ``Outcome.memory``; at most :data:`~rigid_env.envs.kernels.MEMORY_WIDTH`)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Refuse a task that declares more target or memory numbers than the pass holds."""
+        super().__init_subclass__(**kwargs)
+        for field, width, holds in (
+            ("target_dim", K.TARGET_WIDTH, "TARGET_WIDTH"),
+            ("memory_dim", K.MEMORY_WIDTH, "MEMORY_WIDTH"),
+        ):
+            size = getattr(cls, field)
+            if not (isinstance(size, int) and 0 <= size <= width):
+                raise TypeError(
+                    f"{cls.__name__}.{field}: {size!r} numbers, but the task pass holds 0 to "
+                    f"{width} (rigid_env.envs.kernels.{holds}); declare at most {width}, or "
+                    f"widen {holds} and the pass's reads"
+                )
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         self.n = as_num_envs(num_envs)
@@ -158,7 +178,7 @@ class TaskBatch:
         n, a = self.n, self.action_dim
         self.steps = np.zeros(n, dtype=np.int64)
         self.target = np.zeros((n, K.TARGET_WIDTH))
-        """(N, 4) each env's target (its first ``target_dim`` numbers used)."""
+        """(N, TARGET_WIDTH) each env's target (its first :attr:`target_dim` numbers used)."""
         self.thrust_scale: FloatArray | None = None
         """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
         (None before: every actuator as in the scene)."""
@@ -446,6 +466,12 @@ class TaskBatch:
         randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
         for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
+            if np.shape(draws[-1][4]) != (self.target_dim,):
+                raise ValueError(
+                    f"{type(self).__name__}.sample: drew a target of shape "
+                    f"{np.shape(draws[-1][4])}, the task declares target_dim = {self.target_dim}; "
+                    "return a target of target_dim numbers (or declare its size in target_dim)"
+                )
             if randomized:
                 self._randomize(i, rngs[k])
         self.world.restart(idx)  # valves closed, dop853 from its own first guess

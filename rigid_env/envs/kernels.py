@@ -50,7 +50,12 @@ observation space says so)."""
 FINE_SPIN = 0.1
 """[rad/s] the scale of the fine-resolution observation ``tanh(w / FINE_SPIN)`` near rest."""
 TARGET_WIDTH = 4
-"""Numbers of a per-env target (a quaternion, or unused zeros): ``evaluate``'s ``goal``."""
+"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, or unused zeros):
+a task declares how many it uses (:attr:`rigid_env.envs.batch.TaskBatch.target_dim`)."""
+MEMORY_WIDTH = 1
+"""The most numbers of an env's task memory, ``evaluate``'s ``memory`` and ``Outcome.memory``
+(one float): a task declares how many it uses
+(:attr:`rigid_env.envs.batch.TaskBatch.memory_dim`)."""
 COMMON_NUMBERS = ("dt", "w_scale", "sixd", "extra_bound")
 """The numbers every task's record of numbers starts with: the control step [s], the angular
 speed the observed ``w`` is divided by [rad/s], whether the orientation is observed as the 6-D

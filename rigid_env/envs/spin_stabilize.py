@@ -84,6 +84,7 @@ class SpinStabilizeTask(TaskBatch):
     scene_name = "spin_stabilize"
     task_pass = spin_stabilize_pass
     extra_observations = ("rate_error",)
+    memory_dim = 1  # the streak of steps with the spin axis within the success angle
 
     def angular_velocity_scale(self) -> float:
         return self.params.target_spin

@@ -148,3 +148,22 @@ def test_animated_episode_is_episode_zero_of_the_table(tmp_path):
     assert shown.final_angular_speed == pytest.approx(row0.final_angular_speed, rel=SAME_EPISODES)
     assert shown.fuel == pytest.approx(row0.fuel, rel=SAME_EPISODES)
     assert shown.time_to_success == pytest.approx(row0.time_to_success)
+
+
+def test_help_offers_exactly_the_tasks_the_demo_plays(capsys, monkeypatch):
+    """A registered task without a pretrained policy (a new one, say) is neither offered by
+    ``demo --help`` nor counted in its default; asking for it is a one-line error that says
+    why. Every task the help offers, the demo resolves."""
+    import rigid_env.envs
+    from rigid_env.envs import Task
+
+    new = Task("StopZ", module="stop_z", scene="detumble", max_episode_steps=10)
+    monkeypatch.setitem(rigid_env.envs.TASKS, "StopZ", new)
+    assert main(["demo", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "StopZ" not in text and f"(default: all {len(TASKS)})" in text
+    for name, task in TASKS.items():
+        assert name in text and task.env_id in text
+        assert demo.resolve_tasks(name) == demo.resolve_tasks(task.env_id) == [name]
+    with pytest.raises(demo.DemoError, match=r"^--task: StopZ ships no pretrained policy"):
+        demo.resolve_tasks("stopz")
