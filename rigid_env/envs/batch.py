@@ -337,17 +337,19 @@ class TaskBatch:
         """
         if self._repeating:
             return self._step_repeated(rngs, restarting)
-        if self._noisy:
-            self._draw_thrust_factors(rngs, restarting)
-        failed = self.world.advance(self.command)
+        failed = self._step_envs(rngs, skip=restarting)
         self.steps += 1
-        self._own_obs(keep=False)
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
-        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
-                                self.target, noise, self.record, self.obs), True)  # fmt: skip
-        if self._observes_period:
-            self._observe_period()
+        self._observe_period()
         return self.record["reward"], self.record["terminated"].copy(), failed
+
+    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
+        """:meth:`step` of a task of one env: its record as Python values and whether its body
+        failed."""
+        reward, _, failed = self.step([rng])
+        record = K.EnvRecord._make(self.record.item(0))
+        if self._repeating:  # the summed reward of the repeated steps
+            record = record._replace(reward=float(reward[0]))
+        return record, failed is not self.world.no_failures and bool(failed[0])
 
     def _step_repeated(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
@@ -365,7 +367,7 @@ class TaskBatch:
             stepping = (self.repeats > r) & ~ended
             if not stepping.any():
                 break
-            failed = self._step_some(stepping, rngs)
+            failed = self._step_envs(rngs, stepping=stepping)
             failed_any |= failed
             reward[stepping] += self.record["reward"][stepping]
             ended |= stepping & (self.record["terminated"] | failed)
@@ -373,56 +375,57 @@ class TaskBatch:
         self._observe_period()
         return reward, self.record["terminated"].copy(), failed_any
 
-    def _step_some(
-        self, stepping: NDArray[np.bool_], rngs: Sequence[np.random.Generator]
+    def _step_envs(
+        self,
+        rngs: Sequence[np.random.Generator],
+        skip: NDArray[np.bool_] | None = None,
+        stepping: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.bool_]:
-        """One world step and pass of the envs in ``stepping``, the others held: their bodies
-        frozen in the world (:attr:`World.failed`: a frozen body is left as it is, its thrust
-        levels included), nothing drawn from their generators, and the pass run over the
-        stepping envs only. Returns the world step's failed mask."""
-        world = self.world
-        held = ~stepping & ~world.failed
+        """The stages of a step: the thrust noise of the step, the world's step, then the task's
+        pass (fuel, reward, observation). Returns the world step's failed mask.
+
+        ``skip``: envs stepped but about to restart (no noise drawn for them). ``stepping``: the
+        envs to step (default all); the others are held: their bodies frozen in the world
+        (:attr:`World.failed`: a frozen body is left as it is, its thrust levels included),
+        nothing drawn from their generators, and the pass run over the stepping envs only."""
+        some = stepping is not None and not stepping.all()
         if self._noisy:
-            self._draw_thrust_factors(rngs, ~stepping)
-        world.failed[held] = True
-        try:
-            failed = world.advance(self.command)
-        finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
-            world.failed[held] = False
-        self._own_obs(keep=True)
-        if stepping.all():
-            arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
-                                  self._noise(rngs), self.record, self.obs)  # fmt: skip
-            self._pass(arrays, True)
-            return failed
-        idx = np.flatnonzero(stepping)
-        record, obs = self.record[idx], self.obs[idx]
-        cols = np.ascontiguousarray(world.columns[:, idx])
-        model = np.ascontiguousarray(world.model_columns[:, idx])
-        noise = self._noise([rngs[i] for i in idx])
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise, record,
-                                obs), True)  # fmt: skip
-        self.record[idx], self.obs[idx] = record, obs
+            self._draw_thrust_factors(rngs, ~stepping if stepping is not None else skip)
+        if some:
+            failed = self._advance_held(~stepping & ~self.world.failed)
+        else:
+            failed = self.world.advance(self.command)
+        self._own_obs(keep=stepping is not None)
+        if some:
+            idx = np.flatnonzero(stepping)
+            self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
+        else:
+            self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
+                                    self.target, self._noise(rngs, skip), self.record, self.obs),
+                       True)  # fmt: skip
         return failed
 
-    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
-        """:meth:`step` of a task of one env: its record as Python values and whether its body
-        failed."""
-        if self._repeating:
-            reward, _, failed_any = self._step_repeated([rng])
-            record = K.EnvRecord._make(self.record.item(0))
-            return record._replace(reward=float(reward[0])), bool(failed_any[0])
-        if self._noisy:
-            self._draw_thrust_factors([rng])
-        failed = self.world.advance(self.command)
-        self.steps[0] += 1
-        self._own_obs(keep=False)
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
-        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
-                                self.target, noise, self.record, self.obs), True)  # fmt: skip
-        if self._observes_period:
-            self._observe_period()
-        return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
+    def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """The world's step with the bodies ``held`` frozen through it."""
+        world = self.world
+        world.failed[held] = True
+        try:
+            return world.advance(self.command)
+        finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
+            world.failed[held] = False
+
+    def _pass_rows(
+        self, idx: NDArray[np.int64], rngs: Sequence[np.random.Generator], stepped: bool
+    ) -> None:
+        """The task's pass over the envs ``idx`` only (after a step of some, or a reset),
+        sensor noise drawn from ``rngs`` (one per index): their rows of the record and the
+        observation written, the others kept."""
+        record, obs = self.record[idx], self.obs[idx]
+        cols = np.ascontiguousarray(self.world.columns[:, idx])
+        model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx],
+                                self._noise(rngs), record, obs), stepped)  # fmt: skip
+        self.record[idx], self.obs[idx] = record, obs
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
@@ -488,13 +491,7 @@ class TaskBatch:
         if idx.size == 0:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
-        record, obs = self.record[idx], self.obs[idx]
-        cols = np.ascontiguousarray(self.world.columns[:, idx])
-        model = np.ascontiguousarray(self.world.model_columns[:, idx])
-        noise = self._noise(rngs)
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise,
-                                record, obs), False)  # fmt: skip
-        self.record[idx], self.obs[idx] = record, obs
+        self._pass_rows(idx, rngs, stepped=False)
         self._observe_period(idx)
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
@@ -559,20 +556,31 @@ class TaskBatch:
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure; with an
         error-controlled integrator also the substeps each env's body took in the last step."""
+        return {key: column.copy() for key, column in self._info_columns().items()}
+
+    def info_one(self) -> dict[str, Any]:
+        """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
+        env returns."""
+        return {
+            key: column[0].item() if column.ndim == 1 else column[0].copy()
+            for key, column in self._info_columns().items()
+        }
+
+    def _info_columns(self) -> dict[str, NDArray[Any]]:
+        """The columns of :meth:`infos` (views of the record and the world, not to keep)."""
         r = self.record
-        success = r["success"].copy()
         out = {
-            "angular_speed": r["speed"].copy(),
-            "energy": r["energy"].copy(),
-            "fuel": r["fuel"].copy(),
-            "success": success,
-            "is_success": success.copy(),  # SB3 EvalCallback logs this key
-            "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": r["w_world"].copy(),
+            "angular_speed": r["speed"],
+            "energy": r["energy"],
+            "fuel": r["fuel"],
+            "success": r["success"],
+            "is_success": r["success"],  # SB3 EvalCallback logs this key
+            "numerical_error": self.world.failed,
+            "angular_velocity_world": r["w_world"],
             **self._fault_infos(),
         }
         if self.world.tolerances is not None:
-            out["substeps"] = self.world.substeps_taken.copy()
+            out["substeps"] = self.world.substeps_taken
         return out
 
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
@@ -595,24 +603,6 @@ class TaskBatch:
             "fault_level": level.astype(np.float64),
             "fault_active": (thruster >= 0) & (self.steps > step),
         }
-
-    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
-        """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
-        record (read here if not given)."""
-        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
-        out = {
-            "angular_speed": r.speed,
-            "energy": r.energy,
-            "fuel": r.fuel,
-            "success": r.success,
-            "is_success": r.success,
-            "numerical_error": bool(self.world.failed[0]),
-            "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
-            **{k: v[0].item() for k, v in self._fault_infos().items()},
-        }
-        if self.world.tolerances is not None:
-            out["substeps"] = int(self.world.substeps_taken[0])
-        return out
 
     # ---- what a renderer shows (rigid_env.render) ----------------------------------------
     def view(self) -> TaskView:
