@@ -20,6 +20,7 @@ from rigid_env.core import threads
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
+from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.hardware import FAULT_KINDS, Fault, draw_fault, misaligned, with_preset
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
@@ -126,19 +127,7 @@ class TaskBatch:
             settings.thrusters,
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
         )
-        self.world = self.scene.build_world(
-            n=self.n,
-            integrator=settings.integrator,
-            dt=settings.dt,
-            substeps=settings.substeps,
-            on_error="freeze",
-            rtol=settings.rtol,
-            atol=settings.atol,
-        )
-        if self.world.action_dim == 0:
-            raise ValueError(
-                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
-            )
+        self.world = self._build_world()
         self.dt = self.world.dt
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
@@ -151,20 +140,8 @@ class TaskBatch:
         self.obs_slices = self._observation_slices()
         """Where each observed quantity lies in an observation: ``orientation``, ``w`` (over
         :attr:`w_scale`), ``fine_w`` and each of :attr:`extra_observations` by name."""
-        bound = np.concatenate(
-            [
-                np.ones(4 if self.rotation_repr == "quaternion" else 6),
-                np.full(3, K.W_OBS_BOUND),
-                np.ones(3),
-                np.full(len(self.extra_observations), self.extra_bound),
-                np.full(int(settings.observe_control_period), PERIOD_BOUND),
-            ]
-        ).astype(np.float32)
-        self.obs_dim = bound.size
-        low = -bound
-        if settings.observe_control_period:
-            low[-1] = 0.0
-        self.single_observation_space = spaces.Box(low, bound, dtype=np.float32)
+        self.single_observation_space = self._observation_space()
+        self.obs_dim = self.single_observation_space.shape[0]
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
         common = {
             "dt": self.dt,
@@ -227,6 +204,42 @@ class TaskBatch:
         return int(getattr(self.params, "version", 0))
 
     # ---- shared machinery ----------------------------------------------------------------
+    def _build_world(self) -> World:
+        """The :class:`~rigid_env.core.world.World` of the ``N`` bodies, as the settings ask
+        (a failed body frozen, for its episode to end)."""
+        settings = self.settings
+        world = self.scene.build_world(
+            n=self.n,
+            integrator=settings.integrator,
+            dt=settings.dt,
+            substeps=settings.substeps,
+            on_error="freeze",
+            rtol=settings.rtol,
+            atol=settings.atol,
+        )
+        if world.action_dim == 0:
+            raise ValueError(
+                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
+            )
+        return world
+
+    def _observation_space(self) -> spaces.Box:
+        """One env's observation space: the bounds of :attr:`obs_slices`' parts in order."""
+        period = self.settings.observe_control_period
+        bound = np.concatenate(
+            [
+                np.ones(4 if self.rotation_repr == "quaternion" else 6),
+                np.full(3, K.W_OBS_BOUND),
+                np.ones(3),
+                np.full(len(self.extra_observations), self.extra_bound),
+                np.full(int(period), PERIOD_BOUND),
+            ]
+        ).astype(np.float32)
+        low = -bound
+        if period:
+            low[-1] = 0.0
+        return spaces.Box(low, bound, dtype=np.float32)
+
     def _observation_slices(self) -> dict[str, slice]:
         rot = 4 if self.rotation_repr == "quaternion" else 6
         out = {"orientation": slice(0, rot), "w": slice(rot, rot + 3)}
