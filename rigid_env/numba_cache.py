@@ -107,13 +107,16 @@ def _imported_names(tree: ast.AST, own: tuple[str, ...]) -> Iterator[str]:
 
 @functools.cache
 def _facts(path: Path, mtime_ns: int, size: int, package: Path) -> tuple[str, tuple[Path, ...]]:
-    """A file's code digest (of :func:`code_key`) and the package's module files it imports
-    (memoised on the file's time and size: one parse per file and process)."""
+    """A file's code digest (of :func:`code_key`; empty for a package file that no key
+    covers) and the package's module files it imports (memoised on the file's time and size:
+    one parse per file and process)."""
     tree = ast.parse(path.read_text())
     own = path.parent.relative_to(package.parent).parts if path.is_relative_to(package) else ()
     names = list(_imported_names(tree, own))
     files = {f for name in names if (f := _module_file(name, package)) is not None}
-    return hashlib.sha256(_code_dump(tree)).hexdigest(), tuple(sorted(files))
+    keyed = _keyed(path, package) is not None or not path.is_relative_to(package)
+    code = hashlib.sha256(_code_dump(tree)).hexdigest() if keyed else ""  # no key reads it
+    return code, tuple(sorted(files))
 
 
 def _file_facts(path: Path, package: Path) -> tuple[str, tuple[Path, ...]]:
@@ -198,6 +201,16 @@ def _remove_stale(parent: Path, keep: Path) -> None:
             shutil.rmtree(folder, ignore_errors=True)
 
 
+@functools.cache
+def _file_key(py_file: str) -> str | None:
+    """:func:`module_key` of a file, once per process (Numba asks for every kernel of a file;
+    the sources do not change under a running process), or None where it cannot be read."""
+    try:
+        return module_key(py_file)
+    except (OSError, SyntaxError, ValueError):
+        return None
+
+
 class ModuleKeyedLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
     """Numba's cache locator for the kernels of our modules and of modules that use them: the
     folder ``<cache root>/<module key>/<Numba's folder of the file>`` (:func:`module_key`).
@@ -217,10 +230,7 @@ class ModuleKeyedLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
         kernel modules (or the cache folder cannot be written: Numba then asks its own)."""
         if not os.path.isfile(py_file):
             return None
-        try:
-            key = module_key(py_file)
-        except (OSError, SyntaxError, ValueError):
-            return None
+        key = _file_key(py_file)
         if key is None:
             return None
         folder = cache_root() / key
