@@ -42,7 +42,7 @@ from .shipped import TASKS
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
 DEMO_SEED = 20261201
-#: Episodes per task and policy by default: the whole command (imports, the four tasks, the
+#: Episodes per task and policy by default: the whole command (imports, the four shipped tasks, the
 #: GIFs) takes well under 2 minutes on two busy cores.
 DEFAULT_EPISODES = 10
 #: The most episodes per task and policy: a success rate over 1000 episodes is known to

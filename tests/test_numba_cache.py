@@ -149,3 +149,15 @@ def test_folders_of_old_keys_are_removed(tmp_path: Path) -> None:
     numba_cache._remove_stale(tmp_path, keep)
     assert not old.exists()
     assert recent.exists() and other.exists() and keep.exists()
+
+
+def test_the_pass_parts_that_take_a_tasks_evaluate_stay_off_the_disk() -> None:
+    """The parts of the task pass typed by a task's ``evaluate`` are compiled into each task's
+    cached pass only: on disk they would add an entry per compile that no process finds again."""
+    from numba.core.caching import NullCache
+
+    from rigid_env.envs import kernels
+
+    assert isinstance(kernels._env._cache, NullCache)
+    assert isinstance(kernels._envs._cache, NullCache)
+    assert not isinstance(kernels.fine_spin._cache, NullCache)  # the task-free parts are cached

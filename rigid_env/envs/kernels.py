@@ -43,6 +43,11 @@ from rigid_env.envs.maths import canonical, safe_norm, tanh
 task_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
 """The decorator of a task's pass: cached on disk, the GIL released, and a pass given
 ``threads > 1`` split over Numba's threads (one thread runs a plain loop)."""
+_per_task = njit(nogil=True, error_model="numpy", forceinline=True)
+""":data:`kernel` without the disk cache, for the parts of the pass that take the task's
+``evaluate``: they are compiled into each task's pass, which is cached with the task's module.
+Cached here they would only add an entry per compile that no later process finds (their
+signature holds the task's ``evaluate``, a type of its process)."""
 
 W_OBS_BOUND = 5.0
 """The observed body ``w`` over the task's speed scale is clipped into +-this (and the
@@ -186,7 +191,7 @@ def fine_spin(c, state, noise, obs, start, stop):
         obs[start + i, col], obs[start + i, col + 1], obs[start + i, col + 2] = fine[:, i]
 
 
-@kernel
+@_per_task
 def _env(evaluate, c, a, stepped, i):
     """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
     body = BodyState(*load(a.state, i))
@@ -226,7 +231,7 @@ def _env(evaluate, c, a, stepped, i):
     return len(extra)
 
 
-@kernel
+@_per_task
 def _envs(evaluate, numbers, arrays, stepped, start, stop):
     """:func:`env_pass` of the envs ``start <= i < stop``."""
     c = numbers[0]

@@ -19,10 +19,8 @@ ENV_IDS = rigid_env.envs.ENV_IDS
 # The shipped tasks, whose episodes the scenarios below are written around (a task added later
 # runs every other contract test through ENV_IDS).
 BUILT_IN = [
-    "RigidEnv/Detumble-v0",
-    "RigidEnv/SpinStabilize-v1",
-    "RigidEnv/Reorient-v1",
-    "RigidEnv/TumblingFall-v1",
+    rigid_env.envs.TASKS[name].env_id
+    for name in ("Detumble", "SpinStabilize", "Reorient", "TumblingFall")
 ]
 
 
