@@ -48,7 +48,7 @@ def test_a_parameter_named_like_a_common_number_is_refused_at_class_creation() -
 
 @kernel
 def _one_extra(body, effort, goal, memory, task, stepped):
-    return Outcome(-effort, False, False, memory, (body.w[2],))
+    return Outcome(-effort, terminated=False, success=False, memory=memory, extra=(body.w[2],))
 
 
 @task_kernel
@@ -105,16 +105,17 @@ def test_a_target_of_another_size_than_declared_is_refused_at_reset() -> None:
 
 
 def test_every_task_declares_the_target_and_memory_it_uses() -> None:
-    """Reorient's goal is a quaternion, SpinStabilize's memory its success streak; the registry's
-    record names each task's scene as its class does."""
+    """Every registered task's record names its scene as its class does; of the built-in tasks
+    Reorient's goal is a quaternion and SpinStabilize's memory its success streak."""
     declared = {}
     for name, task in rigid_env.envs.TASKS.items():
         cls = task.task_class()
         assert cls.scene_name == task.scene and cls.__name__ == f"{name}Task"
         declared[name] = (cls.target_dim, cls.memory_dim)
-    assert declared == {
+    built_in = {
         "Detumble": (0, 0),
         "SpinStabilize": (0, 1),
         "Reorient": (4, 0),
         "TumblingFall": (0, 0),
     }
+    assert {name: declared[name] for name in built_in} == built_in
