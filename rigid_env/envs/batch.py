@@ -348,31 +348,45 @@ class TaskBatch:
             the body is frozen at its last finite state and the episode must end). Views of
             the task's buffers, valid until the next step.
         """
-        if self._repeating:
-            return self._step_repeated(rngs, restarting)
-        failed = self._step_envs(rngs, skip=restarting)
-        self.steps += 1
-        self._observe_period()
-        return self.record["reward"], self.record["terminated"].copy(), failed
+        reward, failed = self._step(rngs, restarting)
+        if reward is None:
+            reward = self.record["reward"]
+        return reward, self.record["terminated"].copy(), failed
 
     def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
         """:meth:`step` of a task of one env: its record as Python values and whether its body
         failed."""
-        reward, _, failed = self.step([rng])
+        reward, failed = self._step([rng])
         record = K.EnvRecord._make(self.record.item(0))
-        if self._repeating:  # the summed reward of the repeated steps
+        if reward is not None:  # the summed reward of the repeated steps
             record = record._replace(reward=float(reward[0]))
         return record, failed is not self.world.no_failures and bool(failed[0])
 
+    def _step(
+        self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray | None, NDArray[np.bool_]]:
+        """:meth:`step`'s steps: the repeated steps' summed reward (None for one step: the
+        record's) and the failed mask."""
+        if self._repeating:
+            return self._step_repeated(rngs, restarting)
+        failed = self._step_envs(rngs, skip=restarting)
+        if self.n == 1:  # a scalar add: NumPy's in-place add costs a sixth of a single env's step
+            self.steps[0] += 1
+        else:
+            self.steps += 1
+        if self._observes_period:
+            self._observe_period()
+        return None, failed
+
     def _step_repeated(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
-    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    ) -> tuple[FloatArray, NDArray[np.bool_]]:
         """:meth:`step` where env ``i`` holds its command for :attr:`repeats` ``[i]`` world steps:
         exactly the steps (world step, then the task's pass) a caller would make by sending the
         same action that many times, stopped after one that ends the episode; the reward is
         their sum (so an episode's return is the same however its actions are grouped), the
         record, fuel and observation those of the last. Envs about to restart are not stepped
-        (their state is drawn anew)."""
+        (their state is drawn anew). Returns the summed reward and whether each env failed."""
         reward = np.zeros(self.n)
         ended = np.zeros(self.n, dtype=bool) if restarting is None else restarting.copy()
         failed_any = np.zeros(self.n, dtype=bool)
@@ -386,7 +400,7 @@ class TaskBatch:
             ended |= stepping & (self.record["terminated"] | failed)
         self.steps += 1
         self._observe_period()
-        return reward, self.record["terminated"].copy(), failed_any
+        return reward, failed_any
 
     def _step_envs(
         self,
@@ -401,21 +415,22 @@ class TaskBatch:
         envs to step (default all); the others are held: their bodies frozen in the world
         (:attr:`World.failed`: a frozen body is left as it is, its thrust levels included),
         nothing drawn from their generators, and the pass run over the stepping envs only."""
+        world = self.world
         some = stepping is not None and not stepping.all()
         if self._noisy:
-            self._draw_thrust_factors(rngs, ~stepping if stepping is not None else skip)
+            self._draw_thrust_factors(rngs, skip if stepping is None else ~stepping)
         if some:
-            failed = self._advance_held(~stepping & ~self.world.failed)
+            failed = self._advance_held(~stepping & ~world.failed)
         else:
-            failed = self.world.advance(self.command)
+            failed = world.advance(self.command)
         self._own_obs(keep=stepping is not None)
         if some:
             idx = np.flatnonzero(stepping)
             self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
-        else:
-            self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
-                                    self.target, self._noise(rngs, skip), self.record, self.obs),
-                       True)  # fmt: skip
+            return failed
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
+        self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
+                                noise, self.record, self.obs), True)  # fmt: skip
         return failed
 
     def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -569,32 +584,43 @@ class TaskBatch:
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure; with an
         error-controlled integrator also the substeps each env's body took in the last step."""
-        return {key: column.copy() for key, column in self._info_columns().items()}
+        info = self._info(self.record, self.world.failed, self._fault_infos(), self._substeps())
+        return {key: value.copy() for key, value in info.items()}
 
-    def info_one(self) -> dict[str, Any]:
+    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
-        env returns."""
-        return {
-            key: column[0].item() if column.ndim == 1 else column[0].copy()
-            for key, column in self._info_columns().items()
-        }
+        env returns, from its record (read here if not given)."""
+        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
+        faults = {key: column[0].item() for key, column in self._fault_infos().items()}
+        substeps = self._substeps()
+        taken = None if substeps is None else int(substeps[0])
+        values = dict(zip(K.RECORD.names, r, strict=True))
+        out = self._info(values, bool(self.world.failed[0]), faults, taken)
+        out["angular_velocity_world"] = r.w_world.copy()  # item() gives a view of the record
+        return out
 
-    def _info_columns(self) -> dict[str, NDArray[Any]]:
-        """The columns of :meth:`infos` (views of the record and the world, not to keep)."""
-        r = self.record
+    def _info(self, r: Any, failed: Any, faults: dict[str, Any], substeps: Any) -> dict:
+        """The diagnostics by name from a record read by field name (the (N,)
+        :data:`~rigid_env.envs.kernels.RECORD` array's columns, or one env's values), the
+        failure flags, the fault infos and the substeps taken (None: not reported)."""
         out = {
             "angular_speed": r["speed"],
             "energy": r["energy"],
             "fuel": r["fuel"],
             "success": r["success"],
             "is_success": r["success"],  # SB3 EvalCallback logs this key
-            "numerical_error": self.world.failed,
+            "numerical_error": failed,
             "angular_velocity_world": r["w_world"],
-            **self._fault_infos(),
+            **faults,
         }
-        if self.world.tolerances is not None:
-            out["substeps"] = self.world.substeps_taken
+        if substeps is not None:
+            out["substeps"] = substeps
         return out
+
+    def _substeps(self) -> NDArray[np.int64] | None:
+        """(N,) the substeps each body took in the last step, for an error-controlled
+        integrator (None for a fixed-step one)."""
+        return None if self.world.tolerances is None else self.world.substeps_taken
 
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
         """Where faults are drawn: each env's failed thruster (-1: none), the step its fault

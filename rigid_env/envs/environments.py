@@ -114,7 +114,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         task = self.task
         task.check_action(action)
         r, failed = task.step_one(self._rngs[0])
-        info = task.info_one()
+        info = task.info_one(r)
         if self.render_mode == "human":
             self.render()
         return task.obs[0].copy(), r.reward, r.terminated, failed, info
