@@ -584,8 +584,18 @@ class TaskBatch:
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure; with an
         error-controlled integrator also the substeps each env's body took in the last step."""
-        info = self._info(self.record, self.world.failed, self._fault_infos(), self._substeps())
+        info = self._info(self._columns, self.world.failed, self._fault_infos(), self._substeps())
         return {key: value.copy() for key, value in info.items()}
+
+    @property
+    def _columns(self) -> K.EnvRecord:
+        """:attr:`record`'s columns by name (views, made once per record buffer: again after
+        unpickling, where they would be copies)."""
+        columns = self.__dict__.get("_column_views")
+        if columns is None or columns.speed.base is not self.record:
+            columns = K.EnvRecord._make(map(self.record.__getitem__, K.RECORD.names))
+            self._column_views = columns
+        return columns
 
     def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
@@ -594,23 +604,21 @@ class TaskBatch:
         faults = {key: column[0].item() for key, column in self._fault_infos().items()}
         substeps = self._substeps()
         taken = None if substeps is None else int(substeps[0])
-        values = dict(zip(K.RECORD.names, r, strict=True))
-        out = self._info(values, bool(self.world.failed[0]), faults, taken)
+        out = self._info(r, bool(self.world.failed[0]), faults, taken)
         out["angular_velocity_world"] = r.w_world.copy()  # item() gives a view of the record
         return out
 
-    def _info(self, r: Any, failed: Any, faults: dict[str, Any], substeps: Any) -> dict:
-        """The diagnostics by name from a record read by field name (the (N,)
-        :data:`~rigid_env.envs.kernels.RECORD` array's columns, or one env's values), the
-        failure flags, the fault infos and the substeps taken (None: not reported)."""
+    def _info(self, r: K.EnvRecord, failed: Any, faults: dict[str, Any], substeps: Any) -> dict:
+        """The diagnostics by name from a record (one env's values, or the columns of all),
+        the failure flags, the fault infos and the substeps taken (None: not reported)."""
         out = {
-            "angular_speed": r["speed"],
-            "energy": r["energy"],
-            "fuel": r["fuel"],
-            "success": r["success"],
-            "is_success": r["success"],  # SB3 EvalCallback logs this key
+            "angular_speed": r.speed,
+            "energy": r.energy,
+            "fuel": r.fuel,
+            "success": r.success,
+            "is_success": r.success,  # SB3 EvalCallback logs this key
             "numerical_error": failed,
-            "angular_velocity_world": r["w_world"],
+            "angular_velocity_world": r.w_world,
             **faults,
         }
         if substeps is not None:
