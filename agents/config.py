@@ -34,7 +34,6 @@ from .algorithms import Hyperparams, PolicyKwargs, argument_problems
 from .algorithms import algorithm_class as algorithm_class  # re-exported
 from .env_kwargs import check_env_kwargs
 
-ALGOS = ("ppo", "sac", "td3", "tqc")
 MAX_ENVS = 65_536
 """The most training envs: the largest batch the core's benchmarks measure (DESIGN.md)."""
 ConfigError = ConfigFileError

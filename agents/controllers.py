@@ -29,7 +29,11 @@ from rigid_env.core.rotation import (
     quat_rotate_inv,
     quat_to_rotvec,
 )
-from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.detumble import DetumbleTask
+from rigid_env.envs.reorient import ReorientTask
+from rigid_env.envs.spin_stabilize import SpinStabilizeTask
+from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE, TumblingFallTask
 
 FloatArray = NDArray[np.float64]
 
@@ -136,13 +140,14 @@ class PDLaw:
     torque: Callable[[PDController, FloatArray, FloatArray, FloatArray], FloatArray]
 
 
-PD_LAWS: dict[str, PDLaw] = {
-    "Detumble": PDLaw(0.0, 2.0, _damping),
-    "TumblingFall": PDLaw(0.0, 4.0, _damping_against_drag),
-    "SpinStabilize": PDLaw(0.0, 3.0, _spin_about_y),
-    "Reorient": PDLaw(1.0, 2.0, _attitude),
+PD_LAWS: dict[type[TaskBatch], PDLaw] = {
+    DetumbleTask: PDLaw(0.0, 2.0, _damping),
+    TumblingFallTask: PDLaw(0.0, 4.0, _damping_against_drag),
+    SpinStabilizeTask: PDLaw(0.0, 3.0, _spin_about_y),
+    ReorientTask: PDLaw(1.0, 2.0, _attitude),
 }
-"""The PD law of each task, by the task's name (its class name without ``Task``)."""
+"""The PD law of each task, by its task class (a subclass, which may change what the task asks
+for, needs a law of its own)."""
 
 
 class PulseModulator:
@@ -202,13 +207,13 @@ class PDController:
 
     def __init__(self, env: Any, k_p: float | None = None, k_d: float | None = None) -> None:
         self.task = task_of(env)
-        self.kind = type(self.task).__name__.removesuffix("Task")
-        if self.kind not in PD_LAWS:
+        law = PD_LAWS.get(type(self.task))
+        if law is None:
             raise KeyError(
-                f"PDController: task {self.kind!r} has no PD law; add one to "
-                f"agents.controllers.PD_LAWS (laws: {', '.join(PD_LAWS)})"
+                f"PDController: task {type(self.task).__name__} has no PD law; add one to "
+                f"agents.controllers.PD_LAWS (laws: {', '.join(t.__name__ for t in PD_LAWS)})"
             )
-        self.law = PD_LAWS[self.kind]
+        self.law = law
         self.k_p = self.law.k_p if k_p is None else float(k_p)
         self.k_d = self.law.k_d if k_d is None else float(k_d)
         actuators = [e for e in self.task.world.force_effects if isinstance(e, LinearActuator)]

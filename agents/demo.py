@@ -34,13 +34,15 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from rigid_env.envs import TASKS as REGISTERED
+
 from .controllers import CONTROLLERS
 from .evaluate import Policy, load_policy, rollout
 from .shipped import TASKS
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
 DEMO_SEED = 20261201
-#: Episodes per task and policy by default: the whole command (imports, the four tasks, the
+#: Episodes per task and policy by default: the whole command (imports, the four shipped tasks, the
 #: GIFs) takes well under 2 minutes on two busy cores.
 DEFAULT_EPISODES = 10
 #: The most episodes per task and policy: a success rate over 1000 episodes is known to
@@ -98,12 +100,12 @@ class Row:
 
 def env_id(task: str) -> str:
     """The task's newest id (the one its pretrained policy was trained on)."""
-    return f"RigidEnv/{task}-v{TASKS[task][2]}"
+    return TASKS[task].env_id
 
 
 def resolve_tasks(text: str | None) -> list[str]:
     """The tasks ``--task`` names: a short name (``Detumble``, any case) or its id
-    (``RigidEnv/Detumble-v0``); None means all four."""
+    (``RigidEnv/Detumble-v0``); None means every shipped task."""
     if text is None:
         return list(TASKS)
     for task in TASKS:
@@ -115,15 +117,22 @@ def resolve_tasks(text: str | None) -> list[str]:
                 f"runs {env_id(task)}: pass {task} or {env_id(task)} (python -m "
                 f"agents.evaluate MODEL --env {text.strip()} evaluates a policy of that version)"
             )
+    registered = [name for name in REGISTERED if name.lower() == text.strip().lower()]
+    if registered:
+        raise DemoError(
+            f"--task: {registered[0]} ships no pretrained policy, so the demo does not play it; "
+            f"choose one of {', '.join(TASKS)} (python -m agents.evaluate MODEL --env "
+            f"{REGISTERED[registered[0]].env_id} evaluates a policy of your own)"
+        )
     raise DemoError(
         f"--task: unknown task {text!r}; choose one of {', '.join(TASKS)} "
-        f"(or its id, e.g. {env_id('Detumble')})"
+        f"(or its id, e.g. {env_id(next(iter(TASKS)))})"
     )
 
 
 def pretrained_model(task: str) -> Path:
     """``agents/pretrained/ppo_<task>.zip`` (module name of the task, e.g. spin_stabilize)."""
-    return PRETRAINED / f"ppo_{TASKS[task][0]}.zip"
+    return PRETRAINED / f"ppo_{TASKS[task].module}.zip"
 
 
 def policy_label(model: Path) -> str:
@@ -303,7 +312,7 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def animation_path(out: Path, task: str) -> Path:
-    return out / f"{TASKS[task][0]}_ppo_vs_pd.gif"
+    return out / f"{TASKS[task].module}_ppo_vs_pd.gif"
 
 
 def check_out(out: Path, tasks: list[str], force: bool) -> None:
@@ -344,7 +353,7 @@ def run(
     """Evaluate, tabulate and animate; returns the exit status (0).
 
     Args:
-        task: one task (short name or id); None for all four.
+        task: one task (short name or id); None for every shipped task.
         episodes: episodes per task and policy (>= 1); None for :data:`DEFAULT_EPISODES`.
         out: output directory; None for :data:`DEFAULT_OUT`.
         force: overwrite earlier results in ``out``.

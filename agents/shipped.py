@@ -1,5 +1,5 @@
-"""The tasks that ship a training configuration per algorithm (``configs/agents/<algo>_<task>
-.yaml``) and a pretrained policy (``agents/pretrained/ppo_<task>.zip``): what the demo, the
+"""The tasks that ship a training configuration per algorithm (``configs/agents/<algo>_<module>
+.yaml``) and a pretrained policy (``agents/pretrained/ppo_<module>.zip``): what the demo, the
 baselines and their tests loop over. A registered task not listed here (a new one, before
 anyone trains it) is an environment like any other, and the suite stays green without it.
 
@@ -9,14 +9,16 @@ policy too (:data:`VARIANTS`); the demo plays the tasks only, the policy tests e
 from __future__ import annotations
 
 from rigid_env.envs import TASKS as REGISTERED
+from rigid_env.envs import Task
 
 SHIPPED = ("Detumble", "SpinStabilize", "Reorient", "TumblingFall")
-"""Task names (as in :data:`rigid_env.envs.TASKS`) with configs and a pretrained policy."""
+"""Names of the registered tasks (:data:`rigid_env.envs.TASKS`) with configs and a pretrained
+policy."""
 
-TASKS: dict[str, tuple[str, int, int]] = {name: REGISTERED[name] for name in SHIPPED}
-"""(task module, max_episode_steps, newest version) of each shipped task."""
+TASKS: dict[str, Task] = {name: REGISTERED[name] for name in SHIPPED}
+"""The registry's record of each shipped task, by name."""
 
-ENV_IDS = [f"RigidEnv/{name}-v{newest}" for name, (_, _, newest) in TASKS.items()]
+ENV_IDS = [task.env_id for task in TASKS.values()]
 """The newest id of each shipped task: the one its policy was trained on."""
 
 VARIANTS: dict[str, str] = {"RigidEnv/DetumbleFaults-v0": "detumble_faults"}
@@ -24,7 +26,7 @@ VARIANTS: dict[str, str] = {"RigidEnv/DetumbleFaults-v0": "detumble_faults"}
 ``agents/pretrained/ppo_<stem>.zip`` (PPO only)."""
 
 POLICIES: dict[str, str] = {
-    **{f"RigidEnv/{name}-v{newest}": module for name, (module, _, newest) in TASKS.items()},
+    **{task.env_id: task.module for task in TASKS.values()},
     **VARIANTS,
 }
 """Env id -> stem of its pretrained policy ``agents/pretrained/ppo_<stem>.zip``: every policy

@@ -21,6 +21,7 @@ import pytest
 
 import rigid_env
 from agents.shipped import POLICIES
+from rigid_env.envs import TASKS
 from rigid_env.resources import SCENE_DIR, data_path, data_roots, pretrained_path, scene_path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -118,6 +119,10 @@ def test_wheel_ships_packages_and_data_under_our_own_name(installed: Path) -> No
         assert shipped.is_file(), f"{path.relative_to(ROOT)} missing from the wheel"
         assert shipped.read_bytes() == path.read_bytes()
     assert (installed / "rigid_env" / "py.typed").is_file()
+    for task in TASKS.values():  # the registry's tasks: each one's module and scene ship
+        assert (installed / "rigid_env" / "envs" / f"{task.module}.py").is_file(), task.name
+        scene = installed / "rigid_env" / "configs" / "scenes" / f"{task.scene}.yaml"
+        assert scene.is_file(), task.name
 
 
 @pytest.mark.slow

@@ -10,12 +10,15 @@ import contextlib
 import importlib.util
 import io
 import re
+import sys
 import warnings
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.utils.env_checker import check_env
+
+from rigid_env import numba_cache
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 
@@ -26,13 +29,32 @@ def readme_code() -> str:
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
+def example_path(name: str, fallback: Path) -> Path:
+    """A fixed file for the README's code under the kernel cache's folder (outside the
+    checkout), written only when the code changed: Numba then loads its kernels from the cache
+    on every later run, as a user's task file's would be. ``fallback`` where the cache's folder
+    cannot be written."""
+    code = readme_code().replace('"StopZ-v0"', f'"{name}-v0"')
+    for folder in (numba_cache.cache_root() / "readme_task", fallback):
+        path = folder / f"{name}.py"
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            if not path.is_file() or path.read_text() != code:
+                path.write_text(code)
+            return path
+        except OSError:
+            continue
+    raise OSError(f"cannot write {name}.py under {fallback}")
+
+
 def load_example(tmp_path: Path, name: str):
     """The README's code as a module of its own file (as a user would keep it: Numba caches
-    the kernels of a file), and what it printed."""
-    path = tmp_path / f"{name}.py"
-    path.write_text(readme_code().replace('"StopZ-v0"', f'"{name}-v0"'))
+    the kernels of a file), imported under its name (Numba finds a cached kernel's module by
+    it), and what it printed."""
+    path = example_path(name, tmp_path)
     spec = importlib.util.spec_from_file_location(name, path)
     module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         spec.loader.exec_module(module)
@@ -70,6 +92,13 @@ def test_custom_task_example_runs_and_its_vector_env_equals_the_single_env(tmp_p
         vec_obs, vec_rew, *_ = vec.step(a)
         obs, rew, *_ = single.step(a[1])
         assert np.array_equal(vec_obs[1], obs) and vec_rew[1] == rew
+    # Compiled from a fixed file outside the checkout, cached in the folder of its key (its code
+    # and the modules it uses), where every later run finds it.
+    path = Path(module.__file__)
+    assert path == example_path("stop_z", tmp_path) and not path.is_relative_to(README.parent)
+    folder = numba_cache.cache_root() / numba_cache.module_key(path)
+    assert Path(module.stop_z_pass._cache.cache_path).is_relative_to(folder)
+    assert list(Path(module.stop_z_pass._cache.cache_path).glob("stop_z.stop_z_pass-*.nbi"))
 
 
 def test_custom_task_threaded_pass_equals_the_single_env(tmp_path, monkeypatch) -> None:

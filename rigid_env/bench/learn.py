@@ -34,10 +34,13 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.agents.shipped import TASKS as SHIPPED
 from rigid_env.bench import report
 from rigid_env.resources import data_path
 
-TASKS = ("detumble", "spin_stabilize", "reorient", "tumbling_fall")
+TASKS = tuple(task.module for task in SHIPPED.values())
+"""The tasks trained, by the stem of their configs (``configs/agents/ppo_<module>.yaml``): those
+that ship a policy (:data:`rigid_env.agents.shipped.TASKS`), in the registry's order."""
 OUTPUTS = ("results.md", "results.csv", "time_to_bar.png")
 FINAL_SEED = 12_345
 FINAL_EPISODES = 100

@@ -20,6 +20,7 @@ from rigid_env.core import threads
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
+from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.hardware import FAULT_KINDS, Fault, draw_fault, misaligned, with_preset
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
@@ -93,6 +94,26 @@ class TaskBatch:
     extra_bound: ClassVar[float] = 1.0
     """The task's extra observations are clipped into +-this."""
     target_dim: ClassVar[int] = 0
+    """Numbers of each env's target that :meth:`sample` draws and ``evaluate`` reads in its
+    ``goal`` (at most :data:`~rigid_env.envs.kernels.TARGET_WIDTH`)."""
+    memory_dim: ClassVar[int] = 0
+    """Numbers of task memory ``evaluate`` keeps from step to step (its ``memory`` and
+    ``Outcome.memory``; at most :data:`~rigid_env.envs.kernels.MEMORY_WIDTH`)."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Refuse a task that declares more target or memory numbers than the pass holds."""
+        super().__init_subclass__(**kwargs)
+        for field, width, holds in (
+            ("target_dim", K.TARGET_WIDTH, "TARGET_WIDTH"),
+            ("memory_dim", K.MEMORY_WIDTH, "MEMORY_WIDTH"),
+        ):
+            size = getattr(cls, field)
+            if not (isinstance(size, int) and 0 <= size <= width):
+                raise TypeError(
+                    f"{cls.__name__}.{field}: {size!r} numbers, but the task pass holds 0 to "
+                    f"{width} (rigid_env.envs.kernels.{holds}); declare at most {width}, or "
+                    f"widen {holds} and the pass's reads"
+                )
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         self.n = as_num_envs(num_envs)
@@ -106,19 +127,7 @@ class TaskBatch:
             settings.thrusters,
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
         )
-        self.world = self.scene.build_world(
-            n=self.n,
-            integrator=settings.integrator,
-            dt=settings.dt,
-            substeps=settings.substeps,
-            on_error="freeze",
-            rtol=settings.rtol,
-            atol=settings.atol,
-        )
-        if self.world.action_dim == 0:
-            raise ValueError(
-                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
-            )
+        self.world = self._build_world()
         self.dt = self.world.dt
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
@@ -131,20 +140,8 @@ class TaskBatch:
         self.obs_slices = self._observation_slices()
         """Where each observed quantity lies in an observation: ``orientation``, ``w`` (over
         :attr:`w_scale`), ``fine_w`` and each of :attr:`extra_observations` by name."""
-        bound = np.concatenate(
-            [
-                np.ones(4 if self.rotation_repr == "quaternion" else 6),
-                np.full(3, K.W_OBS_BOUND),
-                np.ones(3),
-                np.full(len(self.extra_observations), self.extra_bound),
-                np.full(int(settings.observe_control_period), PERIOD_BOUND),
-            ]
-        ).astype(np.float32)
-        self.obs_dim = bound.size
-        low = -bound
-        if settings.observe_control_period:
-            low[-1] = 0.0
-        self.single_observation_space = spaces.Box(low, bound, dtype=np.float32)
+        self.single_observation_space = self._observation_space()
+        self.obs_dim = self.single_observation_space.shape[0]
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
         common = {
             "dt": self.dt,
@@ -158,7 +155,7 @@ class TaskBatch:
         n, a = self.n, self.action_dim
         self.steps = np.zeros(n, dtype=np.int64)
         self.target = np.zeros((n, K.TARGET_WIDTH))
-        """(N, 4) each env's target (its first ``target_dim`` numbers used)."""
+        """(N, TARGET_WIDTH) each env's target (its first :attr:`target_dim` numbers used)."""
         self.thrust_scale: FloatArray | None = None
         """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
         (None before: every actuator as in the scene)."""
@@ -207,6 +204,42 @@ class TaskBatch:
         return int(getattr(self.params, "version", 0))
 
     # ---- shared machinery ----------------------------------------------------------------
+    def _build_world(self) -> World:
+        """The :class:`~rigid_env.core.world.World` of the ``N`` bodies, as the settings ask
+        (a failed body frozen, for its episode to end)."""
+        settings = self.settings
+        world = self.scene.build_world(
+            n=self.n,
+            integrator=settings.integrator,
+            dt=settings.dt,
+            substeps=settings.substeps,
+            on_error="freeze",
+            rtol=settings.rtol,
+            atol=settings.atol,
+        )
+        if world.action_dim == 0:
+            raise ValueError(
+                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
+            )
+        return world
+
+    def _observation_space(self) -> spaces.Box:
+        """One env's observation space: the bounds of :attr:`obs_slices`' parts in order."""
+        period = self.settings.observe_control_period
+        bound = np.concatenate(
+            [
+                np.ones(4 if self.rotation_repr == "quaternion" else 6),
+                np.full(3, K.W_OBS_BOUND),
+                np.ones(3),
+                np.full(len(self.extra_observations), self.extra_bound),
+                np.full(int(period), PERIOD_BOUND),
+            ]
+        ).astype(np.float32)
+        low = -bound
+        if period:
+            low[-1] = 0.0
+        return spaces.Box(low, bound, dtype=np.float32)
+
     def _observation_slices(self) -> dict[str, slice]:
         rot = 4 if self.rotation_repr == "quaternion" else 6
         out = {"orientation": slice(0, rot), "w": slice(rot, rot + 3)}
@@ -315,29 +348,45 @@ class TaskBatch:
             the body is frozen at its last finite state and the episode must end). Views of
             the task's buffers, valid until the next step.
         """
+        reward, failed = self._step(rngs, restarting)
+        if reward is None:
+            reward = self.record["reward"]
+        return reward, self.record["terminated"].copy(), failed
+
+    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
+        """:meth:`step` of a task of one env: its record as Python values and whether its body
+        failed."""
+        reward, failed = self._step([rng])
+        record = K.EnvRecord._make(self.record.item(0))
+        if reward is not None:  # the summed reward of the repeated steps
+            record = record._replace(reward=float(reward[0]))
+        return record, failed is not self.world.no_failures and bool(failed[0])
+
+    def _step(
+        self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
+    ) -> tuple[FloatArray | None, NDArray[np.bool_]]:
+        """:meth:`step`'s steps: the repeated steps' summed reward (None for one step: the
+        record's) and the failed mask."""
         if self._repeating:
             return self._step_repeated(rngs, restarting)
-        if self._noisy:
-            self._draw_thrust_factors(rngs, restarting)
-        failed = self.world.advance(self.command)
-        self.steps += 1
-        self._own_obs(keep=False)
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
-        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
-                                self.target, noise, self.record, self.obs), True)  # fmt: skip
+        failed = self._step_envs(rngs, skip=restarting)
+        if self.n == 1:  # a scalar add: NumPy's in-place add costs a sixth of a single env's step
+            self.steps[0] += 1
+        else:
+            self.steps += 1
         if self._observes_period:
             self._observe_period()
-        return self.record["reward"], self.record["terminated"].copy(), failed
+        return None, failed
 
     def _step_repeated(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
-    ) -> tuple[FloatArray, NDArray[np.bool_], NDArray[np.bool_]]:
+    ) -> tuple[FloatArray, NDArray[np.bool_]]:
         """:meth:`step` where env ``i`` holds its command for :attr:`repeats` ``[i]`` world steps:
         exactly the steps (world step, then the task's pass) a caller would make by sending the
         same action that many times, stopped after one that ends the episode; the reward is
         their sum (so an episode's return is the same however its actions are grouped), the
         record, fuel and observation those of the last. Envs about to restart are not stepped
-        (their state is drawn anew)."""
+        (their state is drawn anew). Returns the summed reward and whether each env failed."""
         reward = np.zeros(self.n)
         ended = np.zeros(self.n, dtype=bool) if restarting is None else restarting.copy()
         failed_any = np.zeros(self.n, dtype=bool)
@@ -345,64 +394,66 @@ class TaskBatch:
             stepping = (self.repeats > r) & ~ended
             if not stepping.any():
                 break
-            failed = self._step_some(stepping, rngs)
+            failed = self._step_envs(rngs, stepping=stepping)
             failed_any |= failed
             reward[stepping] += self.record["reward"][stepping]
             ended |= stepping & (self.record["terminated"] | failed)
         self.steps += 1
         self._observe_period()
-        return reward, self.record["terminated"].copy(), failed_any
+        return reward, failed_any
 
-    def _step_some(
-        self, stepping: NDArray[np.bool_], rngs: Sequence[np.random.Generator]
+    def _step_envs(
+        self,
+        rngs: Sequence[np.random.Generator],
+        skip: NDArray[np.bool_] | None = None,
+        stepping: NDArray[np.bool_] | None = None,
     ) -> NDArray[np.bool_]:
-        """One world step and pass of the envs in ``stepping``, the others held: their bodies
-        frozen in the world (:attr:`World.failed`: a frozen body is left as it is, its thrust
-        levels included), nothing drawn from their generators, and the pass run over the
-        stepping envs only. Returns the world step's failed mask."""
+        """The stages of a step: the thrust noise of the step, the world's step, then the task's
+        pass (fuel, reward, observation). Returns the world step's failed mask.
+
+        ``skip``: envs stepped but about to restart (no noise drawn for them). ``stepping``: the
+        envs to step (default all); the others are held: their bodies frozen in the world
+        (:attr:`World.failed`: a frozen body is left as it is, its thrust levels included),
+        nothing drawn from their generators, and the pass run over the stepping envs only."""
         world = self.world
-        held = ~stepping & ~world.failed
+        some = stepping is not None and not stepping.all()
         if self._noisy:
-            self._draw_thrust_factors(rngs, ~stepping)
-        world.failed[held] = True
-        try:
+            self._draw_thrust_factors(rngs, skip if stepping is None else ~stepping)
+        if some:
+            failed = self._advance_held(~stepping & ~world.failed)
+        else:
             failed = world.advance(self.command)
-        finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
-            world.failed[held] = False
-        self._own_obs(keep=True)
-        if stepping.all():
-            arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
-                                  self._noise(rngs), self.record, self.obs)  # fmt: skip
-            self._pass(arrays, True)
+        self._own_obs(keep=stepping is not None)
+        if some:
+            idx = np.flatnonzero(stepping)
+            self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
             return failed
-        idx = np.flatnonzero(stepping)
-        record, obs = self.record[idx], self.obs[idx]
-        cols = np.ascontiguousarray(world.columns[:, idx])
-        model = np.ascontiguousarray(world.model_columns[:, idx])
-        noise = self._noise([rngs[i] for i in idx])
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise, record,
-                                obs), True)  # fmt: skip
-        self.record[idx], self.obs[idx] = record, obs
+        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
+        self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
+                                noise, self.record, self.obs), True)  # fmt: skip
         return failed
 
-    def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
-        """:meth:`step` of a task of one env: its record as Python values and whether its body
-        failed."""
-        if self._repeating:
-            reward, _, failed_any = self._step_repeated([rng])
-            record = K.EnvRecord._make(self.record.item(0))
-            return record._replace(reward=float(reward[0])), bool(failed_any[0])
-        if self._noisy:
-            self._draw_thrust_factors([rng])
-        failed = self.world.advance(self.command)
-        self.steps[0] += 1
-        self._own_obs(keep=False)
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
-        self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
-                                self.target, noise, self.record, self.obs), True)  # fmt: skip
-        if self._observes_period:
-            self._observe_period()
-        return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
+    def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        """The world's step with the bodies ``held`` frozen through it."""
+        world = self.world
+        world.failed[held] = True
+        try:
+            return world.advance(self.command)
+        finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
+            world.failed[held] = False
+
+    def _pass_rows(
+        self, idx: NDArray[np.int64], rngs: Sequence[np.random.Generator], stepped: bool
+    ) -> None:
+        """The task's pass over the envs ``idx`` only (after a step of some, or a reset),
+        sensor noise drawn from ``rngs`` (one per index): their rows of the record and the
+        observation written, the others kept."""
+        record, obs = self.record[idx], self.obs[idx]
+        cols = np.ascontiguousarray(self.world.columns[:, idx])
+        model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx],
+                                self._noise(rngs), record, obs), stepped)  # fmt: skip
+        self.record[idx], self.obs[idx] = record, obs
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
@@ -446,6 +497,12 @@ class TaskBatch:
         randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
         for k, i in enumerate(idx.tolist()):
             draws.append(self.sample(rngs[k]))
+            if np.shape(draws[-1][4]) != (self.target_dim,):
+                raise ValueError(
+                    f"{type(self).__name__}.sample: drew a target of shape "
+                    f"{np.shape(draws[-1][4])}, the task declares target_dim = {self.target_dim}; "
+                    "return a target of target_dim numbers (or declare its size in target_dim)"
+                )
             if randomized:
                 self._randomize(i, rngs[k])
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
@@ -462,13 +519,7 @@ class TaskBatch:
         if idx.size == 0:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
-        record, obs = self.record[idx], self.obs[idx]
-        cols = np.ascontiguousarray(self.world.columns[:, idx])
-        model = np.ascontiguousarray(self.world.model_columns[:, idx])
-        noise = self._noise(rngs)
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise,
-                                record, obs), False)  # fmt: skip
-        self.record[idx], self.obs[idx] = record, obs
+        self._pass_rows(idx, rngs, stepped=False)
         self._observe_period(idx)
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
@@ -533,21 +584,51 @@ class TaskBatch:
     def infos(self) -> dict[str, NDArray[Any]]:
         """Per-env diagnostics (copies): angular speed, energy, fuel, success, failure; with an
         error-controlled integrator also the substeps each env's body took in the last step."""
-        r = self.record
-        success = r["success"].copy()
-        out = {
-            "angular_speed": r["speed"].copy(),
-            "energy": r["energy"].copy(),
-            "fuel": r["fuel"].copy(),
-            "success": success,
-            "is_success": success.copy(),  # SB3 EvalCallback logs this key
-            "numerical_error": self.world.failed.copy(),
-            "angular_velocity_world": r["w_world"].copy(),
-            **self._fault_infos(),
-        }
-        if self.world.tolerances is not None:
-            out["substeps"] = self.world.substeps_taken.copy()
+        info = self._info(self._columns, self.world.failed, self._fault_infos(), self._substeps())
+        return {key: value.copy() for key, value in info.items()}
+
+    @property
+    def _columns(self) -> K.EnvRecord:
+        """:attr:`record`'s columns by name (views, made once per record buffer: again after
+        unpickling, where they would be copies)."""
+        columns = self.__dict__.get("_column_views")
+        if columns is None or columns.speed.base is not self.record:
+            columns = K.EnvRecord._make(map(self.record.__getitem__, K.RECORD.names))
+            self._column_views = columns
+        return columns
+
+    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
+        """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
+        env returns, from its record (read here if not given)."""
+        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
+        faults = {key: column[0].item() for key, column in self._fault_infos().items()}
+        substeps = self._substeps()
+        taken = None if substeps is None else int(substeps[0])
+        out = self._info(r, bool(self.world.failed[0]), faults, taken)
+        out["angular_velocity_world"] = r.w_world.copy()  # item() gives a view of the record
         return out
+
+    def _info(self, r: K.EnvRecord, failed: Any, faults: dict[str, Any], substeps: Any) -> dict:
+        """The diagnostics by name from a record (one env's values, or the columns of all),
+        the failure flags, the fault infos and the substeps taken (None: not reported)."""
+        out = {
+            "angular_speed": r.speed,
+            "energy": r.energy,
+            "fuel": r.fuel,
+            "success": r.success,
+            "is_success": r.success,  # SB3 EvalCallback logs this key
+            "numerical_error": failed,
+            "angular_velocity_world": r.w_world,
+            **faults,
+        }
+        if substeps is not None:
+            out["substeps"] = substeps
+        return out
+
+    def _substeps(self) -> NDArray[np.int64] | None:
+        """(N,) the substeps each body took in the last step, for an error-controlled
+        integrator (None for a fixed-step one)."""
+        return None if self.world.tolerances is None else self.world.substeps_taken
 
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
         """Where faults are drawn: each env's failed thruster (-1: none), the step its fault
@@ -569,24 +650,6 @@ class TaskBatch:
             "fault_level": level.astype(np.float64),
             "fault_active": (thruster >= 0) & (self.steps > step),
         }
-
-    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
-        """:meth:`infos` of env 0 as Python scalars (what a single env returns), from its
-        record (read here if not given)."""
-        r = K.EnvRecord._make(self.record.item(0)) if r is None else r
-        out = {
-            "angular_speed": r.speed,
-            "energy": r.energy,
-            "fuel": r.fuel,
-            "success": r.success,
-            "is_success": r.success,
-            "numerical_error": bool(self.world.failed[0]),
-            "angular_velocity_world": r.w_world.copy(),  # item() gives a view of the record
-            **{k: v[0].item() for k, v in self._fault_infos().items()},
-        }
-        if self.world.tolerances is not None:
-            out["substeps"] = int(self.world.substeps_taken[0])
-        return out
 
     # ---- what a renderer shows (rigid_env.render) ----------------------------------------
     def view(self) -> TaskView:

@@ -33,10 +33,17 @@ def evaluate(body, effort, goal, memory, task, stepped):
     speed = safe_norm(body.w)
     success = speed < task.success_threshold
     # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
-    spin_cost = 1.0 - tolerance_one(speed, 0.0, task.success_threshold, task.max_initial_spin,
-                                    LINEAR, 0.0)  # fmt: skip
+    at_rest = tolerance_one(
+        speed,
+        lower=0.0,
+        upper=task.success_threshold,
+        margin=task.max_initial_spin,
+        sigmoid=LINEAR,
+        value_at_margin=0.0,
+    )
+    spin_cost = 1.0 - at_rest
     reward = -spin_cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
-    return Outcome(reward, success, success, memory, NO_EXTRA)
+    return Outcome(reward, terminated=success, success=success, memory=memory, extra=NO_EXTRA)
 
 
 @task_kernel

@@ -43,6 +43,11 @@ from rigid_env.envs.maths import canonical, safe_norm, tanh
 task_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
 """The decorator of a task's pass: cached on disk, the GIL released, and a pass given
 ``threads > 1`` split over Numba's threads (one thread runs a plain loop)."""
+_per_task = njit(nogil=True, error_model="numpy", forceinline=True)
+""":data:`kernel` without the disk cache, for the parts of the pass that take the task's
+``evaluate``: they are compiled into each task's pass, which is cached with the task's module.
+Cached here they would only add an entry per compile that no later process finds (their
+signature holds the task's ``evaluate``, a type of its process)."""
 
 W_OBS_BOUND = 5.0
 """The observed body ``w`` over the task's speed scale is clipped into +-this (and the
@@ -50,7 +55,12 @@ observation space says so)."""
 FINE_SPIN = 0.1
 """[rad/s] the scale of the fine-resolution observation ``tanh(w / FINE_SPIN)`` near rest."""
 TARGET_WIDTH = 4
-"""Numbers of a per-env target (a quaternion, or unused zeros): ``evaluate``'s ``goal``."""
+"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, or unused zeros):
+a task declares how many it uses (:attr:`rigid_env.envs.batch.TaskBatch.target_dim`)."""
+MEMORY_WIDTH = 1
+"""The most numbers of an env's task memory, ``evaluate``'s ``memory`` and ``Outcome.memory``
+(one float): a task declares how many it uses
+(:attr:`rigid_env.envs.batch.TaskBatch.memory_dim`)."""
 COMMON_NUMBERS = ("dt", "w_scale", "sixd", "extra_bound")
 """The numbers every task's record of numbers starts with: the control step [s], the angular
 speed the observed ``w`` is divided by [rad/s], whether the orientation is observed as the 6-D
@@ -181,7 +191,7 @@ def fine_spin(c, state, noise, obs, start, stop):
         obs[start + i, col], obs[start + i, col + 1], obs[start + i, col + 2] = fine[:, i]
 
 
-@kernel
+@_per_task
 def _env(evaluate, c, a, stepped, i):
     """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
     body = BodyState(*load(a.state, i))
@@ -221,7 +231,7 @@ def _env(evaluate, c, a, stepped, i):
     return len(extra)
 
 
-@kernel
+@_per_task
 def _envs(evaluate, numbers, arrays, stepped, start, stop):
     """:func:`env_pass` of the envs ``start <= i < stop``."""
     c = numbers[0]

@@ -54,12 +54,25 @@ def evaluate(body, effort, goal, memory, task, stepped):
     # v1: no flat top inside the success band (its edge is no optimum to hover at), and a
     # bonus of 1 on every step that counts as success; v0: flat tops, no bonus.
     v1 = task.version >= 1
-    r_angle = tolerance_one(angle, 0.0, 0.0 if v1 else task.success_angle, math.pi, LINEAR, 0.0)
-    r_spin = tolerance_one(speed, 0.0, 0.0 if v1 else task.success_spin, task.max_initial_spin,
-                           LINEAR, 0.0)  # fmt: skip
+    r_angle = tolerance_one(
+        angle,
+        lower=0.0,
+        upper=0.0 if v1 else task.success_angle,
+        margin=math.pi,
+        sigmoid=LINEAR,
+        value_at_margin=0.0,
+    )
+    r_spin = tolerance_one(
+        speed,
+        lower=0.0,
+        upper=0.0 if v1 else task.success_spin,
+        margin=task.max_initial_spin,
+        sigmoid=LINEAR,
+        value_at_margin=0.0,
+    )
     bonus = 1.0 if v1 and success else 0.0
     reward = r_angle * (0.5 + 0.5 * r_spin) + bonus - task.fuel_weight * effort
-    return Outcome(reward, False, success, memory, err)
+    return Outcome(reward, terminated=False, success=success, memory=memory, extra=err)
 
 
 @task_kernel

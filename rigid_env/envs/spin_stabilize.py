@@ -61,17 +61,29 @@ def evaluate(body, effort, goal, memory, task, stepped):
         streak = memory + 1.0 if angle < task.success_angle else 0.0
     success = streak >= task.hold_steps
     rate_error = abs(speed - spin)
-    r_rate = tolerance_one(rate_error, 0.0, 0.1 * spin, spin, GAUSSIAN, 0.1)
+    r_rate = tolerance_one(
+        rate_error, lower=0.0, upper=0.1 * spin, margin=spin, sigmoid=GAUSSIAN, value_at_margin=0.1
+    )
     if task.version >= 1:
         # v1: the axis term falls from the first degree on (no flat top, linear to 0 at
         # 45 deg), and a step that counts as success pays 1 more.
-        r_axis = tolerance_one(angle, 0.0, 0.0, MARGIN_45_DEG, LINEAR, 0.0)
+        r_axis = tolerance_one(
+            angle, lower=0.0, upper=0.0, margin=MARGIN_45_DEG, sigmoid=LINEAR, value_at_margin=0.0
+        )
         bonus = 1.0 if success else 0.0
     else:
-        r_axis = tolerance_one(angle, 0.0, task.success_angle, MARGIN_45_DEG, GAUSSIAN, 0.1)
+        r_axis = tolerance_one(
+            angle,
+            lower=0.0,
+            upper=task.success_angle,
+            margin=MARGIN_45_DEG,
+            sigmoid=GAUSSIAN,
+            value_at_margin=0.1,
+        )
         bonus = 0.0
     reward = r_axis * r_rate + bonus - task.fuel_weight * effort
-    return Outcome(reward, False, success, streak, ((speed - spin) / spin,))
+    rate = ((speed - spin) / spin,)
+    return Outcome(reward, terminated=False, success=success, memory=streak, extra=rate)
 
 
 @task_kernel
@@ -86,6 +98,7 @@ class SpinStabilizeTask(TaskBatch):
     scene_name = "spin_stabilize"
     task_pass = spin_stabilize_pass
     extra_observations = ("rate_error",)
+    memory_dim = 1  # the streak of steps with the spin axis within the success angle
 
     def angular_velocity_scale(self) -> float:
         return self.params.target_spin

@@ -64,7 +64,14 @@ def evaluate(body, effort, goal, memory, task, stepped):
     success = landed and speed < task.success_threshold
     # v1: the cost falls all the way to rest (v0: flat below the success threshold).
     flat = task.success_threshold if task.version < 1 else 0.0
-    spin_cost = 1.0 - tolerance_one(speed, 0.0, flat, task.max_initial_spin, LINEAR, 0.0)
+    spin_cost = 1.0 - tolerance_one(
+        speed,
+        lower=0.0,
+        upper=flat,
+        margin=task.max_initial_spin,
+        sigmoid=LINEAR,
+        value_at_margin=0.0,
+    )
     reward = -spin_cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
     top = task.drop_height[1]
     if task.version < 1:
@@ -73,7 +80,7 @@ def evaluate(body, effort, goal, memory, task, stepped):
         vb = rotate_inv(body.q, body.v)
         extra = (height / top, vb[0] / FALL_SPEED_SCALE, vb[1] / FALL_SPEED_SCALE,
                  vb[2] / FALL_SPEED_SCALE)  # fmt: skip
-    return Outcome(reward, landed, success, memory, extra)
+    return Outcome(reward, terminated=landed, success=success, memory=memory, extra=extra)
 
 
 @task_kernel

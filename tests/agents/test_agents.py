@@ -292,10 +292,10 @@ def test_every_shipped_task_has_its_configs_policy_and_pd_law():
     """agents.shipped lists the tasks with a config per algorithm, a pretrained policy and a PD
     law; the demo and the tests loop over those, not over every registered task."""
     root = Path(__file__).resolve().parents[2]
-    for name, (module, _, _) in SHIPPED_TASKS.items():
-        assert name in PD_LAWS
+    for name, task in SHIPPED_TASKS.items():
+        assert task.task_class() in PD_LAWS
         for algo in ("ppo", "sac", "td3"):
-            assert (root / "configs" / "agents" / f"{algo}_{module}.yaml").exists()
+            assert (root / "configs" / "agents" / f"{algo}_{task.module}.yaml").exists()
         assert pretrained_model(name).exists()
     for variant_id, stem in SHIPPED_VARIANTS.items():
         assert gym.spec(variant_id).kwargs  # a registered variant, not a task's plain id
@@ -311,7 +311,8 @@ def test_task_without_a_pd_law_is_a_loud_error():
     class SpinDownTask(DetumbleTask):
         pass
 
-    with pytest.raises(KeyError, match=r"task 'SpinDown' has no PD law; add one to .*PD_LAWS"):
+    laws = r"task SpinDownTask has no PD law; add one to .*PD_LAWS \(laws: DetumbleTask, "
+    with pytest.raises(KeyError, match=laws):
         PDController(RigidBodyEnv(task=SpinDownTask))
 
 

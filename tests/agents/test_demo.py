@@ -192,3 +192,22 @@ def test_a_fresh_run_equals_the_committed_results(demo_run):
         if ref["time_to_success_s"]:
             got, want = float(row["time_to_success_s"]), float(ref["time_to_success_s"])
             assert abs(got - want) <= ONE_STEP_S, row
+
+
+def test_help_offers_exactly_the_tasks_the_demo_plays(capsys, monkeypatch):
+    """A registered task without a pretrained policy (a new one, say) is neither offered by
+    ``demo --help`` nor counted in its default; asking for it is a one-line error that says
+    why. Every task the help offers, the demo resolves."""
+    import rigid_env.envs
+    from rigid_env.envs import Task
+
+    new = Task("StopZ", module="stop_z", scene="detumble", max_episode_steps=10)
+    monkeypatch.setitem(rigid_env.envs.TASKS, "StopZ", new)
+    assert main(["demo", "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert "StopZ" not in text and f"(default: all {len(TASKS)})" in text
+    for name, task in TASKS.items():
+        assert name in text and task.env_id in text
+        assert demo.resolve_tasks(name) == demo.resolve_tasks(task.env_id) == [name]
+    with pytest.raises(demo.DemoError, match=r"^--task: StopZ ships no pretrained policy"):
+        demo.resolve_tasks("stopz")

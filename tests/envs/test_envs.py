@@ -19,10 +19,8 @@ ENV_IDS = rigid_env.envs.ENV_IDS
 # The shipped tasks, whose episodes the scenarios below are written around (a task added later
 # runs every other contract test through ENV_IDS).
 BUILT_IN = [
-    "RigidEnv/Detumble-v0",
-    "RigidEnv/SpinStabilize-v1",
-    "RigidEnv/Reorient-v1",
-    "RigidEnv/TumblingFall-v1",
+    rigid_env.envs.TASKS[name].env_id
+    for name in ("Detumble", "SpinStabilize", "Reorient", "TumblingFall")
 ]
 
 
@@ -272,9 +270,14 @@ def test_envs_pickle_and_continue_identically(env_id):
     assert np.array_equal(env.step(a)[0], clone.step(a)[0])
     venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
     venv.reset(seed=5)
+    venv.step(np.zeros((2, 6), np.float32))  # infos read before pickling, too
     vclone = pickle.loads(pickle.dumps(venv))
     a2 = np.full((2, 6), -0.2, np.float32)
-    assert np.array_equal(venv.step(a2)[0], vclone.step(a2)[0])
+    (obs, _, _, _, info), (clone_obs, _, _, _, clone_info) = venv.step(a2), vclone.step(a2)
+    assert np.array_equal(obs, clone_obs)
+    for key in ("angular_speed", "energy", "fuel", "angular_velocity_world"):  # the clone's own
+        assert np.array_equal(info[key], clone_info[key]), key
+    assert np.array_equal(clone_info["fuel"], vclone.unwrapped.task.fuel)
 
 
 def test_async_vector_env_runs_our_envs():

@@ -18,7 +18,7 @@ from rigid_env.envs.kernels import COMMON_NUMBERS, Outcome, env_pass, kernel, ta
 from rigid_env.envs.params import Rate, TaskParams
 
 ENVS = Path(rigid_env.__file__).parent / "envs"
-TASK_MODULES = [f"{module}.py" for module, _, _ in rigid_env.envs.TASKS.values()]
+TASK_MODULES = [f"{task.module}.py" for task in rigid_env.envs.TASKS.values()]
 
 
 @pytest.mark.parametrize("name", TASK_MODULES)
@@ -48,7 +48,7 @@ def test_a_parameter_named_like_a_common_number_is_refused_at_class_creation() -
 
 @kernel
 def _one_extra(body, effort, goal, memory, task, stepped):
-    return Outcome(-effort, False, False, memory, (body.w[2],))
+    return Outcome(-effort, terminated=False, success=False, memory=memory, extra=(body.w[2],))
 
 
 @task_kernel
@@ -71,3 +71,51 @@ def test_an_extra_observation_named_but_not_given_is_refused_when_made() -> None
     obs, _ = env.reset(seed=0)
     w_z = env.unwrapped.task.world.state.w[0, 2]
     assert obs[env.unwrapped.task.obs_slices["spin_z"]][0] == np.float32(max(-1.0, min(1.0, w_z)))
+
+
+@pytest.mark.parametrize(
+    ("field", "size", "width"),
+    [("target_dim", 5, "TARGET_WIDTH"), ("memory_dim", 2, "MEMORY_WIDTH")],
+)
+def test_a_task_declaring_more_target_or_memory_than_the_pass_holds_is_refused(
+    field: str, size: int, width: str
+) -> None:
+    """A task declares the size of its target and of its memory; more than the pass holds
+    (:data:`~rigid_env.envs.kernels.TARGET_WIDTH` numbers of target, ``MEMORY_WIDTH`` of memory)
+    is refused when the class is made, naming the field and the limit."""
+    limit = getattr(rigid_env.envs.kernels, width)
+    with pytest.raises(TypeError, match=rf"^WideTask\.{field}: {size} numbers, .* 0 to {limit} "):
+        type("WideTask", (DetumbleTask,), {field: size})
+    assert type("FitsTask", (DetumbleTask,), {field: limit})  # at the limit: fine
+
+
+class TargetlessTask(DetumbleTask):
+    """Draws a target of 4 numbers but declares none."""
+
+    def sample(self, rng: np.random.Generator):
+        x, v, q, w, _ = super().sample(rng)
+        return x, v, q, w, np.ones(4)
+
+
+def test_a_target_of_another_size_than_declared_is_refused_at_reset() -> None:
+    env = RigidBodyEnv(task=TargetlessTask)
+    with pytest.raises(ValueError, match=r"^TargetlessTask\.sample: drew a target of shape \(4,\), "
+                       r"the task declares target_dim = 0"):  # fmt: skip
+        env.reset(seed=0)
+
+
+def test_every_task_declares_the_target_and_memory_it_uses() -> None:
+    """Every registered task's record names its scene as its class does; of the built-in tasks
+    Reorient's goal is a quaternion and SpinStabilize's memory its success streak."""
+    declared = {}
+    for name, task in rigid_env.envs.TASKS.items():
+        cls = task.task_class()
+        assert cls.scene_name == task.scene and cls.__name__ == f"{name}Task"
+        declared[name] = (cls.target_dim, cls.memory_dim)
+    built_in = {
+        "Detumble": (0, 0),
+        "SpinStabilize": (0, 1),
+        "Reorient": (4, 0),
+        "TumblingFall": (0, 0),
+    }
+    assert {name: declared[name] for name in built_in} == built_in

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import rigid_env.envs  # noqa: F401  (registers the ids)
+import rigid_env.envs
 
 HARDWARE = {
     "thrusters": "realistic",
@@ -17,12 +17,7 @@ HARDWARE = {
         "thruster_faults": {"probability": 1.0, "within_steps": 8},
     },
 }
-TASKS = [
-    "RigidEnv/Detumble-v0",
-    "RigidEnv/SpinStabilize-v1",
-    "RigidEnv/Reorient-v1",
-    "RigidEnv/TumblingFall-v1",
-]
+TASKS = rigid_env.envs.ENV_IDS  # every registered task's newest id
 
 
 def rollout(env_id: str, seed: int, actions: np.ndarray, **kwargs):

@@ -35,8 +35,8 @@ def test_every_version_is_registered_single_and_vector(env_id):
 
 def test_env_ids_are_the_newest_versions():
     tasks = rigid_env.envs.TASKS
-    assert rigid_env.envs.ENV_IDS == [f"RigidEnv/{t}-v{v}" for t, (_, _, v) in tasks.items()]
-    assert {t: tasks[t][2] for t in NEWEST} == NEWEST
+    assert rigid_env.envs.ENV_IDS == [f"RigidEnv/{t}-v{task.newest}" for t, task in tasks.items()]
+    assert {t: tasks[t].newest for t in NEWEST} == NEWEST
 
 
 @pytest.mark.parametrize("bad", [2, -1, 1.5, "1", True])
