@@ -62,11 +62,12 @@ def load_example(tmp_path: Path, name: str):
 
 
 def test_example_is_short_and_has_no_slot_arithmetic() -> None:
-    """At most 30 lines of code (blank lines and field docstrings aside), no function with
-    more than 8 parameters, no state or parameter read by position."""
+    """At most 32 lines of code (blank lines and field docstrings aside; 30 before Outcome's
+    fields were named at the call), no function with more than 8 parameters, no state or
+    parameter read by position."""
     code = readme_code()
     lines = [ln for ln in code.splitlines() if ln.strip() and not ln.strip().startswith('"""')]
-    assert len(lines) <= 30, len(lines)
+    assert len(lines) <= 32, len(lines)
     for node in ast.walk(ast.parse(code)):
         if isinstance(node, ast.FunctionDef):
             assert len(node.args.args) <= 8, node.name
