@@ -188,6 +188,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="A1,A2,...",
         help="constant command, one number in [-1, 1] per actuator component (default: zeros)",
     )
+    sim.add_argument(
+        "--seed",
+        type=_int_at_least(0),
+        default=0,
+        metavar="S",
+        help="seed of the thrust noise of thrusters with `noise` (default 0; unused without)",
+    )
     sim.add_argument("--out", required=True, metavar="FILE.npz", help="output file")
     sim.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     sim.set_defaults(handler=_cmd_simulate)
@@ -379,7 +386,8 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     # A diverging run may overflow the recorded energy a step before the state itself turns
     # non-finite; the world's guard then reports it in one line, without NumPy warnings.
     with np.errstate(over="ignore", invalid="ignore"):
-        arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps))
+        rng = np.random.default_rng(args.seed)  # drawn from only for noisy thrusters
+        arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps), rng)
     wall = time.perf_counter() - start
     _write_npz(out, arrays)
     print(_summary(scene.name, world, arrays, wall, out))
@@ -422,6 +430,7 @@ def _simulate_chunked(
     steps: int,
     action: NDArray[np.float64] | None,
     progress: _Progress | None = None,
+    rng: np.random.Generator | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """:func:`simulate` of body 0 into arrays allocated once at their final size ``(steps + 1,
     ...)``, ``_CHUNK_STEPS`` steps at a time or as ``progress`` sizes them (the same steps as
@@ -433,7 +442,7 @@ def _simulate_chunked(
         n = min(_CHUNK_STEPS, steps - done)
         if progress is not None:
             n = progress.next_chunk(done)
-        chunk = simulate(world, n, action)
+        chunk = simulate(world, n, action, rng)
         rows = slice(0, n + 1) if done == 0 else slice(1, n + 1)  # row 0 repeats the last one
         for key, val in chunk.items():
             if key == "t":

@@ -21,7 +21,14 @@ from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
 from rigid_env.envs import kernels as K
-from rigid_env.envs.hardware import FAULT_KINDS, Fault, draw_fault, misaligned, with_preset
+from rigid_env.envs.hardware import (
+    FAULT_KINDS,
+    Fault,
+    Hardware,
+    draw_fault,
+    misaligned,
+    with_preset,
+)
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
 from rigid_env.render import Frame, TaskView
@@ -52,7 +59,7 @@ def as_actions(action: ArrayLike) -> NDArray[Any]:
     """``action`` as an array of a real dtype the compiled clip reads (float64, float32, or
     integers as they are; float16, long double and byte-swapped floats converted to float64,
     which holds them exactly or, for long double, as NumPy casts), or a one-line ValueError."""
-    act = action if isinstance(action, np.ndarray) else np.asarray(action)
+    act = action if isinstance(action, np.ndarray) else _array_of(action)
     if act.dtype in _COMPILED_DTYPES:
         return act
     kind = act.dtype.kind
@@ -66,6 +73,24 @@ def as_actions(action: ArrayLike) -> NDArray[Any]:
     elif not native:
         act = act.astype(act.dtype.newbyteorder("="))
     return act
+
+
+def _array_of(action: Any) -> NDArray[Any]:
+    """A NumPy array of ``action``; a tensor (torch: one that requires grad, on a GPU or in
+    bfloat16, which NumPy cannot take as it is) detached to the CPU first, bfloat16 as the
+    float32 that holds it exactly."""
+    if hasattr(action, "detach") and hasattr(action, "cpu"):
+        action = action.detach().cpu()
+        if str(getattr(action, "dtype", "")) == "torch.bfloat16":
+            action = action.float()
+    try:
+        return np.asarray(action)
+    except (TypeError, ValueError, RuntimeError) as exc:
+        reason = " ".join(str(exc).split())
+        raise ValueError(
+            f"action: expected an array of real numbers, got a {type(action).__name__} NumPy "
+            f"cannot read ({reason})"
+        ) from None
 
 
 class TaskBatch:
@@ -184,6 +209,11 @@ class TaskBatch:
         """(N,) world steps each env holds an action for in its episode (its control period
         over ``dt``; ``randomization.action_repeat``)."""
         self._repeating = max(repeats) > 1
+        self.substeps = np.zeros(n, dtype=np.int64)
+        """(N,) the integrator steps each env's body took in its last env step (all the world
+        steps of its control period; error-controlled integrators report them)."""
+        self._hardware = Hardware.of(actuators, self.max_force)
+        self._fuel_after: FloatArray | None = None
         self._observes_period = settings.observe_control_period
         self._check_extra_observations()
 
@@ -319,12 +349,13 @@ class TaskBatch:
             return self._step_repeated(rngs, restarting)
         if self._noisy:
             self._draw_thrust_factors(rngs, restarting)
-        failed = self.world.advance(self.command)
+        failed = self._advance()
         self.steps += 1
         self._own_obs(keep=False)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, restarting)
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
+        self._count_delivered()
         if self._observes_period:
             self._observe_period()
         return self.record["reward"], self.record["terminated"].copy(), failed
@@ -341,11 +372,14 @@ class TaskBatch:
         reward = np.zeros(self.n)
         ended = np.zeros(self.n, dtype=bool) if restarting is None else restarting.copy()
         failed_any = np.zeros(self.n, dtype=bool)
+        self.substeps[:] = 0
         for r in range(int(self.repeats.max())):
             stepping = (self.repeats > r) & ~ended
             if not stepping.any():
                 break
             failed = self._step_some(stepping, rngs)
+            if self.world.tolerances is not None:
+                self.substeps[stepping] += self.world.substeps_taken[stepping]
             failed_any |= failed
             reward[stepping] += self.record["reward"][stepping]
             ended |= stepping & (self.record["terminated"] | failed)
@@ -366,7 +400,7 @@ class TaskBatch:
             self._draw_thrust_factors(rngs, ~stepping)
         world.failed[held] = True
         try:
-            failed = world.advance(self.command)
+            failed = self._advance()
         finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
             world.failed[held] = False
         self._own_obs(keep=True)
@@ -374,6 +408,7 @@ class TaskBatch:
             arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
                                   self._noise(rngs), self.record, self.obs)  # fmt: skip
             self._pass(arrays, True)
+            self._count_delivered()
             return failed
         idx = np.flatnonzero(stepping)
         record, obs = self.record[idx], self.obs[idx]
@@ -383,6 +418,7 @@ class TaskBatch:
         self._pass(self._arrays(cols, model, self.command[idx], self.target[idx], noise, record,
                                 obs), True)  # fmt: skip
         self.record[idx], self.obs[idx] = record, obs
+        self._count_delivered(idx)
         return failed
 
     def step_one(self, rng: np.random.Generator) -> tuple[K.EnvRecord, bool]:
@@ -394,15 +430,38 @@ class TaskBatch:
             return record._replace(reward=float(reward[0])), bool(failed_any[0])
         if self._noisy:
             self._draw_thrust_factors([rng])
-        failed = self.world.advance(self.command)
+        failed = self._advance()
         self.steps[0] += 1
         self._own_obs(keep=False)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise([rng])
         self._pass(self._arrays(self.world.columns, self.world.model_columns, self.command,
                                 self.target, noise, self.record, self.obs), True)  # fmt: skip
+        self._count_delivered()
         if self._observes_period:
             self._observe_period()
         return K.EnvRecord._make(self.record.item(0)), failed is not self.world.no_failures
+
+    def _advance(self) -> NDArray[np.bool_]:
+        """The world step with :attr:`command`; where the thrusters have hardware (a lag, a
+        minimum impulse bit, noise), each env's fuel after it, counted as the impulse the
+        thrusters deliver (:meth:`~rigid_env.envs.hardware.Hardware.delivered`), for
+        :meth:`_count_delivered` to put in place of the pass's count of the commands."""
+        if self._hardware.counts_commands:
+            return self.world.advance(self.command)
+        levels = self.world.thrust_levels
+        levels = None if levels is None else levels.copy()
+        factors = self.world.thrust_factors if self._noisy else None
+        impulse = self._hardware.delivered(self.command, self.dt, factors, levels)
+        failed = self.world.advance(self.command)
+        self._fuel_after = self.record["fuel"] + np.where(self.world.failed, 0.0, impulse)
+        return failed
+
+    def _count_delivered(self, idx: NDArray[np.int64] | None = None) -> None:
+        """Each env's fuel (rows ``idx``, default all) as the impulse delivered (after the
+        pass, which counts the commands)."""
+        if self._fuel_after is not None:
+            rows = slice(None) if idx is None else idx
+            self.record["fuel"][rows] = self._fuel_after[rows]
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
@@ -546,7 +605,8 @@ class TaskBatch:
             **self._fault_infos(),
         }
         if self.world.tolerances is not None:
-            out["substeps"] = self.world.substeps_taken.copy()
+            taken = self.substeps if self._repeating else self.world.substeps_taken
+            out["substeps"] = taken.copy()
         return out
 
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
@@ -585,7 +645,8 @@ class TaskBatch:
             **{k: v[0].item() for k, v in self._fault_infos().items()},
         }
         if self.world.tolerances is not None:
-            out["substeps"] = int(self.world.substeps_taken[0])
+            taken = self.substeps if self._repeating else self.world.substeps_taken
+            out["substeps"] = int(taken[0])
         return out
 
     # ---- what a renderer shows (rigid_env.render) ----------------------------------------

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
+from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
@@ -72,6 +73,12 @@ def _repeats(value: Any) -> Any:
         integral = isinstance(k, int | np.integer) and not isinstance(k, bool | np.bool_)
         if not integral or k < 1:
             raise ValueError(f"must hold integers >= 1, got {k!r}; {fix}")
+        if k > knobs.MAX_ACTION_REPEAT:
+            raise ValueError(
+                f"holds {k!r} world steps per action, above {knobs.MAX_ACTION_REPEAT} (one "
+                "env.step would take minutes or never return); give a longer dt for a longer "
+                "control period"
+            )
     if len(set(value)) != len(value):
         raise ValueError(f"lists a repeat twice, got {list(value)!r}; {fix}")
     return tuple(int(k) for k in value)
@@ -137,7 +144,7 @@ class Randomization(BaseModel):
     action_repeat: ActionRepeats = None
     """The control period in world steps: each action is held for ``k`` steps of ``dt`` (the
     physics step unchanged), ``k`` drawn per episode uniformly from this list of distinct
-    integers >= 1 (one entry: that repeat in every episode, nothing drawn; None: 1)."""
+    integers from 1 to 100000 (one entry: that repeat in every episode, nothing drawn; None: 1)."""
 
     @property
     def hardware(self) -> bool:
