@@ -305,8 +305,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(exc, 1)
     except (UsageError, SceneError) as exc:
         return _fail(exc, 2)
-    except (ValueError, OSError) as exc:  # a user's value the core rejected, or a file error
+    except ValueError as exc:  # a user's value the core rejected
         return _fail(exc, 2)
+    except OSError as exc:  # a file error: the path and the reason, never a bare [Errno N]
+        return _fail(_file_error(exc), 2)
     except MemoryError:  # past the sizing above: the room went to something else meanwhile
         print(
             f"{PROG}: error: out of memory (free memory or ulimit -v); ask for less "
@@ -327,6 +329,17 @@ def _refuse_empty_paths(argv: list[str]) -> None:
             (eq and not value.strip()) or (not eq and i + 1 < len(argv) and not argv[i + 1].strip())
         ):
             raise UsageError("--out: empty path; give a file or folder name (an unset variable?)")
+
+
+def _file_error(exc: OSError) -> UsageError:
+    """An OS error as one line naming the path and the reason (a missing folder above it, a
+    dangling link, no permission)."""
+    where = exc.filename if exc.filename is not None else "a file"
+    reason = exc.strerror or type(exc).__name__
+    return UsageError(
+        f"{where}: {reason}; check the path (every folder above it must exist or be creatable, "
+        "and be writable)"
+    )
 
 
 def _fail(exc: BaseException, status: int) -> int:

@@ -93,7 +93,14 @@ def prepare_out(out: Path, names: Sequence[str], force: bool) -> Path:
             f"--out: {out} holds earlier results ({', '.join(there)}); pass --force to "
             "overwrite them, or choose another --out"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise ValueError(
+            f"--out: cannot create {out} ({reason} at {exc.filename}); give a folder whose "
+            "parents exist or can be created"
+        ) from None
     return out
 
 
