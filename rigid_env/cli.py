@@ -322,9 +322,12 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _refuse_empty_paths(argv: list[str]) -> None:
-    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder."""
+    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder; a
+    flag given ``=--`` would reach its command as an empty list (argparse drops the ``--``)."""
     for i, arg in enumerate(argv):
         flag, eq, value = arg.partition("=")
+        if flag.startswith("--") and eq and value == "--":
+            raise UsageError(f"{flag}: expected a value, got '--'")
         if flag == "--out" and (
             (eq and not value.strip()) or (not eq and i + 1 < len(argv) and not argv[i + 1].strip())
         ):

@@ -31,6 +31,9 @@ MAX_WITHIN_STEPS = 10**9
 MAX_ACTION_REPEAT = 100_000
 """The most world steps one action is held for: at a few microseconds per world step and task
 pass, one ``env.step`` then stays under a second."""
+MAX_ENV_STEP_SUBSTEPS = 10_000_000
+"""The most integrator steps one env step may take (``action_repeat`` times ``substeps``): about
+a few seconds of one core at the cost of the dearest integrators."""
 
 
 def _plain(value: Any) -> Any:

@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env import knobs
 from rigid_env.core import threads
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
@@ -209,6 +210,13 @@ class TaskBatch:
         """(N,) world steps each env holds an action for in its episode (its control period
         over ``dt``; ``randomization.action_repeat``)."""
         self._repeating = max(repeats) > 1
+        if max(repeats) * self.world.substeps > knobs.MAX_ENV_STEP_SUBSTEPS:
+            raise ValueError(
+                f"randomization.action_repeat: {max(repeats)} world steps of {self.world.substeps} "
+                f"substeps make one env step {max(repeats) * self.world.substeps} integrator "
+                f"steps, above {knobs.MAX_ENV_STEP_SUBSTEPS}; give fewer substeps or a shorter "
+                "control period"
+            )
         self.substeps = np.zeros(n, dtype=np.int64)
         """(N,) the integrator steps each env's body took in its last env step (all the world
         steps of its control period; error-controlled integrators report them)."""
