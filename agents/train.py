@@ -135,9 +135,14 @@ def _from_sidecar(model: Path, steps: int, norm_required: bool) -> Snapshot | No
     if not _is_count(recorded):
         return Snapshot(steps, model, None, None, None, f"{model.with_suffix('.json').name}: "
                         f"num_timesteps is {recorded!r}, not a step count")  # fmt: skip
-    if zip_timesteps(model) != recorded:
-        return Snapshot(steps, model, None, None, None, f"{model.name} holds "
-                        f"{zip_timesteps(model)} steps, its sidecar says {recorded}")  # fmt: skip
+    inside = zip_timesteps(model)
+    if inside != recorded:
+        problem = (
+            f"{model.name} does not load (not a readable model zip)"
+            if inside is None
+            else f"{model.name} holds {inside} steps, its sidecar says {recorded}"
+        )
+        return Snapshot(steps, model, None, None, None, problem)
     steps = int(recorded)
     named = {k: side.get(k) for k in ("vecnormalize", "replay_buffer")}
     files = {k: model.parent / v if isinstance(v, str) else None for k, v in named.items()}
@@ -232,12 +237,25 @@ def _final_steps(run_dir: Path) -> int | None:
         )  # fmt: skip
     inside = zip_timesteps(model)
     if inside != steps:
+        found = "does not load" if inside is None else f"holds {inside} steps"
         raise ConfigError(
-            str(model), "", f"holds {inside} steps, its sidecar model.json says {steps}",
+            str(model), "", f"{found}, its sidecar model.json says {steps} steps",
             "restore the pair the run wrote, or move both out of the run to resume from its "
             "checkpoints",
         )  # fmt: skip
     return steps
+
+
+def _refuse_resume_of_nothing(run_dir: Path, resume: bool, or_start: bool) -> None:
+    """``--resume`` (without ``--resume-or-start``) of a run folder with nothing trained."""
+    if resume and not or_start and not _has_training(run_dir):
+        raise ConfigError(
+            str(run_dir),
+            "--resume",
+            "no run to resume (nothing trained there)",
+            "check --seed and --runs-dir, or pass --resume-or-start to start the run when "
+            "there is none",
+        )
 
 
 def run_lock(run_dir: Path) -> Any:
@@ -473,6 +491,7 @@ def train(
     limit_threads(cfg.threads)
     run_dir = runs_dir / cfg.run_name
     check_runs_dir(runs_dir, run_dir)
+    _refuse_resume_of_nothing(run_dir, resume, or_start)  # before the lock creates the folder
     with locked(run_dir):
         return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start)
 
@@ -499,14 +518,7 @@ def _train(
             "a run already exists",
             "pass --resume to continue it, or choose another --seed or --runs-dir",
         )
-    if resume and not trained and not or_start:
-        raise ConfigError(
-            str(run_dir),
-            "--resume",
-            "no run to resume (nothing trained there)",
-            "check --seed and --runs-dir, or pass --resume-or-start to start the run when "
-            "there is none",
-        )
+    _refuse_resume_of_nothing(run_dir, resume, or_start)
     if trained:
         finish_snapshots(run_dir)  # saves a kill interrupted: completed, or dropped if uncommitted
         _check_unchanged(cfg, run_dir, continues=bool(_snapshots(run_dir, False)))
@@ -628,6 +640,7 @@ def main(argv: list[str] | None = None) -> int:
         cfg = load_config(args.config, overrides)
         run_dir = args.runs_dir / cfg.run_name
         check_runs_dir(args.runs_dir, run_dir)
+        _refuse_resume_of_nothing(run_dir, args.resume, args.resume_or_start)
         with locked(run_dir):  # held through train(), which takes it again
             if resume and args.total_timesteps is None and _has_training(run_dir):
                 finish_snapshots(run_dir)

@@ -215,7 +215,8 @@ def test_failed_start_leaves_nothing_that_blocks_a_rerun(tmp_path, capsys):
     assert json.loads((runs / RUN / "model.json").read_text())["num_timesteps"] == 256
 
     shutil.rmtree(runs / RUN / "checkpoints")
-    (runs / RUN).joinpath("model.json").unlink()  # as if killed before its first checkpoint
+    (runs / RUN).joinpath("model.json").unlink()  # as if killed before its first
+    (runs / RUN).joinpath("model.zip").unlink()  # checkpoint
     assert _train(good, "--runs-dir", runs, "--resume") == 0
     assert "no checkpoint yet; starting at step 0" in capsys.readouterr().err
 
@@ -229,7 +230,8 @@ def test_corrupted_newest_checkpoint_falls_back_with_a_warning(tmp_path, capsys,
     runs = tmp_path / "runs"
     assert _train(config, "--runs-dir", runs) == 0
     ckpt = runs / RUN / "checkpoints"
-    (runs / RUN / "model.json").unlink()  # not finished: the run died after its checkpoint
+    (runs / RUN / "model.json").unlink()  # not finished: the run died after its
+    (runs / RUN / "model.zip").unlink()  # checkpoint, before its final save
     data = (ckpt / broken).read_bytes()
     (ckpt / broken).write_bytes(data[: len(data) // 2])
     capsys.readouterr()
@@ -348,7 +350,7 @@ def _files(run: Path) -> dict[Path, bytes]:
         ("no model.zip", ["model.zip", "is missing, but model.json records a final model"]),
         ("null", ["model.json", "num_timesteps", "None"]),
         ("lots", ["model.json", "num_timesteps", "'lots'"]),
-        ("other steps", ["model.zip", "holds 512 steps, its sidecar model.json says 256"]),
+        ("other steps", ["model.zip", "holds 512 steps, its sidecar model.json says 256 steps"]),
         ("tb file", ["tb", "is a file"]),
     ],
 )
