@@ -172,8 +172,8 @@ def _checkpoints(ckpt_dir: Path, norm_required: bool) -> list[Snapshot]:
             continue
         n = int(m.group(1))
         snap = _from_sidecar(p, n, norm_required)
-        if snap is None and zip_timesteps(p) != n:
-            continue  # renamed or not a model: its steps are not what its name says
+        if snap is None and zip_timesteps(p) not in (None, n):
+            continue  # renamed: its steps are not what its name says (unreadable: never loads)
         if snap is None:
             side = {
                 k: ckpt_dir / f"model_{k}_{n}_steps.pkl" for k in ("vecnormalize", "replay_buffer")
