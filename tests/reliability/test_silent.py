@@ -166,3 +166,23 @@ def test_evaluate_none_only_model_is_refused(capsys):
     """No model, only the model: an empty table with exit 0 before; now one line, exit 2."""
     assert evaluate_main(["none", "--env", D, "--episodes", "1", "--only", "model"]) == 2
     assert_one_line_error(capsys.readouterr().err, "agents.evaluate: error: --only:", "none")
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "words"),
+    [
+        ("noise", 1e50, ["noise", "less than or equal to 1"]),
+        ("noise", True, ["noise", "boolean"]),
+        ("lag", "0.1", ["lag", "without quotes"]),
+    ],
+)
+def test_thruster_hardware_out_of_its_range_is_refused(key, value, words):
+    """A thrust noise of 1e50 (forces of 1e49 x max_force) was simulated; text and booleans
+    are not numbers."""
+    scene = _one_thruster_at_the_centre()
+    scene["actuators"]["thrusters"][0][key] = value
+    with pytest.raises(ValueError) as info:
+        gym.make(D, scene=scene)
+    assert "\n" not in str(info.value)
+    for word in words:
+        assert word in str(info.value), (word, str(info.value))
