@@ -399,6 +399,13 @@ def markdown_table(results: dict[str, dict[str, Any]]) -> str:
             f"| {name} | {r['success_rate']:.2f} | {r['mean_final_angular_speed']:.4f} | "
             f"{r['mean_fuel']:.3f} | {r['mean_return']:.2f} | {t} |"
         )
+    for name, r in results.items():  # said below the table only when it happened
+        if r.get("numerical_errors"):
+            lines.append(
+                f"\n{name}: {r['numerical_errors']} of {r['episodes']} episodes ended in a "
+                "numerical error (the state turned non-finite; the body was frozen): its row "
+                "averages those too"
+            )
     return "\n".join(lines)
 
 

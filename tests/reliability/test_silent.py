@@ -186,3 +186,16 @@ def test_thruster_hardware_out_of_its_range_is_refused(key, value, words):
     assert "\n" not in str(info.value)
     for word in words:
         assert word in str(info.value), (word, str(info.value))
+
+
+def test_the_results_table_says_when_episodes_ended_in_a_numerical_error():
+    """Episodes that ended in a numerical error were averaged into the table without a word;
+    a line under it now says how many, and a table without any is as before."""
+    from agents.evaluate import markdown_table
+
+    row = {"episodes": 4, "success_rate": 0.5, "mean_final_angular_speed": 1.0, "mean_fuel": 0.1,
+           "mean_return": -3.0, "mean_time_to_success": None, "numerical_errors": 0}  # fmt: skip
+    clean = markdown_table({"pd": row})
+    assert clean.count("\n") == 2 and "numerical" not in clean
+    noted = markdown_table({"pd": {**row, "numerical_errors": 3}})
+    assert noted.startswith(clean) and "pd: 3 of 4 episodes ended in a numerical error" in noted
