@@ -81,7 +81,14 @@ def number(unit: str = "") -> BeforeValidator:
         # One message for every quoted number. With an exponent the number is suggested in a
         # form any YAML reader takes for a float (PyYAML's own loader, YAML 1.1, reads 1e5 and
         # 3.986e14 as text).
-        written = yaml_float(parsed) if "e" in value.lower() else repr(parsed)
+        integral = re.fullmatch(r"[-+]?[0-9][0-9_]*", value.strip())
+        written = (
+            str(int(parsed))
+            if integral
+            else yaml_float(parsed)
+            if "e" in value.lower()
+            else repr(parsed)
+        )
         raise ValueError(f"{got}; write the number without quotes: {written}")
 
     return BeforeValidator(check)

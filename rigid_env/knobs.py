@@ -66,6 +66,8 @@ def integer(**bounds: int) -> Any:
     return Annotated[int, Field(strict=True, **bounds), BeforeValidator(_integer)]
 
 
+Flag = Annotated[bool, Field(strict=True)]
+"""true or false (YAML) / True or False: not 1, 0, "yes" or "true" in quotes."""
 Unit = real("", ge=0.0, le=1.0)
 """A fraction of a whole [-] in [0, 1] (a valve's command level, a thrust fraction)."""
 Probability = real("", ge=0.0, le=1.0)

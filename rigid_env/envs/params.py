@@ -192,7 +192,7 @@ class EnvSettings(BaseModel):
     randomization: Annotated[Randomization, BeforeValidator(_none_is_empty)] = Randomization()
     """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise,
     thruster_misalignment, thruster_faults, action_repeat (None: none)."""
-    observe_control_period: Annotated[bool, Field(strict=True)] = False
+    observe_control_period: knobs.Flag = False
     """Append the control period ``k dt`` [s] (``randomization.action_repeat``; ``dt`` alone
     without it) to the observation, clipped into [0, 10] s."""
     thrusters: Literal["ideal", "realistic"] = "ideal"

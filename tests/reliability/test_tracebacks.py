@@ -83,3 +83,25 @@ def test_pretrained_policy_with_observe_control_period_names_the_option(capsys):
     assert_one_line_error(
         capsys.readouterr().err, "agents.evaluate: error:", "observe_control_period=True"
     )
+
+
+@pytest.mark.parametrize(
+    ("changes", "words"),
+    [
+        ({"normalize": {"obs": 1}}, ["normalize.obs", "expected true or false, got 1"]),
+        ({"policy_kwargs": {"ortho_init": "yes"}}, ["ortho_init", "true or false"]),
+        ({"seed": "3"}, ["seed", "write the number without quotes: 3"]),
+        ({"env_kwargs": {"observe_control_period": 1}}, ["observe_control_period", "got 1"]),
+    ],
+)
+def test_integers_and_text_are_not_booleans_nor_numbers_in_a_training_config(
+    tmp_path, capsys, changes, words
+):
+    """`obs: 1` passed as true; bools are not integers and integers not bools anywhere."""
+    from reliability_helpers import write_config
+
+    from agents.train import main as train_main
+
+    config = write_config(tmp_path, **changes)
+    assert train_main([str(config), "--runs-dir", str(tmp_path / "runs")]) == 2
+    assert_one_line_error(capsys.readouterr().err, "agents.train: error:", *words)
