@@ -105,3 +105,18 @@ def test_integers_and_text_are_not_booleans_nor_numbers_in_a_training_config(
     config = write_config(tmp_path, **changes)
     assert train_main([str(config), "--runs-dir", str(tmp_path / "runs")]) == 2
     assert_one_line_error(capsys.readouterr().err, "agents.train: error:", *words)
+
+
+def test_a_flag_given_double_dash_is_one_line(tmp_path, capsys):
+    """`--out=--` reached simulate as an empty list (a TypeError traceback); `--seed=--` the
+    training config as one: each refused in one line naming the flag."""
+    from agents.train import main as train_main
+    from rigid_env.cli import main as cli_main
+
+    scene = ROOT / "configs" / "scenes" / "detumble.yaml"
+    assert cli_main(["simulate", str(scene), "--steps", "2", "--out=--"]) == 2
+    assert_one_line_error(capsys.readouterr().err, "rigid-env: error: --out:", "'--'")
+    with pytest.raises(SystemExit) as info:
+        train_main([str(ROOT / "configs" / "agents" / "ppo_detumble.yaml"), "--seed=--"])
+    assert info.value.code == 2
+    assert_one_line_error(capsys.readouterr().err, "agents.train: error:", "--seed", "'--'")
