@@ -1,7 +1,8 @@
 """The knobs a user sets that the scene file, the env keywords, the fault model and the command
 line share, each declared once: its type, unit, physical range and doc. The pydantic models
-(:mod:`rigid_env.scene`, :mod:`rigid_env.envs.params`, :mod:`rigid_env.envs.hardware`) put
-these types on their fields; the command line checks its values with :func:`check`.
+(:mod:`rigid_env.scene`, :mod:`rigid_env.envs.params`, :mod:`rigid_env.envs.hardware`,
+:mod:`agents.config`) put these types on their fields; the command line's values reach them
+through the scene (``--dt``, ``--rtol`` ...) or the env keywords.
 
 Everywhere: text is not a number (``"0.02"``, ``"1e-6"``), a boolean is not a number nor an
 integer, NaN and inf are refused, NumPy scalars count as the Python numbers they hold.
@@ -13,9 +14,9 @@ import math
 from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BeforeValidator, Field, TypeAdapter, ValidationError
+from pydantic import BeforeValidator, Field
 
-from rigid_env.config_files import describe, error_line, number
+from rigid_env.config_files import describe, number
 
 RTOL_MIN = 100.0 * float(np.finfo(np.float64).eps)
 """The smallest relative tolerance of an error-controlled integrator, about 2.2e-14: a
@@ -79,15 +80,3 @@ Atol = real("", ge=ATOL_MIN)
 """Its absolute tolerance, >= 1e-100 (a smaller one is rounding beside rtol |y|)."""
 WithinSteps = integer(ge=1, le=MAX_WITHIN_STEPS)
 """A count of control steps, 1 to 1e9."""
-ActionRepeat = integer(ge=1, le=MAX_ACTION_REPEAT)
-"""World steps per action, 1 to 100000 (one env step stays under a second)."""
-
-
-def check(kind: Any, value: Any, name: str) -> Any:
-    """``value`` validated as ``kind`` (one of this module's types), or a one-line ValueError
-    ``name: problem; fix``."""
-    try:
-        return TypeAdapter(kind).validate_python(value)
-    except ValidationError as exc:
-        line = error_line(exc, None, "")  # type: ignore[arg-type]
-        raise ValueError(f"{name}: {line.problem}; {line.fix}") from None

@@ -182,10 +182,11 @@ class EnvSettings(BaseModel):
     substeps: Any = None
     """Integrator steps per control step overriding the scene's (checked by the world)."""
     rtol: Any = None
-    """An error-controlled integrator's (``integrator="dop853"``) relative tolerance, 0 < rtol <
-    1, overriding the scene's (checked by the scene; refused for a fixed-step integrator)."""
+    """An error-controlled integrator's (``integrator="dop853"``) relative tolerance, 2.2e-14 <=
+    rtol < 1 (float64 cannot meet a tighter one), overriding the scene's (checked by the scene,
+    :data:`rigid_env.knobs.Rtol`; refused for a fixed-step integrator)."""
     atol: Any = None
-    """Its absolute tolerance, > 0, likewise."""
+    """Its absolute tolerance, >= 1e-100, likewise (:data:`rigid_env.knobs.Atol`)."""
     rotation_repr: Literal["quaternion", "sixd"] = "quaternion"
     """The observed orientation: "quaternion" (canonical, 4 numbers) or "sixd" (the first two
     columns of the rotation matrix, 6 numbers)."""
