@@ -40,7 +40,7 @@ from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError
 from rigid_env.envs import ENV_IDS, TASKS
-from rigid_env.resources import SCENE_DIR
+from rigid_env.resources import SCENE_DIR, folder_problem
 from rigid_env.scene import SceneError, load_scene
 from rigid_env.trajectory import simulate
 
@@ -476,6 +476,9 @@ def _simulate_chunked(
 def _check_writable_folder(out: Path) -> None:
     """Create ``out``'s folder and make sure a file can be written there, before simulating."""
     folder = out.parent
+    problem = folder_problem(out)
+    if problem is not None:
+        raise UsageError(f"--out: cannot write {out}: {problem}; choose another folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{out.name}.", suffix=".probe"):

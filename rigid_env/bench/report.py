@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.resources import folder_problem
+
 # --------------------------------------------------------------------------------------------
 # The machine and the output folder
 # --------------------------------------------------------------------------------------------
@@ -93,6 +95,9 @@ def prepare_out(out: Path, names: Sequence[str], force: bool) -> Path:
             f"--out: {out} holds earlier results ({', '.join(there)}); pass --force to "
             "overwrite them, or choose another --out"
         )
+    problem = folder_problem(out / "results")
+    if problem is not None:
+        raise ValueError(f"--out: cannot create {out}: {problem}; choose another folder")
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
