@@ -7,11 +7,21 @@ import math
 import os
 import sys
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 
 class OneLineParser(argparse.ArgumentParser):
     """``argparse`` whose errors are one line (``agents.train: error: ...``), not a usage block."""
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        """As argparse's, but a flag given ``=--`` is refused (argparse would hand the command
+        an empty list)."""
+        argv = list(sys.argv[1:] if args is None else args)
+        for arg in argv:
+            flag, eq, value = str(arg).partition("=")
+            if flag.startswith("--") and eq and value == "--":
+                self.error(f"argument {flag}: expected a value, got '--'")
+        return super().parse_known_args(argv, namespace)
 
     def error(self, message: str) -> NoReturn:
         name = self.prog.removeprefix("python -m ")

@@ -24,6 +24,7 @@ from rigid_env.config_files import (
     PositiveFloat,
     PositiveInt,
 )
+from rigid_env.knobs import Flag
 
 _RESERVED = {"policy", "env", "seed", "device", "policy_kwargs", "verbose", "tensorboard_log"}
 """Arguments the trainer sets itself (from the config's top-level keys)."""
@@ -39,11 +40,11 @@ class PolicyKwargs(BaseModel):
     """Activation between hidden layers, by name."""
     log_std_init: Finite | None = None
     """Initial log standard deviation of a Gaussian policy (PPO, SAC)."""
-    ortho_init: bool | None = None
+    ortho_init: Flag | None = None
     """Orthogonal initialisation of the weights (PPO)."""
     n_critics: PositiveInt | None = None
     """Number of Q networks (SAC, TD3), >= 1."""
-    share_features_extractor: bool | None = None
+    share_features_extractor: Flag | None = None
     """One features extractor for actor and critic."""
 
 

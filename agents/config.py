@@ -29,6 +29,7 @@ from rigid_env.config_files import (
     PositiveInt,
     load_model,
 )
+from rigid_env.knobs import Flag
 
 from .algorithms import Hyperparams, PolicyKwargs, argument_problems
 from .algorithms import algorithm_class as algorithm_class  # re-exported
@@ -45,9 +46,9 @@ class NormalizeConfig(BaseModel):
     """``VecNormalize`` settings."""
 
     model_config = _FROZEN
-    obs: bool = True
+    obs: Flag = True
     """Normalise observations by running mean and variance."""
-    reward: bool = True
+    reward: Flag = True
     """Scale rewards by the running std of the discounted return."""
     clip_obs: PositiveFloat = 10.0
     """Clip normalised observations to +- this, > 0."""

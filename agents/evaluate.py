@@ -280,6 +280,13 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
         or model.action_space.shape != probe.action_space.shape
     ):
         recorded = f" (its sidecar records env_kwargs {meta['env_kwargs']})" if meta else ""
+        if kwargs.get("observe_control_period") and model.action_space.shape == (
+            probe.action_space.shape
+        ):
+            recorded += (
+                "; observe_control_period=True appends the control period to the observation, "
+                "one number the model was not trained to observe: leave the option out"
+            )
         raise EvaluationError(
             f"{model_path}: observes {model.observation_space.shape} and acts "
             f"{model.action_space.shape}, but {env_id} with env_kwargs {kwargs} gives "
@@ -348,6 +355,11 @@ def evaluate(
         raise EvaluationError(
             f"--only: unknown policy {unknown[0]!r}; use model, {', '.join(CONTROLLERS)}"
         )
+    if model is None and "model" in names:
+        raise EvaluationError(
+            "--only: model asks for the model, but MODEL is 'none'; give a model file, or "
+            f"leave model out of --only ({', '.join(CONTROLLERS)})"
+        )
     kwargs = resolve_env_kwargs(model, env_kwargs)
     if "render_mode" in kwargs:  # gym.make takes it; the evaluation's vector env would not
         raise EvaluationError(
@@ -387,6 +399,13 @@ def markdown_table(results: dict[str, dict[str, Any]]) -> str:
             f"| {name} | {r['success_rate']:.2f} | {r['mean_final_angular_speed']:.4f} | "
             f"{r['mean_fuel']:.3f} | {r['mean_return']:.2f} | {t} |"
         )
+    for name, r in results.items():  # said below the table only when it happened
+        if r.get("numerical_errors"):
+            lines.append(
+                f"\n{name}: {r['numerical_errors']} of {r['episodes']} episodes ended in a "
+                "numerical error (the state turned non-finite; the body was frozen): its row "
+                "averages those too"
+            )
     return "\n".join(lines)
 
 

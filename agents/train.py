@@ -32,7 +32,8 @@ from __future__ import annotations
 import json
 import re
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -130,6 +131,19 @@ def _from_sidecar(model: Path, steps: int, norm_required: bool) -> Snapshot | No
     side = _read_json(model.with_suffix(".json"))
     if side is None or "staged" in side:
         return None
+    recorded = side.get("num_timesteps")
+    if not _is_count(recorded):
+        return Snapshot(steps, model, None, None, None, f"{model.with_suffix('.json').name}: "
+                        f"num_timesteps is {recorded!r}, not a step count")  # fmt: skip
+    inside = zip_timesteps(model)
+    if inside != recorded:
+        problem = (
+            f"{model.name} does not load (not a readable model zip)"
+            if inside is None
+            else f"{model.name} holds {inside} steps, its sidecar says {recorded}"
+        )
+        return Snapshot(steps, model, None, None, None, problem)
+    steps = int(recorded)
     named = {k: side.get(k) for k in ("vecnormalize", "replay_buffer")}
     files = {k: model.parent / v if isinstance(v, str) else None for k, v in named.items()}
     gone = [f.name for f in files.values() if f is not None and not f.exists()]
@@ -158,6 +172,8 @@ def _checkpoints(ckpt_dir: Path, norm_required: bool) -> list[Snapshot]:
             continue
         n = int(m.group(1))
         snap = _from_sidecar(p, n, norm_required)
+        if snap is None and zip_timesteps(p) not in (None, n):
+            continue  # renamed: its steps are not what its name says (unreadable: never loads)
         if snap is None:
             side = {
                 k: ckpt_dir / f"model_{k}_{n}_steps.pkl" for k in ("vecnormalize", "replay_buffer")
@@ -174,13 +190,106 @@ def _snapshots(run_dir: Path, norm_required: bool) -> list[Snapshot]:
     """The run's snapshots, newest first: checkpoints and the final model (first of equal
     steps: it is the same state); incomplete ones have ``missing`` set."""
     found = _checkpoints(run_dir / "checkpoints", norm_required)
-    final = _read_json(run_dir / "model.json")
-    steps = None if final is None else final.get("num_timesteps")
-    if steps is not None and zip_timesteps(run_dir / "model.zip") == steps:
-        snap = _from_sidecar(run_dir / "model.zip", int(steps), norm_required)
+    steps = _final_steps(run_dir)
+    if steps is not None:
+        snap = _from_sidecar(run_dir / "model.zip", steps, norm_required)
         if snap is not None:
             found.append(snap)
     return sorted(found, key=lambda s: (s.steps, s.model.name == "model.zip"), reverse=True)
+
+
+def _is_count(value: Any) -> bool:
+    """Whether a sidecar's ``num_timesteps`` is a step count (an int >= 0, not a bool)."""
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
+def _final_steps(run_dir: Path) -> int | None:
+    """The steps of the run's final model as its sidecar ``model.json`` records them, checked
+    against ``model.zip`` (None: no final model).
+
+    Raises:
+        ConfigError: a final model without its sidecar, a sidecar without its model, or the
+            two disagreeing (resume would otherwise put a checkpoint in its place, or call the
+            run finished).
+    """
+    model, sidecar = run_dir / "model.zip", run_dir / "model.json"
+    side = _read_json(sidecar)
+    if side is None and not model.exists():
+        if sidecar.exists():
+            raise ConfigError(str(sidecar), "", "is not a JSON mapping",
+                              "restore it from the run, or remove it to resume from the "
+                              "checkpoints")  # fmt: skip
+        return None
+    if side is None:
+        raise ConfigError(
+            str(model), "", "the final model has no readable sidecar model.json (it is never "
+            "replaced by a checkpoint)", "restore model.json, or move model.zip out of the run "
+            "to resume from its checkpoints",
+        )  # fmt: skip
+    steps = side.get("num_timesteps")
+    if not _is_count(steps):
+        raise ConfigError(str(sidecar), "num_timesteps", f"expected a step count, got "
+                          f"{steps!r}", "restore the file the run wrote")  # fmt: skip
+    if not model.exists():
+        raise ConfigError(
+            str(model), "", f"is missing, but model.json records a final model of {steps} steps",
+            "restore model.zip, or remove model.json to resume from the checkpoints",
+        )  # fmt: skip
+    inside = zip_timesteps(model)
+    if inside != steps:
+        found = "does not load" if inside is None else f"holds {inside} steps"
+        raise ConfigError(
+            str(model), "", f"{found}, its sidecar model.json says {steps} steps",
+            "restore the pair the run wrote, or move both out of the run to resume from its "
+            "checkpoints",
+        )  # fmt: skip
+    return steps
+
+
+def _refuse_resume_of_nothing(run_dir: Path, resume: bool, or_start: bool) -> None:
+    """``--resume`` (without ``--resume-or-start``) of a run folder with nothing trained."""
+    if resume and not or_start and not _has_training(run_dir):
+        raise ConfigError(
+            str(run_dir),
+            "--resume",
+            "no run to resume (nothing trained there)",
+            "check --seed and --runs-dir, or pass --resume-or-start to start the run when "
+            "there is none",
+        )
+
+
+def run_lock(run_dir: Path) -> Any:
+    """The lock of a run folder (``<run>/.lock``, :mod:`filelock`), held while a run writes it:
+    a second run on the same folder is refused at once (two configs that map to one run
+    name, e.g. two learning rates, would otherwise write each other's files). The same
+    object for the same folder in a process, so taking it again nests."""
+    from filelock import FileLock
+
+    run_dir.mkdir(parents=True, exist_ok=True)
+    return FileLock(run_dir / ".lock", timeout=0, is_singleton=True)
+
+
+@contextmanager
+def locked(run_dir: Path) -> Iterator[None]:
+    """Hold :func:`run_lock` of ``run_dir``.
+
+    Raises:
+        ConfigError: another run holds it, naming the folder.
+    """
+    from filelock import Timeout
+
+    lock = run_lock(run_dir)
+    try:
+        lock.acquire()
+    except Timeout:
+        raise ConfigError(
+            str(run_dir), "", "another run is writing this run folder now (same env, algorithm "
+            "and seed)", "wait for it to finish, or give this one another --seed or --runs-dir",
+        ) from None  # fmt: skip
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def _read_json(path: Path) -> dict[str, Any] | None:
@@ -197,6 +306,7 @@ def _has_training(run_dir: Path) -> bool:
     return any(
         [
             (run_dir / "model.zip").exists(),
+            (run_dir / "model.json").exists(),
             any((run_dir / "checkpoints").glob("model_*_steps.zip")),
             (run_dir / "eval" / "evaluations.npz").exists(),
             (run_dir / "eval" / "best_model.zip").exists(),
@@ -381,6 +491,25 @@ def train(
     limit_threads(cfg.threads)
     run_dir = runs_dir / cfg.run_name
     check_runs_dir(runs_dir, run_dir)
+    _refuse_resume_of_nothing(run_dir, resume, or_start)  # before the lock creates the folder
+    with locked(run_dir):
+        return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start)
+
+
+def _train(
+    cfg: TrainConfig,
+    run_dir: Path,
+    resume: bool,
+    progress: bool,
+    verbose: int,
+    callbacks: Sequence[Any],
+    or_start: bool,
+) -> Path:
+    """:func:`train` with the run folder's lock held."""
+    tb = run_dir / "tb"
+    if tb.exists() and not tb.is_dir():
+        raise ConfigError(str(tb), "", "is a file, where the run's TensorBoard logs go",
+                          "move it away (or remove it)")  # fmt: skip
     trained = _has_training(run_dir)
     if trained and not resume:
         raise ConfigError(
@@ -389,21 +518,14 @@ def train(
             "a run already exists",
             "pass --resume to continue it, or choose another --seed or --runs-dir",
         )
-    if resume and not trained and not or_start:
-        raise ConfigError(
-            str(run_dir),
-            "--resume",
-            "no run to resume (nothing trained there)",
-            "check --seed and --runs-dir, or pass --resume-or-start to start the run when "
-            "there is none",
-        )
+    _refuse_resume_of_nothing(run_dir, resume, or_start)
     if trained:
         finish_snapshots(run_dir)  # saves a kill interrupted: completed, or dropped if uncommitted
         _check_unchanged(cfg, run_dir, continues=bool(_snapshots(run_dir, False)))
-    final = _read_json(run_dir / "model.json") if trained else None
-    if final is not None and int(final.get("num_timesteps", 0)) >= cfg.total_timesteps:
+    final = _final_steps(run_dir) if trained else None
+    if final is not None and final >= cfg.total_timesteps:
         print(
-            f"{run_dir}: finished ({final['num_timesteps']} steps, total_timesteps "
+            f"{run_dir}: finished ({final} steps, total_timesteps "
             f"{cfg.total_timesteps}); nothing to do. To train further, pass --resume "
             "--total-timesteps N with N larger"
         )
@@ -411,6 +533,15 @@ def train(
     start = _resume_point(cfg, run_dir) if trained else None
     if trained and start is None:
         warn(f"{run_dir}: no checkpoint yet; starting at step 0, keeping eval/ history and best")
+    if final is not None and (start is None or start[2].model != run_dir / "model.zip"):
+        if start is not None:
+            start[1].close()
+        raise ConfigError(  # never a checkpoint (or a fresh start) in place of the final model
+            str(run_dir / "model.zip"), "", f"the final model ({final} steps) does not load or "
+            "lacks a file its sidecar names; it is never replaced by a checkpoint",
+            "restore its files, or move model.zip and model.json out of the run to resume from "
+            "its checkpoints",
+        )  # fmt: skip
     if start is not None:
         model, env, snap = start
         if verbose:
@@ -509,20 +640,22 @@ def main(argv: list[str] | None = None) -> int:
         cfg = load_config(args.config, overrides)
         run_dir = args.runs_dir / cfg.run_name
         check_runs_dir(args.runs_dir, run_dir)
-        if resume and args.total_timesteps is None and _has_training(run_dir):
-            finish_snapshots(run_dir)
-            record = _recorded_config(run_dir)
-            if record is not None and "total_timesteps" in record[0]:
-                budget = {"total_timesteps": record[0]["total_timesteps"]}
-                cfg = load_config(args.config, {**overrides, **budget})
-        run_dir = train(
-            cfg,
-            args.runs_dir,
-            resume=resume,
-            progress=not args.no_progress,
-            verbose=args.verbose,
-            or_start=args.resume_or_start,
-        )
+        _refuse_resume_of_nothing(run_dir, args.resume, args.resume_or_start)
+        with locked(run_dir):  # held through train(), which takes it again
+            if resume and args.total_timesteps is None and _has_training(run_dir):
+                finish_snapshots(run_dir)
+                record = _recorded_config(run_dir)
+                if record is not None and "total_timesteps" in record[0]:
+                    budget = {"total_timesteps": record[0]["total_timesteps"]}
+                    cfg = load_config(args.config, {**overrides, **budget})
+            run_dir = train(
+                cfg,
+                args.runs_dir,
+                resume=resume,
+                progress=not args.no_progress,
+                verbose=args.verbose,
+                or_start=args.resume_or_start,
+            )
     except ConfigError as exc:
         print(f"agents.train: error: {exc}", file=sys.stderr)
         return 2

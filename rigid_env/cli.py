@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from rigid_env import __version__
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError
-from rigid_env.resources import SCENE_DIR
+from rigid_env.resources import SCENE_DIR, folder_problem
 from rigid_env.scene import SceneError, load_scene
 from rigid_env.trajectory import simulate
 
@@ -187,6 +187,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="A1,A2,...",
         help="constant command, one number in [-1, 1] per actuator component (default: zeros)",
     )
+    sim.add_argument(
+        "--seed",
+        type=_int_at_least(0),
+        default=0,
+        metavar="S",
+        help="seed of the thrust noise of thrusters with `noise` (default 0; unused without)",
+    )
     sim.add_argument("--out", required=True, metavar="FILE.npz", help="output file")
     sim.add_argument("--force", action="store_true", help="overwrite --out if it exists")
     sim.set_defaults(handler=_cmd_simulate)
@@ -302,8 +309,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return _fail(exc, 1)
     except (UsageError, SceneError) as exc:
         return _fail(exc, 2)
-    except (ValueError, OSError) as exc:  # a user's value the core rejected, or a file error
+    except ValueError as exc:  # a user's value the core rejected
         return _fail(exc, 2)
+    except OSError as exc:  # a file error: the path and the reason, never a bare [Errno N]
+        return _fail(_file_error(exc), 2)
     except MemoryError:  # past the sizing above: the room went to something else meanwhile
         print(
             f"{PROG}: error: out of memory (free memory or ulimit -v); ask for less "
@@ -317,13 +326,27 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def _refuse_empty_paths(argv: list[str]) -> None:
-    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder."""
+    """An empty ``--out`` ('' from an unset shell variable) would mean the current folder; a
+    flag given ``=--`` would reach its command as an empty list (argparse drops the ``--``)."""
     for i, arg in enumerate(argv):
         flag, eq, value = arg.partition("=")
+        if flag.startswith("--") and eq and value == "--":
+            raise UsageError(f"{flag}: expected a value, got '--'")
         if flag == "--out" and (
             (eq and not value.strip()) or (not eq and i + 1 < len(argv) and not argv[i + 1].strip())
         ):
             raise UsageError("--out: empty path; give a file or folder name (an unset variable?)")
+
+
+def _file_error(exc: OSError) -> UsageError:
+    """An OS error as one line naming the path and the reason (a missing folder above it, a
+    dangling link, no permission)."""
+    where = exc.filename if exc.filename is not None else "a file"
+    reason = exc.strerror or type(exc).__name__
+    return UsageError(
+        f"{where}: {reason}; check the path (every folder above it must exist or be creatable, "
+        "and be writable)"
+    )
 
 
 def _fail(exc: BaseException, status: int) -> int:
@@ -383,7 +406,8 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     # A diverging run may overflow the recorded energy a step before the state itself turns
     # non-finite; the world's guard then reports it in one line, without NumPy warnings.
     with np.errstate(over="ignore", invalid="ignore"):
-        arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps))
+        rng = np.random.default_rng(args.seed)  # drawn from only for noisy thrusters
+        arrays = _simulate_chunked(world, args.steps, action, _Progress(args.steps), rng)
     wall = time.perf_counter() - start
     _write_npz(out, arrays)
     print(_summary(scene.name, world, arrays, wall, out))
@@ -426,6 +450,7 @@ def _simulate_chunked(
     steps: int,
     action: NDArray[np.float64] | None,
     progress: _Progress | None = None,
+    rng: np.random.Generator | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """:func:`simulate` of body 0 into arrays allocated once at their final size ``(steps + 1,
     ...)``, ``_CHUNK_STEPS`` steps at a time or as ``progress`` sizes them (the same steps as
@@ -437,7 +462,7 @@ def _simulate_chunked(
         n = min(_CHUNK_STEPS, steps - done)
         if progress is not None:
             n = progress.next_chunk(done)
-        chunk = simulate(world, n, action)
+        chunk = simulate(world, n, action, rng)
         rows = slice(0, n + 1) if done == 0 else slice(1, n + 1)  # row 0 repeats the last one
         for key, val in chunk.items():
             if key == "t":
@@ -455,6 +480,9 @@ def _simulate_chunked(
 def _check_writable_folder(out: Path) -> None:
     """Create ``out``'s folder and make sure a file can be written there, before simulating."""
     folder = out.parent
+    problem = folder_problem(out)
+    if problem is not None:
+        raise UsageError(f"--out: cannot write {out}: {problem}; choose another folder")
     try:
         folder.mkdir(parents=True, exist_ok=True)
         with tempfile.NamedTemporaryFile(dir=folder, prefix=f".{out.name}.", suffix=".probe"):

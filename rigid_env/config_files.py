@@ -22,6 +22,7 @@ import difflib
 import math
 import os
 import re
+import stat
 from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated, Any, TypeVar, get_args, get_origin
@@ -77,12 +78,18 @@ def number(unit: str = "") -> BeforeValidator:
             raise ValueError(f"{got}; write a number{unit_s} without quotes") from None
         if not math.isfinite(parsed):
             raise ValueError(f"must be finite, got {describe(value)}; give a finite number{unit_s}")
-        if "e" in value.lower():  # what PyYAML (YAML 1.1) made of an unquoted 1e5
-            raise ValueError(
-                f"{got}; YAML 1.1 reads exponent notation without a dot and a signed exponent "
-                f"as a string: write {yaml_float(parsed)}"
-            )
-        raise ValueError(f"{got}; write the number without quotes: {parsed!r}")
+        # One message for every quoted number. With an exponent the number is suggested in a
+        # form any YAML reader takes for a float (PyYAML's own loader, YAML 1.1, reads 1e5 and
+        # 3.986e14 as text).
+        integral = re.fullmatch(r"[-+]?[0-9][0-9_]*", value.strip())
+        written = (
+            str(int(parsed))
+            if integral
+            else yaml_float(parsed)
+            if "e" in value.lower()
+            else repr(parsed)
+        )
+        raise ValueError(f"{got}; write the number without quotes: {written}")
 
     return BeforeValidator(check)
 
@@ -185,6 +192,31 @@ _Loader.add_implicit_resolver(
 )
 
 
+MAX_FILE_BYTES = 16 * 2**20
+"""The largest configuration or scene file read [bytes]: hand-written YAML is kilobytes; more is
+the wrong file (a log, a model, /dev/zero)."""
+
+
+def _read_text(path: Path, name: str) -> str:
+    """The UTF-8 text of a regular file of at most :data:`MAX_FILE_BYTES` (a device, a pipe or
+    a huge file is refused before reading: /dev/zero would fill memory, a FIFO never end)."""
+    mode = path.stat().st_mode  # FileNotFoundError, PermissionError: the caller's messages
+    if stat.S_ISDIR(mode):
+        raise IsADirectoryError(path)
+    if not stat.S_ISREG(mode):
+        raise ConfigFileError(
+            name, "", "is not a regular file (a device, a pipe or a socket)", "give a YAML file"
+        )
+    with path.open("rb") as f:
+        data = f.read(MAX_FILE_BYTES + 1)
+    if len(data) > MAX_FILE_BYTES:
+        raise ConfigFileError(
+            name, "", f"is larger than {MAX_FILE_BYTES // 2**20} MiB, too large for a YAML "
+            "configuration", "give the YAML file (the wrong file?)",
+        )  # fmt: skip
+    return data.decode("utf-8")
+
+
 def read_yaml(path: str | os.PathLike[str], name: str | None = None) -> Any:
     """The data in a YAML file (``None`` for an empty one); errors call it ``name`` (default:
     the path).
@@ -194,7 +226,7 @@ def read_yaml(path: str | os.PathLike[str], name: str | None = None) -> Any:
     """
     name = str(path) if name is None else name
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = _read_text(Path(path), name)
     except FileNotFoundError:
         raise ConfigFileError(name, "", "file not found", "check the path") from None
     except IsADirectoryError:

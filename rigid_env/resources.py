@@ -21,6 +21,7 @@ module imports nothing else from the package.
 
 from __future__ import annotations
 
+import os
 from importlib.resources import files
 from pathlib import Path
 
@@ -82,3 +83,14 @@ def pretrained_path(name: str) -> Path:
 
 SCENE_DIR: Path = find_data("configs/scenes") or data_roots()[0] / "configs" / "scenes"
 """The folder of the shipped scenes (``configs/scenes``)."""
+
+
+def folder_problem(path: Path) -> str | None:
+    """Why the folders above ``path`` cannot be created: one of them is a link whose target is
+    missing (``mkdir`` then says only "File exists"), or a file; ``None`` otherwise."""
+    for above in reversed(Path(path).absolute().parents):
+        if above.is_symlink() and not above.exists():
+            return f"{above} is a link to {os.readlink(above)}, which does not exist"
+        if above.exists() and not above.is_dir():
+            return f"{above} is a file, not a folder"
+    return None

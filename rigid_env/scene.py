@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, Field, ValidationInfo, field_validator, model_validator
 
+from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, number, read_yaml, validate
 from rigid_env.core.effects import (
     ForceEffect,
@@ -133,12 +134,12 @@ class Scene(Spec):
     mistake: give a smaller dt instead)."""
     integrator: str = "rk4"
     """A name from rigid_env.core.integrators.INTEGRATORS."""
-    rtol: Annotated[float, Field(gt=0, lt=1, allow_inf_nan=False)] | None = None
-    """Relative tolerance of each substep's error, 0 < rtol < 1, for an error-controlled
+    rtol: knobs.Rtol | None = None
+    """Relative tolerance of each substep's error, 2.2e-14 <= rtol < 1 (float64 cannot meet a
+    tighter one), for an error-controlled integrator (``dop853``) only; left out: 1e-10."""
+    atol: knobs.Atol | None = None
+    """Absolute tolerance of each substep's error, >= 1e-100, for an error-controlled
     integrator (``dop853``) only; left out: 1e-10."""
-    atol: Annotated[float, Field(gt=0, allow_inf_nan=False)] | None = None
-    """Absolute tolerance of each substep's error, > 0, for an error-controlled integrator
-    (``dop853``) only; left out: 1e-10."""
     max_angular_speed: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("rad/s")] | (
         None
     ) = None

@@ -442,7 +442,6 @@ class EffectsSpec(Spec):
 
 Seconds = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("s")]
 Impulse = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N s")]
-Fraction = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("")]
 
 
 class ThrusterSpec(Spec):
@@ -464,9 +463,10 @@ class ThrusterSpec(Spec):
     mode: Literal["proportional", "on_off"] = "proportional"
     """``proportional``: thrust ``u max_force``; ``on_off``: pulse width, ``|u|`` is the fraction
     of the step fired at full thrust from its start."""
-    noise: Fraction = 0.0
+    noise: Annotated[float, Field(ge=0, le=1, allow_inf_nan=False), Quantity("")] = 0.0
     """``SIGMA`` of a multiplicative thrust factor ``max(0, 1 + SIGMA xi)`` drawn per step by the
-    environment's generator, >= 0 (0: none)."""
+    environment's generator, a relative standard deviation in [0, 1] (0: none; 1: the thrust
+    scatters by its whole size)."""
 
     @field_validator("direction")
     @classmethod

@@ -11,8 +11,19 @@ from rigid_env.core.world import World
 FloatArray = NDArray[np.float64]
 
 
-def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[str, FloatArray]:
-    """Step ``world`` ``steps`` times with a constant command and record the trajectory.
+def simulate(
+    world: World,
+    steps: int,
+    action: ArrayLike | None = None,
+    rng: np.random.Generator | None = None,
+) -> dict[str, FloatArray]:
+    """Step ``world`` ``steps`` times with a constant command and record the trajectory; where
+    the thrusters have ``noise``, each step's thrust factors are drawn from ``rng`` first
+    (:meth:`World.draw_thrust_factors`; nothing is drawn for noise-free thrusters).
+
+    Raises:
+        ValueError: the thrusters have noise and no ``rng`` is given (a trajectory without
+            the noise the scene asks for would be silently noise-free).
 
     Returns:
         Arrays of every body with a leading time axis of length ``T = steps + 1``: ``t (T,)``,
@@ -27,7 +38,12 @@ def simulate(world: World, steps: int, action: ArrayLike | None = None) -> dict[
     t0 = world.time
     rows[0] = world.rows
     energy[0] = world.energy()
+    noisy = bool(np.any(world.thrust_noise > 0.0))
+    if noisy and rng is None:
+        raise ValueError("rng: the scene's thrusters have noise; give a generator to draw it from")
     for k in range(1, int(steps) + 1):
+        if noisy:
+            world.draw_thrust_factors(rng)
         world.step(action)
         rows[k] = world.rows
         energy[k] = world.energy()

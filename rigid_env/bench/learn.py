@@ -236,6 +236,56 @@ def _first_at_bar(hist: dict[str, np.ndarray]) -> tuple[float, float, float]:
     return math.nan, math.nan, math.nan
 
 
+MANIFEST = ".bench_learn_manifest.json"
+"""In ``--out``: the run folders this benchmark wrote there (relative paths), the only ones it
+ever removes."""
+
+
+def _run_name(task: str, seed: int, previous: bool) -> str:
+    from rigid_env.agents.config import load_config
+
+    return load_config(config_path(task, previous), {"seed": seed}).run_name
+
+
+def _clear_own_runs(out: Path, planned: list[Path], force: bool) -> None:
+    """Make room for the ``planned`` run folders: remove (with ``force``) the ones an earlier
+    run of this benchmark wrote, as its manifest in ``out`` lists them, and record the planned
+    ones in the manifest before training starts. A folder it did not write is never removed.
+
+    Raises:
+        ValueError: a planned folder exists and the manifest does not list it (a user's), or
+            one it wrote exists and ``force`` is not set (one line naming it and the fix).
+    """
+    import shutil
+
+    manifest = out / MANIFEST
+    try:
+        listed = json.loads(manifest.read_text()) if manifest.is_file() else []
+    except (OSError, ValueError):
+        listed = []
+    own = {str(p) for p in listed if isinstance(p, str)} if isinstance(listed, list) else set()
+    for run in planned:
+        if not run.exists() and not run.is_symlink():
+            continue
+        rel = str(run.relative_to(out))
+        if rel not in own:
+            raise ValueError(
+                f"--out: {run} exists and this benchmark did not write it; move it away or "
+                "choose another --out (the benchmark never removes what it did not write)"
+            )
+        if not force:
+            raise ValueError(
+                f"--out: {run} holds an earlier run of this benchmark; pass --force to replace "
+                "it, or choose another --out"
+            )
+    for rel in sorted(own):
+        run = out / rel
+        if (run.is_dir() and not run.is_symlink() and run.parent.parent == out / "runs"
+                and run in planned):  # fmt: skip
+            shutil.rmtree(run)
+    manifest.write_text(json.dumps(sorted(own | {str(p.relative_to(out)) for p in planned})))
+
+
 def _worker(job: tuple[str, int, bool, str, float]) -> dict[str, Any]:
     task, seed, previous, runs_dir, limit_s = job
     return train_one(task, seed, previous, Path(runs_dir), limit_s)
@@ -245,11 +295,14 @@ def run(args: argparse.Namespace) -> int:
     """Run the benchmark; 0 on success."""
     out = report.prepare_out(args.out, OUTPUTS, args.force)
     runs_dir = out / "runs"
-    if runs_dir.exists() and any(runs_dir.iterdir()):
-        import shutil
-
-        shutil.rmtree(runs_dir)  # prepare_out asked for --force before earlier results go
     previous_seeds = args.seeds if args.previous_seeds is None else args.previous_seeds
+    planned = [
+        runs_dir / ("previous" if previous else "shipped") / _run_name(task, seed, previous)
+        for task in args.tasks
+        for previous, seeds in ((False, args.seeds), (True, previous_seeds))
+        for seed in seeds
+    ]
+    _clear_own_runs(out, planned, args.force)
     jobs = [
         (task, seed, previous, str(runs_dir / ("previous" if previous else "shipped")), lim)
         for task in args.tasks

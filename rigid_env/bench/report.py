@@ -23,6 +23,8 @@ from typing import Any
 
 import numpy as np
 
+from rigid_env.resources import folder_problem
+
 # --------------------------------------------------------------------------------------------
 # The machine and the output folder
 # --------------------------------------------------------------------------------------------
@@ -93,7 +95,17 @@ def prepare_out(out: Path, names: Sequence[str], force: bool) -> Path:
             f"--out: {out} holds earlier results ({', '.join(there)}); pass --force to "
             "overwrite them, or choose another --out"
         )
-    out.mkdir(parents=True, exist_ok=True)
+    problem = folder_problem(out / "results")
+    if problem is not None:
+        raise ValueError(f"--out: cannot create {out}: {problem}; choose another folder")
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        reason = exc.strerror or type(exc).__name__
+        raise ValueError(
+            f"--out: cannot create {out} ({reason} at {exc.filename}); give a folder whose "
+            "parents exist or can be created"
+        ) from None
     return out
 
 

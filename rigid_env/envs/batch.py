@@ -16,13 +16,21 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env import knobs
 from rigid_env.core import threads
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
-from rigid_env.envs.hardware import FAULT_KINDS, Fault, draw_fault, misaligned, with_preset
+from rigid_env.envs.hardware import (
+    FAULT_KINDS,
+    Fault,
+    Hardware,
+    draw_fault,
+    misaligned,
+    with_preset,
+)
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
 from rigid_env.render import Frame, TaskView
@@ -53,7 +61,7 @@ def as_actions(action: ArrayLike) -> NDArray[Any]:
     """``action`` as an array of a real dtype the compiled clip reads (float64, float32, or
     integers as they are; float16, long double and byte-swapped floats converted to float64,
     which holds them exactly or, for long double, as NumPy casts), or a one-line ValueError."""
-    act = action if isinstance(action, np.ndarray) else np.asarray(action)
+    act = action if isinstance(action, np.ndarray) else _array_of(action)
     if act.dtype in _COMPILED_DTYPES:
         return act
     kind = act.dtype.kind
@@ -67,6 +75,25 @@ def as_actions(action: ArrayLike) -> NDArray[Any]:
     elif not native:
         act = act.astype(act.dtype.newbyteorder("="))
     return act
+
+
+
+def _array_of(action: Any) -> NDArray[Any]:
+    """A NumPy array of ``action``; a tensor (torch: one that requires grad, on a GPU or in
+    bfloat16, which NumPy cannot take as it is) detached to the CPU first, bfloat16 as the
+    float32 that holds it exactly."""
+    if hasattr(action, "detach") and hasattr(action, "cpu"):
+        action = action.detach().cpu()
+        if str(getattr(action, "dtype", "")) == "torch.bfloat16":
+            action = action.float()
+    try:
+        return np.asarray(action)
+    except (TypeError, ValueError, RuntimeError) as exc:
+        reason = " ".join(str(exc).split())
+        raise ValueError(
+            f"action: expected an array of real numbers, got a {type(action).__name__} NumPy "
+            f"cannot read ({reason})"
+        ) from None
 
 
 class TaskBatch:
@@ -181,6 +208,18 @@ class TaskBatch:
         """(N,) world steps each env holds an action for in its episode (its control period
         over ``dt``; ``randomization.action_repeat``)."""
         self._repeating = max(repeats) > 1
+        if max(repeats) * self.world.substeps > knobs.MAX_ENV_STEP_SUBSTEPS:
+            raise ValueError(
+                f"randomization.action_repeat: {max(repeats)} world steps of {self.world.substeps} "
+                f"substeps make one env step {max(repeats) * self.world.substeps} integrator "
+                f"steps, above {knobs.MAX_ENV_STEP_SUBSTEPS}; give fewer substeps or a shorter "
+                "control period"
+            )
+        self.substeps = np.zeros(n, dtype=np.int64)
+        """(N,) the integrator steps each env's body took in its last env step (all the world
+        steps of its control period; error-controlled integrators report them)."""
+        self._hardware = Hardware.of(actuators, self.max_force)
+        self._fuel_after: FloatArray | None = None
         self._observes_period = settings.observe_control_period
         self._check_extra_observations()
 
@@ -390,11 +429,14 @@ class TaskBatch:
         reward = np.zeros(self.n)
         ended = np.zeros(self.n, dtype=bool) if restarting is None else restarting.copy()
         failed_any = np.zeros(self.n, dtype=bool)
+        self.substeps[:] = 0
         for r in range(int(self.repeats.max())):
             stepping = (self.repeats > r) & ~ended
             if not stepping.any():
                 break
             failed = self._step_envs(rngs, stepping=stepping)
+            if self.world.tolerances is not None:
+                self.substeps[stepping] += self.world.substeps_taken[stepping]
             failed_any |= failed
             reward[stepping] += self.record["reward"][stepping]
             ended |= stepping & (self.record["terminated"] | failed)
@@ -422,15 +464,17 @@ class TaskBatch:
         if some:
             failed = self._advance_held(~stepping & ~world.failed)
         else:
-            failed = world.advance(self.command)
+            failed = self._advance()
         self._own_obs(keep=stepping is not None)
         if some:
             idx = np.flatnonzero(stepping)
             self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
+            self._count_delivered(idx)
             return failed
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
                                 noise, self.record, self.obs), True)  # fmt: skip
+        self._count_delivered()
         return failed
 
     def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -438,9 +482,31 @@ class TaskBatch:
         world = self.world
         world.failed[held] = True
         try:
-            return world.advance(self.command)
+            return self._advance()
         finally:  # held bodies thaw whatever the step did (an error under on_error="raise")
             world.failed[held] = False
+
+    def _advance(self) -> NDArray[np.bool_]:
+        """The world step with :attr:`command`; where the thrusters have hardware (a lag, a
+        minimum impulse bit, noise), each env's fuel after it, counted as the impulse the
+        thrusters deliver (:meth:`~rigid_env.envs.hardware.Hardware.delivered`), for
+        :meth:`_count_delivered` to put in place of the pass's count of the commands."""
+        if self._hardware.counts_commands:
+            return self.world.advance(self.command)
+        levels = self.world.thrust_levels
+        levels = None if levels is None else levels.copy()
+        factors = self.world.thrust_factors if self._noisy else None
+        impulse = self._hardware.delivered(self.command, self.dt, factors, levels)
+        failed = self.world.advance(self.command)
+        self._fuel_after = self.record["fuel"] + np.where(self.world.failed, 0.0, impulse)
+        return failed
+
+    def _count_delivered(self, idx: NDArray[np.int64] | None = None) -> None:
+        """Each env's fuel (rows ``idx``, default all) as the impulse delivered (after the
+        pass, which counts the commands)."""
+        if self._fuel_after is not None:
+            rows = slice(None) if idx is None else idx
+            self.record["fuel"][rows] = self._fuel_after[rows]
 
     def _pass_rows(
         self, idx: NDArray[np.int64], rngs: Sequence[np.random.Generator], stepped: bool
@@ -628,7 +694,9 @@ class TaskBatch:
     def _substeps(self) -> NDArray[np.int64] | None:
         """(N,) the substeps each body took in the last step, for an error-controlled
         integrator (None for a fixed-step one)."""
-        return None if self.world.tolerances is None else self.world.substeps_taken
+        if self.world.tolerances is None:
+            return None
+        return self.substeps if self._repeating else self.world.substeps_taken
 
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
         """Where faults are drawn: each env's failed thruster (-1: none), the step its fault

@@ -28,12 +28,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from rigid_env import knobs
+from rigid_env.config_files import vector
+from rigid_env.core.effects import Thrusters
 from rigid_env.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -56,13 +59,20 @@ def with_preset(scene: Scene, preset: str, dt: float | None = None) -> Scene:
     ``dt`` [s], default the scene's).
 
     Raises:
-        ValueError: for an unknown preset, naming the keyword and the choices.
+        ValueError: for an unknown preset, naming the keyword and the choices, or a
+            ``realistic`` preset for a scene without thrusters.
     """
     if preset not in PRESETS:
         choices = ", ".join(PRESETS)
         raise ValueError(f"thrusters: unknown preset {preset!r}; choose one of {choices}")
-    if preset == "ideal" or not scene.actuators.thrusters:
+    if preset == "ideal":
         return scene
+    if not scene.actuators.thrusters:
+        raise ValueError(
+            f"thrusters: {preset!r} models the scene's thrusters, and scene {scene.name!r} has "
+            "none (point forces are ideal forces with no hardware); use thrusters='ideal', or "
+            "give the scene actuators.thrusters"
+        )
     on_time = min(REALISTIC_MIN_ON_TIME, scene.dt if dt is None else float(dt))
     thrusters = [
         t.model_copy(
@@ -86,16 +96,29 @@ class ThrusterFaults(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
-    probability: Annotated[float, Field(ge=0.0, le=1.0, allow_inf_nan=False)] = 0.5
+    probability: knobs.Probability = 0.5
     """Chance of a fault in an episode, in [0, 1]."""
     kinds: Annotated[tuple[FaultKind, ...], Field(min_length=1)] = FAULT_KINDS
     """The fault kinds drawn from: stuck_off, stuck_on, degraded."""
-    within_steps: Annotated[int, Field(ge=1)] = 100
-    """The fault starts at a step uniform in [0, within_steps)."""
-    stuck_level: Annotated[tuple[float, float], Field()] = (0.2, 1.0)
-    """A stuck-on valve's command magnitude, uniform in this range (sign uniform) [-]."""
-    degraded_fraction: Annotated[tuple[float, float], Field()] = (0.2, 0.8)
-    """A degraded thruster's fraction of the command, uniform in this range [-]."""
+    within_steps: knobs.WithinSteps = 100
+    """The fault starts at a control step uniform in [0, within_steps), an integer from 1 to
+    1e9."""
+    stuck_level: Annotated[tuple[knobs.Unit, knobs.Unit], vector(2)] = (0.2, 1.0)
+    """A stuck-on valve's command magnitude [-], uniform in this range [low, high] within
+    [0, 1] (1: full thrust; sign uniform)."""
+    degraded_fraction: Annotated[tuple[knobs.Unit, knobs.Unit], vector(2)] = (0.2, 0.8)
+    """A degraded thruster's fraction of the command [-], uniform in this range [low, high]
+    within [0, 1] (0: none of it, 1: all of it)."""
+
+    @field_validator("stuck_level", "degraded_fraction")
+    @classmethod
+    def _ordered(cls, bounds: tuple[float, float]) -> tuple[float, float]:
+        if bounds[0] > bounds[1]:
+            raise ValueError(
+                f"low {bounds[0]:g} is above high {bounds[1]:g}; give [low, high], e.g. "
+                f"[{bounds[1]:g}, {bounds[0]:g}]"
+            )
+        return bounds
 
 
 @dataclass(frozen=True)
@@ -162,3 +185,90 @@ def misaligned(directions: FloatArray, rng: np.random.Generator, max_degrees: fl
         e = math.cos(phi) * e1 + math.sin(phi) * e2
         out[k] = math.cos(tilt) * d + math.sin(tilt) * e
     return out
+
+
+@dataclass(frozen=True)
+class Hardware:
+    """Each command component's thruster hardware, in action order (point forces and ideal
+    thrusters: zeros), for the fuel an env counts: the impulse the thrusters deliver.
+
+    Attributes:
+        max_force: (A,) force at ``|u| = 1`` [N].
+        lag: (A,) time constant of the thrust [s] (0: none).
+        min_impulse: (A,) minimum impulse bit [N s] (0: none).
+        on_off: (A,) pulse-width firing.
+        noise: (A,) relative thrust noise (0: none).
+    """
+
+    max_force: FloatArray
+    lag: FloatArray
+    min_impulse: FloatArray
+    on_off: NDArray[np.bool_]
+    noise: FloatArray
+
+    @classmethod
+    def of(cls, actuators: list[Any], max_force: FloatArray) -> Hardware:
+        """From a world's linear actuators (:class:`rigid_env.core.effects.LinearActuator`, in
+        action order) and each component's ``max_force`` (A,) [N]."""
+        a = max_force.size
+        lag, min_impulse, noise = np.zeros(a), np.zeros(a), np.zeros(a)
+        on_off = np.zeros(a, dtype=bool)
+        k = 0
+        for e in actuators:
+            n = e.force_map.shape[0]
+            if isinstance(e, Thrusters):
+                lag[k : k + n], min_impulse[k : k + n] = e.lag, e.min_impulse
+                on_off[k : k + n], noise[k : k + n] = e.on_off, e.noise
+            k += n
+        return cls(max_force, lag, min_impulse, on_off, noise)
+
+    @property
+    def counts_commands(self) -> bool:
+        """Whether the impulse delivered is the impulse commanded, ``|u| max_force dt`` (no
+        lag, no minimum impulse bit, no noise): the compiled pass's own count then stands."""
+        return not (self.lag.any() or self.min_impulse.any() or self.noise.any())
+
+    def delivered(
+        self,
+        command: FloatArray,
+        dt: float,
+        factors: FloatArray | None,
+        levels: FloatArray | None,
+    ) -> FloatArray:
+        """(N,) the impulse the thrusters deliver over one world step of ``dt`` [s], summed over
+        the components [N s]: ``max_force int_0^dt |g(t)| dt`` with ``g`` each component's thrust
+        level as :mod:`rigid_env.core.thrusters` makes it (nothing below the minimum impulse
+        bit; on/off: full level for ``min(|u|, 1) dt``; the noise ``factors`` (N, A); a lag
+        from ``levels`` (N, A), the levels at the step's start).
+
+        With a lag the level on a segment of length ``s`` with target ``c`` is ``g(t) = c +
+        (g0 - c) e^{-t/TAU}``, monotonic, so ``int |g|`` is ``|int g|``, or the two pieces
+        around its zero ``t* = TAU ln((c - g0) / c)`` when it crosses one (``int_0^t* g = c t*
+        + TAU g0``)."""
+        u = command
+        fire = np.abs(u) * self.max_force * dt >= self.min_impulse
+        u = np.where(fire, u, 0.0)
+        factor = 1.0 if factors is None else factors
+        on_level = np.where(self.on_off, np.sign(u), u) * factor
+        on_time = np.where(self.on_off, np.minimum(np.abs(u), 1.0) * dt, dt)
+        g0 = np.zeros_like(u) if levels is None else levels
+        first, g1 = _abs_integral(g0, on_level, on_time, self.lag)
+        rest, _ = _abs_integral(g1, np.zeros_like(u), dt - on_time, self.lag)
+        return np.sum((first + rest) * self.max_force, axis=-1)
+
+
+def _abs_integral(
+    g0: FloatArray, c: FloatArray, s: FloatArray, tau: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """``(int_0^s |g| dt, g(s))`` of ``g(t) = c + (g0 - c) e^{-t/tau}`` (``g = c`` where
+    ``tau`` is 0), elementwise."""
+    lagged = tau > 0.0
+    safe_tau = np.where(lagged, tau, 1.0)
+    decay = np.where(lagged, np.exp(-s / safe_tau), 0.0)
+    total = np.where(lagged, c * s + (g0 - c) * safe_tau * (1.0 - decay), c * s)
+    g1 = c + (g0 - c) * decay
+    crosses = lagged & (g0 * g1 < 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t_zero = safe_tau * np.log(np.where(crosses, (c - g0) / c, 1.0))
+    before = c * t_zero + safe_tau * g0
+    return np.where(crosses, np.abs(before) + np.abs(total - before), np.abs(total)), g1

@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
 
+from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
@@ -72,6 +73,12 @@ def _repeats(value: Any) -> Any:
         integral = isinstance(k, int | np.integer) and not isinstance(k, bool | np.bool_)
         if not integral or k < 1:
             raise ValueError(f"must hold integers >= 1, got {k!r}; {fix}")
+        if k > knobs.MAX_ACTION_REPEAT:
+            raise ValueError(
+                f"holds {k!r} world steps per action, above {knobs.MAX_ACTION_REPEAT} (one "
+                "env.step would take minutes or never return); give a longer dt for a longer "
+                "control period"
+            )
     if len(set(value)) != len(value):
         raise ValueError(f"lists a repeat twice, got {list(value)!r}; {fix}")
     return tuple(int(k) for k in value)
@@ -137,7 +144,7 @@ class Randomization(BaseModel):
     action_repeat: ActionRepeats = None
     """The control period in world steps: each action is held for ``k`` steps of ``dt`` (the
     physics step unchanged), ``k`` drawn per episode uniformly from this list of distinct
-    integers >= 1 (one entry: that repeat in every episode, nothing drawn; None: 1)."""
+    integers from 1 to 100000 (one entry: that repeat in every episode, nothing drawn; None: 1)."""
 
     @property
     def hardware(self) -> bool:
@@ -175,17 +182,18 @@ class EnvSettings(BaseModel):
     substeps: Any = None
     """Integrator steps per control step overriding the scene's (checked by the world)."""
     rtol: Any = None
-    """An error-controlled integrator's (``integrator="dop853"``) relative tolerance, 0 < rtol <
-    1, overriding the scene's (checked by the scene; refused for a fixed-step integrator)."""
+    """An error-controlled integrator's (``integrator="dop853"``) relative tolerance, 2.2e-14 <=
+    rtol < 1 (float64 cannot meet a tighter one), overriding the scene's (checked by the scene,
+    :data:`rigid_env.knobs.Rtol`; refused for a fixed-step integrator)."""
     atol: Any = None
-    """Its absolute tolerance, > 0, likewise."""
+    """Its absolute tolerance, >= 1e-100, likewise (:data:`rigid_env.knobs.Atol`)."""
     rotation_repr: Literal["quaternion", "sixd"] = "quaternion"
     """The observed orientation: "quaternion" (canonical, 4 numbers) or "sixd" (the first two
     columns of the rotation matrix, 6 numbers)."""
     randomization: Annotated[Randomization, BeforeValidator(_none_is_empty)] = Randomization()
     """Domain randomisation: a mapping of mass, inertia, thrust, sensor_noise,
     thruster_misalignment, thruster_faults, action_repeat (None: none)."""
-    observe_control_period: Annotated[bool, Field(strict=True)] = False
+    observe_control_period: knobs.Flag = False
     """Append the control period ``k dt`` [s] (``randomization.action_repeat``; ``dt`` alone
     without it) to the observation, clipped into [0, 10] s."""
     thrusters: Literal["ideal", "realistic"] = "ideal"

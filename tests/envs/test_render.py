@@ -269,5 +269,5 @@ def test_human_mode_opens_and_closes():
 
 def test_missing_pygame_says_how_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "pygame", None)  # `import pygame` now raises ImportError
-    with pytest.raises(ImportError, match=r'pip install -e "\.\[render\]"'):
+    with pytest.raises(ImportError, match=r'pip install "rigid_env\[render\]"'):
         TaskRenderer(DetumbleTask(1).view(), "rgb_array", fps=20)

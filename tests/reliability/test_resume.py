@@ -215,7 +215,8 @@ def test_failed_start_leaves_nothing_that_blocks_a_rerun(tmp_path, capsys):
     assert json.loads((runs / RUN / "model.json").read_text())["num_timesteps"] == 256
 
     shutil.rmtree(runs / RUN / "checkpoints")
-    (runs / RUN).joinpath("model.json").unlink()  # as if killed before its first checkpoint
+    (runs / RUN).joinpath("model.json").unlink()  # as if killed before its first
+    (runs / RUN).joinpath("model.zip").unlink()  # checkpoint
     assert _train(good, "--runs-dir", runs, "--resume") == 0
     assert "no checkpoint yet; starting at step 0" in capsys.readouterr().err
 
@@ -229,7 +230,8 @@ def test_corrupted_newest_checkpoint_falls_back_with_a_warning(tmp_path, capsys,
     runs = tmp_path / "runs"
     assert _train(config, "--runs-dir", runs) == 0
     ckpt = runs / RUN / "checkpoints"
-    (runs / RUN / "model.json").unlink()  # not finished: the run died after its checkpoint
+    (runs / RUN / "model.json").unlink()  # not finished: the run died after its
+    (runs / RUN / "model.zip").unlink()  # checkpoint, before its final save
     data = (ckpt / broken).read_bytes()
     (ckpt / broken).write_bytes(data[: len(data) // 2])
     capsys.readouterr()
@@ -306,7 +308,8 @@ def test_checkpoint_without_its_statistics_is_not_resumed_from(tmp_path, capsys)
     runs = tmp_path / "runs"
     assert _train(config, "--runs-dir", runs) == 0
     ckpt = runs / RUN / "checkpoints"
-    (runs / RUN / "model.json").unlink()  # the run died after its last checkpoint
+    (runs / RUN / "model.json").unlink()  # the run died after its last checkpoint,
+    (runs / RUN / "model.zip").unlink()  # before its final save
     (ckpt / "model_vecnormalize_768_steps.pkl").unlink()
     capsys.readouterr()
     assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 1024) == 0
@@ -319,19 +322,79 @@ def test_checkpoint_without_its_statistics_is_not_resumed_from(tmp_path, capsys)
     assert _obs_count(runs / RUN / "vecnormalize.pkl") == pytest.approx(count_512 + 512 + 2)
 
 
-def test_final_model_without_its_statistics_falls_back_to_its_checkpoint(
+def test_final_model_without_its_statistics_is_never_replaced_by_a_checkpoint(
     finished_run, tmp_path, capsys
 ):
-    """The final model.zip without vecnormalize.pkl: more steps continue from the checkpoint of
-    the same step (which has its statistics), with a warning naming what is missing."""
+    """The final model.zip without vecnormalize.pkl: more steps from a checkpoint would put a
+    checkpoint (saved before the final update) in the final model's place; refused in one line
+    (after the warning naming what is missing), nothing in the run rewritten (issue 35)."""
     config, runs = _copy_run(finished_run, tmp_path)
     run = runs / RUN
     (run / "vecnormalize.pkl").unlink()
-    count_512 = _obs_count(run / "checkpoints" / "model_vecnormalize_512_steps.pkl")
-    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 0
+    before = _files(run)
+    assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 2
     err = capsys.readouterr().err
-    assert "model.zip lacks vecnormalize.pkl" in err and err.count("\n") == 1, err
-    assert _obs_count(run / "vecnormalize.pkl") == pytest.approx(count_512 + 256 + 2)
+    assert "model.zip lacks vecnormalize.pkl" in err.splitlines()[0]
+    assert_one_line_error(err.splitlines()[-1], ERR, "never replaced by a checkpoint")
+    assert _files(run) == before
+
+
+def _files(run: Path) -> dict[Path, bytes]:
+    return {p: p.read_bytes() for p in run.rglob("*") if p.is_file() and p.name != ".lock"}
+
+
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        ("no model.json", ["model.zip", "no readable sidecar model.json"]),
+        ("no model.zip", ["model.zip", "is missing, but model.json records a final model"]),
+        ("null", ["model.json", "num_timesteps", "None"]),
+        ("lots", ["model.json", "num_timesteps", "'lots'"]),
+        ("other steps", ["model.zip", "holds 512 steps, its sidecar model.json says 256 steps"]),
+        ("tb file", ["tb", "is a file"]),
+    ],
+)
+def test_resume_checks_every_file_it_trusts_against_the_sidecar(
+    finished_run, tmp_path, capsys, change, words
+):
+    """Issue 35: a final model without its sidecar (the last checkpoint would be written over
+    the trained model), a sidecar without its model (reported "finished"), a sidecar's step
+    count that is not a count or disagrees with the model, a tb/ that is a file: each --resume
+    is one line naming the file, exit 2, nothing in the run rewritten."""
+    config, runs = _copy_run(finished_run, tmp_path)
+    run = runs / RUN
+    side = json.loads((run / "model.json").read_text())
+    if change == "no model.json":
+        (run / "model.json").unlink()
+    elif change == "no model.zip":
+        (run / "model.zip").unlink()
+    elif change == "tb file":
+        shutil.rmtree(run / "tb")
+        (run / "tb").write_text("not a folder")
+    else:
+        steps = {"null": None, "lots": "lots", "other steps": 256}[change]
+        (run / "model.json").write_text(json.dumps({**side, "num_timesteps": steps}))
+    before = _files(run)
+    for more in ([], ["--total-timesteps", "1024"]):
+        assert _train(config, "--runs-dir", runs, "--resume", *more) == 2
+        assert_one_line_error(capsys.readouterr().err, ERR, *words)
+        assert _files(run) == before
+
+
+def test_steps_of_a_checkpoint_come_from_its_sidecar_not_its_name(finished_run, tmp_path):
+    """A checkpoint renamed to model_999999_steps.zip (its sidecar with it) counts the 256
+    steps its sidecar and its zip record; one renamed without its sidecar, whose zip holds
+    other steps than its name says, is not resumed from."""
+    from agents.train import _snapshots
+
+    _, runs = _copy_run(finished_run, tmp_path)
+    ckpt = runs / RUN / "checkpoints"
+    for suffix in (".zip", ".json"):
+        (ckpt / f"model_256_steps{suffix}").rename(ckpt / f"model_999999_steps{suffix}")
+    (ckpt / "model_512_steps.zip").rename(ckpt / "model_777_steps.zip")
+    (ckpt / "model_512_steps.json").unlink()
+    steps = {s.model.name: s.steps for s in _snapshots(runs / RUN, norm_required=False)}
+    assert steps == {"model.zip": 512, "model_999999_steps.zip": 256}
 
 
 def test_no_complete_checkpoint_is_refused(finished_run, tmp_path, capsys):
