@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import ast
 import hashlib
+import importlib.util
 import os
 import shutil
 import time
@@ -34,6 +35,17 @@ def code_key(source: str) -> bytes:
     return ast.dump(tree, include_attributes=False).encode()
 
 
+def _effect_modules() -> list[Path]:
+    """The source files of the modules named in ``RIGID_ENV_EFFECTS``
+    (:mod:`rigid_env.core.effect`), found without importing them (their parents are)."""
+    paths = []
+    for name in os.environ.get("RIGID_ENV_EFFECTS", "").split(","):
+        spec = importlib.util.find_spec(name.strip()) if name.strip() else None
+        if spec is not None and spec.origin and spec.origin.endswith(".py"):
+            paths.append(Path(spec.origin))
+    return paths
+
+
 def _remove_stale(parent: Path, keep: Path) -> None:
     """Remove the sibling cache folders of ``keep`` unused for :data:`STALE_AFTER_S`."""
     now = time.time()
@@ -48,7 +60,8 @@ def _remove_stale(parent: Path, keep: Path) -> None:
 
 def use_cache_for_this_source() -> None:
     """Keep compiled kernels under a folder named by a hash of the kernel sources' code
-    (``rigid_env/core`` and ``rigid_env/envs``, :func:`code_key`: an edit of a docstring or a
+    (``rigid_env/core`` and ``rigid_env/envs``, and the modules of effects registered from
+    outside, ``RIGID_ENV_EFFECTS``, :func:`code_key`: an edit of a docstring or a
     comment keeps the key). Numba checks only the time stamp of the file that defines a cached
     function, not of the files whose functions it inlined, so a code edit of ``core/maths.py``
     would otherwise leave stale code in the caches of the integrators; a docstring edit
@@ -62,6 +75,8 @@ def use_cache_for_this_source() -> None:
     digest = hashlib.sha256()
     for path in sorted([*package.glob("core/*.py"), *package.glob("envs/*.py")]):
         digest.update(path.name.encode() + code_key(path.read_text()))
+    for path in _effect_modules():  # the registry's other effects compile into the same step
+        digest.update(str(path).encode() + code_key(path.read_text()))
     home = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     folder = home / "rigid_env" / "numba" / digest.hexdigest()[:16]
     numba.config.CACHE_DIR = str(folder)
