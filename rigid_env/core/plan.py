@@ -34,6 +34,15 @@ below ~100 ulps is never met (the bound of SciPy's ``solve_ivp`` and Hairer's DO
 also raise such an ``rtol`` to it). A smaller one is clamped to it with a warning."""
 
 
+MAX_SUBSTEPS = 10**6
+"""The most integrator steps per world step: a world step stays bounded in time (a second of
+one body's rk4 substeps at most)."""
+MAX_BODIES = 2**26
+"""The most bodies of a world (67 M: 7 GB of state columns)."""
+MAX_SUBSTEP_LIMIT = 10**7
+"""The largest ``max_substeps`` of an error-controlled integrator."""
+
+
 def number(name: str, value: Any, *, integer: bool = False) -> float:
     """``value`` as a float (an int with ``integer``); a string is not a number and a bool is
     not an integer.
@@ -79,8 +88,10 @@ def check_tolerances(
         raise ValueError(f"rtol: must be a relative tolerance with 0 < rtol < 1, got {rtol}")
     if not (np.isfinite(atol) and atol > 0.0):
         raise ValueError(f"atol: must be a finite absolute tolerance > 0, got {atol}")
-    if max_substeps < 1:
-        raise ValueError(f"max_substeps: must be an integer >= 1, got {max_substeps}")
+    if not 1 <= max_substeps <= MAX_SUBSTEP_LIMIT:
+        raise ValueError(
+            f"max_substeps: must be an integer from 1 to {MAX_SUBSTEP_LIMIT}, got {max_substeps}"
+        )
     if rtol < MIN_RTOL:
         warnings.warn(
             f"rtol: {rtol:g} is below what float64 can reach; clamped to {MIN_RTOL:.3g}",
@@ -173,8 +184,10 @@ class StepPlan:
         if not (np.isfinite(dt) and dt > 0.0):
             raise ValueError(f"dt: must be a finite time step > 0 [s], got {dt}")
         substeps = number("substeps", substeps, integer=True)
-        if substeps < 1:
-            raise ValueError(f"substeps: must be an integer >= 1, got {substeps}")
+        if not 1 <= substeps <= MAX_SUBSTEPS:
+            raise ValueError(
+                f"substeps: must be an integer from 1 to {MAX_SUBSTEPS}, got {substeps}"
+            )
         if max_angular_speed is not None:
             max_angular_speed = number("max_angular_speed", max_angular_speed)
             if not (np.isfinite(max_angular_speed) and max_angular_speed > 0.0):

@@ -36,6 +36,7 @@ from rigid_env.core.plan import (
     DEFAULT_ATOL,
     DEFAULT_MAX_SUBSTEPS,
     DEFAULT_RTOL,
+    MAX_BODIES,
     StepPlan,
     check_state,
     check_tolerances,
@@ -189,8 +190,8 @@ class World:
             check_state(state)
             n = state.n
         self._n = number("n", n, integer=True)
-        if self._n < 1:
-            raise ValueError(f"n: must be an integer >= 1 (bodies), got {self._n}")
+        if not 1 <= self._n <= MAX_BODIES:
+            raise ValueError(f"n: must be an integer from 1 to {MAX_BODIES} (bodies), got {n}")
         hw = self.parameters
         # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed).
         width = STATE_WIDTH + (self.action_dim if hw.lagged != 0.0 else 0)

@@ -9,7 +9,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
 from rigid_env.core import BodyModel, NumericalInstabilityError, State, Thrusters, World
@@ -48,6 +48,9 @@ def test_any_setting_gives_a_world_or_one_clear_error(name: str, value: object) 
     """A world is built and steps to a finite state (or says in one line that the step blew up,
     naming ``dt``, and keeps its finite state), or the constructor refuses in one line naming
     the setting."""
+    # A valid but large count takes long (and memory) to step: the bounds are tested below.
+    large = {"n": 4096, "substeps": 1000, "max_substeps": 10**5}
+    assume(not (name in large and isinstance(value, int) and large[name] < value < 2**27))
     kwargs: dict = {name: value}
     if name in ("rtol", "atol", "max_substeps"):
         kwargs["integrator"] = "dop853"
@@ -153,6 +156,16 @@ def test_restart_takes_an_index_or_mask_of_the_bodies(bodies) -> None:
     with pytest.raises(ValueError, match="bodies") as info:
         world.restart(bodies)
     one_line(info.value)
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("n", 2**27), ("substeps", 10**6 + 1), ("max_substeps", 10**7 + 1)]
+)
+def test_counts_beyond_their_bound_are_refused(name: str, value: int) -> None:
+    """A world step stays bounded in time and a world in memory."""
+    extra = {"integrator": "dop853"} if name == "max_substeps" else {}
+    with pytest.raises(ValueError, match=f"{name}: must be an integer from 1 to"):
+        World(MODEL, [THRUSTERS], **extra, **{name: value})
 
 
 def test_a_state_already_non_finite_is_named_as_the_cause() -> None:
