@@ -35,6 +35,7 @@ from rigid_env.core.effects import (
     Gravity,
     GravityGradient,
     LinearDamping,
+    MagneticDipole,
     QuadraticDrag,
     StepMap,
 )
@@ -386,6 +387,24 @@ class GravityGradientSpec(EffectSpec):
             )
 
 
+Dipole = Annotated[float, Field(allow_inf_nan=False), Quantity("A m^2")]
+Tesla = Annotated[float, Field(allow_inf_nan=False), Quantity("T")]
+
+
+class MagneticDipoleSpec(EffectSpec):
+    """The torque ``m_b x (R^T B)`` of a constant world magnetic field on the body's dipole."""
+
+    dipole: Annotated[tuple[Dipole, Dipole, Dipole], vector(3, "A m^2")]
+    """The body's magnetic dipole, shape frame [A m^2] (a small satellite's: up to a few)."""
+    field: Annotated[tuple[Tesla, Tesla, Tesla], vector(3, "T")]
+    """The magnetic field, world frame [T] (Earth's: 2.5e-5 to 6.5e-5)."""
+
+    def effect(self, to_body: ToBody) -> MagneticDipole:
+        # A free vector: the difference of its tip and the origin as points of the shape frame.
+        dipole = to_body(np.array(self.dipole)) - to_body(np.zeros(3))
+        return MagneticDipole(dipole, np.array(self.field))
+
+
 class DampingSpec(EffectSpec):
     """The seed's per-step damping ``u <- alpha u``."""
 
@@ -422,6 +441,10 @@ class EffectsSpec(Spec):
         GravityGradientSpec | None, _present("{mu: 3.986e14, center: [0, 0, 0]}")
     ] = None
     """Gravity-gradient torque of a point mass ``mu`` at ``center``."""
+    magnetic_dipole: Annotated[
+        MagneticDipoleSpec | None, _present("{dipole: [0, 0, 1], field: [0, 0, 5.0e-5]}")
+    ] = None
+    """Torque of a constant magnetic field on the body's dipole."""
     linear_damping: Annotated[LinearDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``v <- alpha v`` each step."""
     angular_damping: Annotated[AngularDampingSpec | None, _present("{alpha: 0.999}")] = None

@@ -1,39 +1,35 @@
 """Rigid-body core: NumPy arrays as data, per-body kernels compiled with Numba (rotations,
 mass properties, effects, integrators and the world).
 
-Imports nothing from gymnasium, SB3 or torch.
+Imports nothing from gymnasium, SB3 or torch. Every effect spec of
+:mod:`rigid_env.core.effects` (each :class:`ForceEffect` and :class:`StepMap` class) is
+exported here, found by its base class, so that a new effect is exported without a line here.
 """
 
-from rigid_env.core.effects import (
-    AngularDamping,
-    ForceEffect,
-    Gravity,
-    LinearActuator,
-    LinearDamping,
-    PointForces,
-    QuadraticDrag,
-    StepMap,
-    Thrusters,
-)
+from rigid_env.core import effects as _effects
+from rigid_env.core.effect import Effect
+from rigid_env.core.effects import ForceEffect, StepMap
 from rigid_env.core.integrators import INTEGRATORS, get_integrator
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import NumericalInstabilityError, SubstepLimitError, World
 
+EFFECT_SPECS = {
+    name: spec
+    for name, spec in vars(_effects).items()
+    if isinstance(spec, type) and issubclass(spec, ForceEffect | StepMap) and name[0] != "_"
+}
+"""Every effect spec class by name (actuators included)."""
+globals().update(EFFECT_SPECS)
+
 __all__ = [
+    "EFFECT_SPECS",
     "INTEGRATORS",
-    "AngularDamping",
     "BodyModel",
-    "ForceEffect",
-    "Gravity",
-    "LinearActuator",
-    "LinearDamping",
+    "Effect",
     "NumericalInstabilityError",
-    "PointForces",
-    "QuadraticDrag",
     "State",
-    "StepMap",
     "SubstepLimitError",
-    "Thrusters",
     "World",
     "get_integrator",
+    *EFFECT_SPECS,
 ]

@@ -175,13 +175,13 @@ def unpack(y):
 
 
 @kernel
-def rhs(y, act, m, p):
+def rhs(y, act, m, c):
     """``y' = (v, F / m, 1/2 q (x) (0, w), I^-1 (tau - w x I w))``: the dynamics of
     :func:`rigid_env.core.dynamics.accelerations` with the actuators' body wrench ``act``
     held constant (the one place this method reads the effects)."""
     x, v = (y[0], y[1], y[2]), (y[3], y[4], y[5])
     q, w = (y[6], y[7], y[8], y[9]), (y[10], y[11], y[12])
-    a, alpha = accelerations(x, v, q, w, act, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
     return v + a + qdot(q, w) + alpha
 
 
@@ -237,26 +237,26 @@ def _error(y0, y1, h, k, rtol, atol):
 
 
 @called
-def _stages(y, k1, h, act, m, p):
+def _stages(y, k1, h, act, m, c):
     """The 8th-order solution after ``h`` from ``y`` (``k1 = f(y)``) and the stages the error
     measure weighs, ``(k1, k6, .. k12)``: 11 evaluations of :func:`rhs`."""
-    k2 = rhs(_advanced(y, h, A2, (k1,)), act, m, p)
-    k3 = rhs(_advanced(y, h, A3, (k1, k2)), act, m, p)
-    k4 = rhs(_advanced(y, h, A4, (k1, k3)), act, m, p)
-    k5 = rhs(_advanced(y, h, A5, (k1, k3, k4)), act, m, p)
-    k6 = rhs(_advanced(y, h, A6, (k1, k4, k5)), act, m, p)
-    k7 = rhs(_advanced(y, h, A7, (k1, k4, k5, k6)), act, m, p)
-    k8 = rhs(_advanced(y, h, A8, (k1, k4, k5, k6, k7)), act, m, p)
-    k9 = rhs(_advanced(y, h, A9, (k1, k4, k5, k6, k7, k8)), act, m, p)
-    k10 = rhs(_advanced(y, h, A10, (k1, k4, k5, k6, k7, k8, k9)), act, m, p)
-    k11 = rhs(_advanced(y, h, A11, (k1, k4, k5, k6, k7, k8, k9, k10)), act, m, p)
-    k12 = rhs(_advanced(y, h, A12, (k1, k4, k5, k6, k7, k8, k9, k10, k11)), act, m, p)
+    k2 = rhs(_advanced(y, h, A2, (k1,)), act, m, c)
+    k3 = rhs(_advanced(y, h, A3, (k1, k2)), act, m, c)
+    k4 = rhs(_advanced(y, h, A4, (k1, k3)), act, m, c)
+    k5 = rhs(_advanced(y, h, A5, (k1, k3, k4)), act, m, c)
+    k6 = rhs(_advanced(y, h, A6, (k1, k4, k5)), act, m, c)
+    k7 = rhs(_advanced(y, h, A7, (k1, k4, k5, k6)), act, m, c)
+    k8 = rhs(_advanced(y, h, A8, (k1, k4, k5, k6, k7)), act, m, c)
+    k9 = rhs(_advanced(y, h, A9, (k1, k4, k5, k6, k7, k8)), act, m, c)
+    k10 = rhs(_advanced(y, h, A10, (k1, k4, k5, k6, k7, k8, k9)), act, m, c)
+    k11 = rhs(_advanced(y, h, A11, (k1, k4, k5, k6, k7, k8, k9, k10)), act, m, c)
+    k12 = rhs(_advanced(y, h, A12, (k1, k4, k5, k6, k7, k8, k9, k10, k11)), act, m, c)
     k = (k1, k6, k7, k8, k9, k10, k11, k12)
     return _advanced(y, h, B, k), k
 
 
 @kernel
-def _first_guess(y, k1, h, rtol, atol, act, m, p):
+def _first_guess(y, k1, h, rtol, atol, act, m, c):
     """dop853.f's initial step (``hinit``), at most ``h``: from the scaled sizes of ``y`` and
     ``f(y)`` a trial ``h0 = 0.01 |y| / |f|``, an Euler step over it for a second derivative
     ``|f(y + h0 f) - f| / h0``, then ``h1`` with ``h1^8 max(|f'|, |f|) = 0.01`` (one
@@ -268,7 +268,7 @@ def _first_guess(y, k1, h, rtol, atol, act, m, p):
         dnf += (k1[i] / sk) ** 2
     h0 = 1.0e-6 if dnf <= 1.0e-10 or dny <= 1.0e-10 else 0.01 * math.sqrt(dny / dnf)
     h0 = min(h0, h)
-    k2 = rhs(_advanced(y, h0, (1.0,), (k1,)), act, m, p)
+    k2 = rhs(_advanced(y, h0, (1.0,), (k1,)), act, m, c)
     der2 = 0.0
     for i in range(N):
         sk = atol + rtol * abs(y[i])
@@ -285,16 +285,16 @@ def _nan_state():
 
 
 @kernel
-def dop853(x, v, q, w, act, m, p, h):
+def dop853(x, v, q, w, act, m, c, h):
     """The registry's per-body step: :func:`dormand_prince` with the world's tolerances
-    (``p``: the named parameters of :mod:`rigid_env.core.layout`), ``h = (step, first)``.
+    (``c``: the named parameters of :mod:`rigid_env.core.layout`), ``h = (step, first)``.
     Returns ``(x, v, q, w, substeps, next first)``."""
-    control = (p.rtol, p.atol, int(p.max_substeps), p.adaptive != 0.0)
-    return dormand_prince((x, v, q, w), act, m, p, h, control)
+    control = (c.rtol, c.atol, int(c.max_substeps), c.adaptive != 0.0)
+    return dormand_prince((x, v, q, w), act, m, c, h, control)
 
 
 @called
-def dormand_prince(body, act, m, p, h, control):
+def dormand_prince(body, act, m, c, h, control):
     """One body over a step ``h`` by Dormand-Prince 8(5,3).
 
     ``adaptive``: substeps until the step's end, each accepted when its error measure
@@ -309,7 +309,7 @@ def dormand_prince(body, act, m, p, h, control):
         body: the body's state ``(x, v, q, w)`` (x, v world frame [m, m/s]; q body -> world;
             w body frame [rad/s]).
         act: the actuators' force and torque, body frame [N, N m], constant over ``h``.
-        m, p: the body's model and the world's parameters, named (:mod:`rigid_env.core.layout`).
+        m, c: the body's model and the world's parameters, named (:mod:`rigid_env.core.layout`).
         h: ``(step, first)``: the step [s] and the substep to try first [s] (0: the
             initial-step guess).
         control: ``(rtol, atol, max_substeps, adaptive)``: the relative and absolute
@@ -328,13 +328,13 @@ def dormand_prince(body, act, m, p, h, control):
     rtol, atol, max_substeps, adaptive = control
     h, first = h
     y = pack(*body)
-    k1 = rhs(y, act, m, p)
+    k1 = rhs(y, act, m, c)
     if not adaptive:
-        y1, _ = _stages(y, k1, h, act, m, p)
+        y1, _ = _stages(y, k1, h, act, m, c)
         x1, v1, q1, w1 = unpack(y1)
         return x1, v1, q1, w1, 1, 0.0
     t = 0.0
-    sub = min(first, h) if first > 0.0 else _first_guess(y, k1, h, rtol, atol, act, m, p)
+    sub = min(first, h) if first > 0.0 else _first_guess(y, k1, h, rtol, atol, act, m, c)
     tries = 0
     rejected = False
     while True:
@@ -345,7 +345,7 @@ def dormand_prince(body, act, m, p, h, control):
         last = t + STRETCH * sub >= h
         if last:
             sub = h - t
-        y1, k = _stages(y, k1, sub, act, m, p)
+        y1, k = _stages(y, k1, sub, act, m, c)
         err = _error(y, y1, sub, k, rtol, atol)
         tries += 1
         if not err <= 1.0:
@@ -362,6 +362,6 @@ def dormand_prince(body, act, m, p, h, control):
             return x1, v1, q1, w1, tries, (grow if sub >= natural else max(natural, grow))
         t += sub
         y = pack(x1, v1, q1, w1)
-        k1 = rhs(y, act, m, p)
+        k1 = rhs(y, act, m, c)
         sub = grow
         rejected = False

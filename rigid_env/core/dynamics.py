@@ -8,11 +8,10 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 
 from __future__ import annotations
 
-import math
-
+from rigid_env.core.compose import effect_terms
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import map_row
-from rigid_env.core.maths import axpy, cross, norm, rotate, rotate_inv
+from rigid_env.core.layout import command_level, map_row
+from rigid_env.core.maths import axpy, rotate
 
 
 @kernel
@@ -46,13 +45,14 @@ def gyro_jacobian(w, m):
 @kernel
 def wrench(p, c, model, command, i):
     """Body-frame actuator force and torque of body ``i``'s command (``c``: the named ``p``; row
-    ``i`` of ``command`` (N, A), or its only row): ``f_body = sum_a u_a F_a``, ``tau_body =
-    sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own, :func:`map_row`), summed
-    in a fixed order."""
+    ``i`` of ``command`` (N, A), or its only row, each ``u_a`` clipped to [-1, 1],
+    :func:`rigid_env.core.layout.command_level`): ``f_body = sum_a u_a F_a``, ``tau_body = sum_a
+    u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own, :func:`map_row`), summed in a
+    fixed order."""
     r = 0 if command.shape[0] == 1 else i
     act = ZERO_WRENCH
     for a in range(command.shape[1]):
-        act = add_scaled(act, command[r, a], map_row(p, c, model, a, i))
+        act = add_scaled(act, command_level(command, r, a), map_row(p, c, model, a, i))
     return act
 
 
@@ -68,56 +68,18 @@ def add_scaled(act, u, row):
 
 
 @kernel
-def accelerations(x, v, q, w, act, m, p, gyro):
+def accelerations(x, v, q, w, act, m, c, gyro):
     """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
     [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuators' body wrench
-    ``act = (force, torque)`` and the active effects:
-
-    * gravity ``F = m g``;
-    * quadratic drag ``F = -k |v_p| v_p`` at the centre of pressure ``r`` (body frame), whose
-      velocity is ``v_p = v + R (w x r)``; off the centre of mass it adds ``tau = r x R^T F``;
-    * the gravity-gradient torque of a point mass ``mu = G M`` at ``c``, ``tau = 3 mu / |r|^5
-      (r_b x I r_b)`` with ``r_b = R^T (x - c)`` (body axes): the torque of the potential
-      ``mu / (2 |r|^3) (3 r_b . I r_b / |r|^2 - tr I)``, MacCullagh's formula, the leading term
-      of the body's potential in powers of its size over ``|r|`` (Hughes, "Spacecraft Attitude
-      Dynamics", Sec. 8.1);
-    * with ``gyro``, Euler's ``I w' = tau - w x I w`` (skipped for an isotropic body, where the
-      term vanishes).
-    """
+    ``act = (force, torque)`` (the force turned to the world frame) and the listed effects'
+    forces and torques (:func:`rigid_env.core.compose.effect_terms`, each effect's own
+    function, :mod:`rigid_env.core.forces`); with ``gyro``, Euler's ``I w' = tau - w x I w``
+    (skipped for an isotropic body, where the term vanishes)."""
     fb, tb = act
-    fx = fy = fz = 0.0
-    if p.actuator_force != 0.0:
-        fx, fy, fz = rotate(q, fb)
-    tx, ty, tz = tb
-    if p.gravity != 0.0:
-        fx += m.mass * p.gravity_x
-        fy += m.mass * p.gravity_y
-        fz += m.mass * p.gravity_z
-    if p.drag != 0.0:
-        vp = v
-        cop = (p.cop_x, p.cop_y, p.cop_z)
-        if p.drag_offset != 0.0:
-            vp = axpy(v, 1.0, rotate(q, cross(w, cop)))
-        ks = -p.drag_k * norm(vp)
-        drag = (ks * vp[0], ks * vp[1], ks * vp[2])
-        fx += drag[0]
-        fy += drag[1]
-        fz += drag[2]
-        if p.drag_offset != 0.0:
-            tau = cross(cop, rotate_inv(q, drag))
-            tx += tau[0]
-            ty += tau[1]
-            tz += tau[2]
-    if p.gravity_gradient != 0.0:
-        c = (p.gradient_center_x, p.gradient_center_y, p.gradient_center_z)
-        rb = rotate_inv(q, (x[0] - c[0], x[1] - c[1], x[2] - c[2]))
-        r2 = rb[0] * rb[0] + rb[1] * rb[1] + rb[2] * rb[2]
-        k = 3.0 * p.gradient_mu / (r2 * r2 * math.sqrt(r2))
-        i_rb = (m.inertia_x * rb[0], m.inertia_y * rb[1], m.inertia_z * rb[2])
-        tau = cross(rb, i_rb)
-        tx += k * tau[0]
-        ty += k * tau[1]
-        tz += k * tau[2]
+    f = (0.0, 0.0, 0.0)
+    if c.actuator_force != 0.0:
+        f = rotate(q, fb)
+    (fx, fy, fz), (tx, ty, tz) = effect_terms(x, v, q, w, m, c, f, tb)
     if gyro and m.isotropic == 0.0:
         g = gyroscopic(w, m)
         tx -= g[0]
@@ -137,13 +99,13 @@ def kinetic_energy(v, w, m):
 
 
 @kernel
-def kick(x, v, q, w, act, m, p, h):
+def kick(x, v, q, w, act, m, c, h):
     """Flow of the external forces for time ``h`` with ``x, q`` frozen (gyroscopic term
     excluded): exact in one evaluation when no force depends on velocity (a constant
     acceleration), else the explicit midpoint rule, second order."""
-    a, alpha = accelerations(x, v, q, w, act, m, p, False)
-    if p.velocity_dependent != 0.0:
+    a, alpha = accelerations(x, v, q, w, act, m, c, False)
+    if c.velocity_dependent != 0.0:
         a, alpha = accelerations(
-            x, axpy(v, 0.5 * h, a), q, axpy(w, 0.5 * h, alpha), act, m, p, False
+            x, axpy(v, 0.5 * h, a), q, axpy(w, 0.5 * h, alpha), act, m, c, False
         )
     return axpy(v, h, a), axpy(w, h, alpha)

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.core.inertia import checked_floats
-from rigid_env.core.layout import THRUSTER_WIDTH, Params, Thruster
+from rigid_env.core.layout import EFFECTS, THRUSTER_WIDTH, Params, Thruster
 from rigid_env.core.rotation import cross, quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
@@ -29,16 +29,19 @@ FloatArray = NDArray[np.float64]
 
 class ForceEffect:
     """A term that adds force (world frame, on the centre of mass) and/or torque (body frame)
-    at any state an integrator asks about.
-
-    Attributes:
-        velocity_dependent: whether the term depends on ``v`` or ``w``: the kicks of the
-            splitting methods then take more stages to keep their order (a term of ``x, q``
-            alone is constant over a kick, which freezes them).
-    """
+    at any state an integrator asks about: the spec of a declared effect
+    (:class:`rigid_env.core.effect.Effect`, whose flag and fields :meth:`parameters` fills), or
+    an actuator."""
 
     name: ClassVar[str]
-    velocity_dependent: ClassVar[bool] = False
+
+    @property
+    def velocity_dependent(self) -> bool:
+        """Whether the term depends on ``v`` or ``w`` (its declaration says): the kicks of the
+        splitting methods then take more stages to keep their order (a term of ``x, q`` alone
+        is constant over a kick, which freezes them)."""
+        flags = self.parameters()
+        return any(e.velocity_dependent for e in EFFECTS if flags.get(e.name, 0.0) != 0.0)
 
     def parameters(self) -> dict[str, float]:
         """This term's flag and numbers by their names in :class:`Params`."""
@@ -104,7 +107,6 @@ class QuadraticDrag(ForceEffect):
     area: float = 0.06
     center_of_pressure: FloatArray = field(default_factory=lambda: np.zeros(3))
     name: ClassVar[str] = "quadratic_drag"
-    velocity_dependent: ClassVar[bool] = True
 
     def __post_init__(self) -> None:
         # > 0 as in a scene file: a drag that vanishes is left out, not evaluated as zero.
@@ -185,6 +187,39 @@ class GravityGradient(ForceEffect):
         inertia = model.inertia
         i_rr = np.sum(inertia * rb * rb, axis=1) / r2
         return self.mu / (2.0 * r2 * np.sqrt(r2)) * (3.0 * i_rr - np.sum(inertia, axis=1))
+
+
+@dataclass(frozen=True)
+class MagneticDipole(ForceEffect):
+    """The torque of a constant world magnetic field on the body's constant magnetic dipole,
+    ``tau_body = m_b x (R^T B)`` (:func:`rigid_env.core.forces.dipole_torque`): it turns the
+    dipole towards the field, about which the body librates (a compass needle; passive
+    magnetic attitude control). Torque only: a uniform field pushes no dipole.
+
+    Attributes:
+        dipole: (3,) the body's dipole ``m_b``, body frame [A m^2].
+        field: (3,) the field ``B``, world frame [T] (Earth's: about 3e-5 to 6e-5).
+    """
+
+    dipole: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    field: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 5.0e-5]))
+    name: ClassVar[str] = "magnetic_dipole"
+
+    def __post_init__(self) -> None:
+        for name in ("dipole", "field"):
+            value = checked_floats(f"magnetic_dipole.{name}", getattr(self, name), (3,))
+            object.__setattr__(self, name, value)
+
+    def parameters(self) -> dict[str, float]:
+        named = {"magnetic_dipole": 1.0}
+        named |= dict(zip(("dipole_x", "dipole_y", "dipole_z"), self.dipole.tolist(), strict=True))
+        axes = ("magnetic_field_x", "magnetic_field_y", "magnetic_field_z")
+        return named | dict(zip(axes, self.field.tolist(), strict=True))
+
+    def potential_energy(self, model: BodyModel, state: State) -> FloatArray:
+        """``U = -m . B = -m_b . R^T B`` [J]."""
+        field_body = quat_rotate_inv(state.q, np.broadcast_to(self.field, state.x.shape))
+        return -(field_body @ self.dipole)
 
 
 @dataclass(frozen=True)

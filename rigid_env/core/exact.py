@@ -4,6 +4,8 @@ it stays a NumPy array function, vectorised over bodies with SciPy's elliptic uf
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -56,12 +58,28 @@ def _ellip_pi(nu: FloatArray, phi: FloatArray, m: FloatArray) -> FloatArray:
     return out
 
 
-def free_rotation_exact(
-    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float | FloatArray, isotropic: bool
-) -> tuple[FloatArray, FloatArray]:
-    """Exact torque-free motion for time ``h`` (one, or (N,) per body) of ``N`` bodies: Jacobi
-    elliptic functions for the body angular velocity and an elliptic integral of the third kind
-    for the orientation.
+class _Flow(NamedTuple):
+    """The elliptic solution of Euler's equations over a step (:func:`_elliptic_flow`)."""
+
+    w1: FloatArray  # the body angular velocity after the step
+    order: NDArray[np.intp]  # the sorting permutation of the moments
+    b3: NDArray[np.bool_]  # spin about the largest moment (else the smallest)
+    jc: FloatArray  # moments of the cn and pole axes, and the middle one
+    jp: FloatArray
+    j2: FloatArray
+    up: FloatArray  # the pole component of w
+    sgn: FloatArray  # its sign
+    a_dn: FloatArray  # the amplitude of dn
+    moving: NDArray[np.bool_]  # w changes (else steady)
+    big_omega: FloatArray  # the signed frequency of tau
+    m: FloatArray  # the parameter of the elliptic functions
+    am0: FloatArray  # am(tau) at the start and the end
+    am1: FloatArray
+
+
+def _elliptic_flow(w: FloatArray, inertia: FloatArray, h: float | FloatArray) -> _Flow:
+    """The body angular velocity after ``h`` by Jacobi's elliptic functions, and the numbers
+    the orientation needs.
 
     Angular velocity (Landau and Lifshitz, "Mechanics", 3rd ed., Sec. 37). Sort the moments
     ``J1 <= J2 <= J3`` (``u`` = the sorted components of ``w``; an odd sorting permutation
@@ -78,40 +96,9 @@ def free_rotation_exact(
     ``tau = omega t + tau0``; ``s = sign`` of the pole (``dn``) component, which never changes
     (``diag(-1, 1, -1)`` maps solutions to solutions); the phase from the initial condition:
     ``am(tau0) = atan2(u2 / a2, s u_cn / a_cn)``, ``tau0 = F(am(tau0) | m)`` (``ellipkinc``).
-
-    Orientation (after Celledoni, Fasso, Safstrom and Zanna, SIAM J. Sci. Comput. 30(4), 2008:
-    an invariant world ``L`` and one angle). Let ``n = s e_p`` be the pole axis (body frame)
-    and ``Q(t)`` the shortest-arc rotation taking ``l = L_body / |L|`` onto ``n``, never
-    singular since ``l . n > 0``. Then ``R(t) = A Rot(e3, psi(t)) C Q(t)`` with constant ``A, C``
-    (``C n = e3``), so ``R(t1) = R(t0) Q0^T Rot(n, psi1 - psi0) Q1``. Body angular velocity
-    ``w = psi' l + beta`` with ``Q^T Q' = [beta]x``; for the shortest arc ``beta . l =
-    n.(l x l') / (1 + l.n)``, and with ``L' = L x w`` this gives
-
-        psi' = (2 E + |L| |w_p|) / (|L| + J_p |w_p|),  |w_p| = a_dn dn(tau)
-             = |L| / J_p + kappa / (|L| + J_p a_dn dn(tau)),  kappa = (2 E J_p - L^2) / J_p
-
-    Writing ``1 / (alpha + beta dn) = (alpha - beta dn) / (c1 + c2 sn^2)`` splits the integral
-    into a third-kind integral in ``am(tau)`` and an elementary one (``dn dtau = d am``):
-
-        psi1 - psi0 = |L| h / J_p + (1/Omega) [A (Pi(nu; am tau1) - Pi(nu; am tau0))
-                                               - B (G(am tau1) - G(am tau0))]
-        A = |L| (J_p - J_c) / (J_c J_p),
-        B = a_dn sqrt(|J_p - J_c| |J_p - J_2| / (J_c J_2)) sgn(J_p - J_c),
-        nu = -J_p |J_2 - J_c| / (J_c |J_p - J_2|) <= 0,
-        G(phi) = atan(sqrt(1 - nu) tan phi) (unwrapped),  Omega = +-omega as above
-
-    (``J_c``, ``J_p`` the moments of the ``cn`` and pole axes). ``kappa`` cancels the small
-    ``c1`` analytically, so nothing is ill-conditioned near a pure spin. A body with constant
-    ``w`` (a spin about a principal axis, a symmetric body spinning about a transverse axis)
-    rotates by ``exp(h w)``. ``E``, ``|L|`` and the world ``L`` are kept to round-off for any
-    ``h``. Returns new ``(q, w)``.
     """
-    h_col = np.asarray(h)[..., None] if np.ndim(h) else h  # per-body h (N,) beside w (N, 3)
-    if isotropic:
-        return quat_integrate_exp(q, w, h_col), w
     from scipy import special
 
-    inertia = np.broadcast_to(inertia, w.shape)
     order = np.argsort(inertia, axis=1, kind="stable")
     jj = np.take_along_axis(inertia, order, axis=1)
     u = np.take_along_axis(w, order, axis=1)
@@ -150,12 +137,43 @@ def free_rotation_exact(
     w1 = np.empty_like(w)
     np.put_along_axis(w1, order, u_new, axis=1)
 
-    # Orientation: q1 = q (x) conj(s0) (x) exp(dpsi n / 2) (x) s1, s_i = shortest arc l_i -> n.
-    lb0, lb1 = inertia * w, inertia * w1
+    return _Flow(w1, order, b3, jc, jp, j2, up, sgn, a_dn, moving, big_omega, m, am0, am1)
+
+
+def _pole_angle(f: _Flow, w: FloatArray, inertia: FloatArray, h: float | FloatArray) -> FloatArray:
+    """``psi1 - psi0``, the turn about the pole axis over the step.
+
+    Orientation (after Celledoni, Fasso, Safstrom and Zanna, SIAM J. Sci. Comput. 30(4), 2008:
+    an invariant world ``L`` and one angle). Let ``n = s e_p`` be the pole axis (body frame)
+    and ``Q(t)`` the shortest-arc rotation taking ``l = L_body / |L|`` onto ``n``, never
+    singular since ``l . n > 0``. Then ``R(t) = A Rot(e3, psi(t)) C Q(t)`` with constant ``A, C``
+    (``C n = e3``), so ``R(t1) = R(t0) Q0^T Rot(n, psi1 - psi0) Q1``. Body angular velocity
+    ``w = psi' l + beta`` with ``Q^T Q' = [beta]x``; for the shortest arc ``beta . l =
+    n.(l x l') / (1 + l.n)``, and with ``L' = L x w`` this gives
+
+        psi' = (2 E + |L| |w_p|) / (|L| + J_p |w_p|),  |w_p| = a_dn dn(tau)
+             = |L| / J_p + kappa / (|L| + J_p a_dn dn(tau)),  kappa = (2 E J_p - L^2) / J_p
+
+    Writing ``1 / (alpha + beta dn) = (alpha - beta dn) / (c1 + c2 sn^2)`` splits the integral
+    into a third-kind integral in ``am(tau)`` and an elementary one (``dn dtau = d am``):
+
+        psi1 - psi0 = |L| h / J_p + (1/Omega) [A (Pi(nu; am tau1) - Pi(nu; am tau0))
+                                               - B (G(am tau1) - G(am tau0))]
+        A = |L| (J_p - J_c) / (J_c J_p),
+        B = a_dn sqrt(|J_p - J_c| |J_p - J_2| / (J_c J_2)) sgn(J_p - J_c),
+        nu = -J_p |J_2 - J_c| / (J_c |J_p - J_2|) <= 0,
+        G(phi) = atan(sqrt(1 - nu) tan phi) (unwrapped),  Omega = +-omega as above
+
+    (``J_c``, ``J_p`` the moments of the ``cn`` and pole axes). ``kappa`` cancels the small
+    ``c1`` analytically, so nothing is ill-conditioned near a pure spin.
+    """
+    jc, jp, j2, up, a_dn, m = f.jc, f.jp, f.j2, f.up, f.a_dn, f.m
+    moving, big_omega, am0, am1 = f.moving, f.big_omega, f.am0, f.am1
+    dpc, dp2, d2c = jp - jc, np.abs(jp - j2), np.abs(j2 - jc)
+    lb0 = inertia * w
     two_e = np.sum(lb0 * w, axis=1)
     l_norm = np.sqrt(np.sum(lb0 * lb0, axis=1))
     still = l_norm == 0.0  # w = 0: nothing moves
-    l_safe = np.where(still, 1.0, l_norm)
     nu = -_safe_div(jp * d2c, jc * dp2)
     r = np.sqrt(1.0 - nu)
     coef_a = l_norm * dpc / (jc * jp)
@@ -172,10 +190,36 @@ def free_rotation_exact(
         ) / np.where(moving, big_omega, 1.0)
     wp_abs = np.abs(up)
     d_psi_still = h * (two_e + l_norm * wp_abs) / (l_norm + jp * wp_abs + still)
-    d_psi = np.where(moving, d_psi_moving, d_psi_still)
+    return np.where(moving, d_psi_moving, d_psi_still)
 
-    pole = np.where(b3, order[:, 2], order[:, 0])
+
+def free_rotation_exact(
+    q: FloatArray, w: FloatArray, inertia: FloatArray, h: float | FloatArray, isotropic: bool
+) -> tuple[FloatArray, FloatArray]:
+    """Exact torque-free motion for time ``h`` (one, or (N,) per body) of ``N`` bodies: Jacobi
+    elliptic functions for the body angular velocity and an elliptic integral of the third kind
+    for the orientation.
+
+    The angular velocity by :func:`_elliptic_flow`, the turn about the pole by
+    :func:`_pole_angle`. A body with constant ``w`` (a spin about a principal axis, a symmetric
+    body spinning about a transverse axis) rotates by ``exp(h w)``. ``E``, ``|L|`` and the
+    world ``L`` are kept to round-off for any ``h``. Returns new ``(q, w)``.
+    """
+    h_col = np.asarray(h)[..., None] if np.ndim(h) else h  # per-body h (N,) beside w (N, 3)
+    if isotropic:
+        return quat_integrate_exp(q, w, h_col), w
+    inertia = np.broadcast_to(inertia, w.shape)
+    f = _elliptic_flow(w, inertia, h)
+    d_psi = _pole_angle(f, w, inertia, h)
+    b3, order, sgn, w1 = f.b3, f.order, f.sgn, f.w1
     n_axis = np.zeros_like(w)
+    lb0, lb1 = inertia * w, inertia * w1
+    l_norm = np.sqrt(np.sum(lb0 * lb0, axis=1))
+    still = l_norm == 0.0  # w = 0: nothing moves
+    l_safe = np.where(still, 1.0, l_norm)
+
+    # Orientation: q1 = q (x) conj(s0) (x) exp(dpsi n / 2) (x) s1, s_i = shortest arc l_i -> n.
+    pole = np.where(b3, order[:, 2], order[:, 0])
     np.put_along_axis(n_axis, pole[:, None], sgn[:, None], axis=1)
 
     def arc(lb: FloatArray) -> FloatArray:

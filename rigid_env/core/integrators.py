@@ -2,8 +2,8 @@
 
 An integrator advances one body's ``(x, v, q, w)`` (x, v world frame; q body -> world
 ``(w, x, y, z)``; w body frame) by one step ``h`` under the active effects,
-``step(x, v, q, w, act, m, p, h) -> (x, v, q, w)``, with ``act = (force, torque)`` the
-actuators' body-frame wrench (constant over a world step), ``m`` the body's model and ``p`` the
+``step(x, v, q, w, act, m, c, h) -> (x, v, q, w)``, with ``act = (force, torque)`` the
+actuators' body-frame wrench (constant over a world step), ``m`` the body's model and ``c`` the
 world's parameters, both named tuples (:mod:`rigid_env.core.layout`). A world step is that
 function looped over the bodies (:func:`rigid_env.core.stepping.advance`); ``exact_free`` is
 the one NumPy array integrator (:mod:`rigid_env.core.exact`).
@@ -25,43 +25,32 @@ from numpy.typing import NDArray
 
 from rigid_env.core.dop853 import dop853
 from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
-from rigid_env.core.exact import free_rotation_exact
+from rigid_env.core.exact_step import exact_free
 from rigid_env.core.jit import kernel, threads_kernel, world_kernel
-from rigid_env.core.layout import BAD_COMMAND, Body, unpack
 from rigid_env.core.maths import axpy, normalize, qdot, sincos, solve3, spin
-from rigid_env.core.rotation import quat_normalize
-from rigid_env.core.stepping import (
-    advance,
-    energy_roots,
-    finish_pass,
-    kicks,
-    limit_speed_pass,
-    over_threads,
-    segment_kicks,
-    segments_pass,
-)
+from rigid_env.core.stepping import advance, over_threads
 
 FloatArray = NDArray[np.float64]
 
 
 # ---- textbook methods ------------------------------------------------------------------------
 @kernel
-def explicit_euler(x, v, q, w, act, m, p, h):
+def explicit_euler(x, v, q, w, act, m, c, h):
     """Forward Euler, every derivative at the start of the step:
 
         x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0)
 
     Torque-free it inflates the energy by ``O(h^2)`` a step (along the tangent of the orbit)."""
-    a, alpha = accelerations(x, v, q, w, act, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
     return axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha)
 
 
 @kernel
-def symplectic_euler(x, v, q, w, act, m, p, h):
+def symplectic_euler(x, v, q, w, act, m, c, h):
     """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
 
     v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)"""
-    a, alpha = accelerations(x, v, q, w, act, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
     return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1
@@ -76,7 +65,7 @@ def _change(new, old):
 
 
 @kernel
-def implicit_euler(x, v, q, w, act, m, p, h):
+def implicit_euler(x, v, q, w, act, m, c, h):
     """Backward Euler, every derivative at the end of the step,
 
         v1 = v + h a(y1),  w1 = w + h I^-1 (tau(y1) - w1 x I w1),
@@ -89,7 +78,7 @@ def implicit_euler(x, v, q, w, act, m, p, h):
     v1, w1 = v, w
     for _ in range(50):
         q1 = spin(q, w1, h)
-        a, alpha = accelerations(axpy(x, h, v1), v1, q1, w1, act, m, p, False)
+        a, alpha = accelerations(axpy(x, h, v1), v1, q1, w1, act, m, c, False)
         v_new = axpy(v, h, a)
         if m.isotropic == 0.0:
             # Residual r(w1) = w1 - w - h I^-1 (tau - w1 x I w1); Newton: J dw = -r.
@@ -117,7 +106,7 @@ def implicit_euler(x, v, q, w, act, m, p, h):
 
 
 @kernel
-def leapfrog(x, v, q, w, act, m, p, h):
+def leapfrog(x, v, q, w, act, m, c, h):
     """Leapfrog, drift-kick-drift (Strang splitting of drift and kick):
 
         x_h = x + h/2 v,                    q_h = q exp(h/4 w)
@@ -128,24 +117,24 @@ def leapfrog(x, v, q, w, act, m, p, h):
     w)``, which keeps it second order when the accelerations depend on velocity (the
     gyroscopic term, drag)."""
     x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
-    a, alpha = accelerations(x_h, v, q_h, w, act, m, p, True)
-    if p.velocity_dependent != 0.0 or m.isotropic == 0.0:
+    a, alpha = accelerations(x_h, v, q_h, w, act, m, c, True)
+    if c.velocity_dependent != 0.0 or m.isotropic == 0.0:
         v_m, w_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha)
-        a, alpha = accelerations(x_h, v_m, q_h, w_m, act, m, p, True)
+        a, alpha = accelerations(x_h, v_m, q_h, w_m, act, m, c, True)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
     return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1
 
 
 @kernel
-def midpoint(x, v, q, w, act, m, p, h):
+def midpoint(x, v, q, w, act, m, c, h):
     """Explicit midpoint rule, the orientation moved on the group:
 
     y_m = y0 + h/2 f(y0)  (q_m = q exp(h/4 w)),   y1 = y0 + h f(y_m)  (q1 = q exp(h/2 w_m))"""
-    a, alpha = accelerations(x, v, q, w, act, m, p, True)
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
     v_m = axpy(v, 0.5 * h, a)
     w_m = axpy(w, 0.5 * h, alpha)
-    a, alpha = accelerations(axpy(x, 0.5 * h, v), v_m, spin(q, w, 0.5 * h), w_m, act, m, p, True)
+    a, alpha = accelerations(axpy(x, 0.5 * h, v), v_m, spin(q, w, 0.5 * h), w_m, act, m, c, True)
     return axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha)
 
 
@@ -165,30 +154,30 @@ def _rk4_sum(y, c, k1, k2, k3, k4):
 
 
 @kernel
-def rk4(x, v, q, w, act, m, p, h):
+def rk4(x, v, q, w, act, m, c, h):
     """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w)`` with ``q' = 1/2 q (x) (0, w)``:
 
     k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
     y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|"""
-    a1, b1 = accelerations(x, v, q, w, act, m, p, True)
+    a1, b1 = accelerations(x, v, q, w, act, m, c, True)
     d1 = qdot(q, w)
     v2, q2, w2 = axpy(v, 0.5 * h, a1), _q_axpy(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    a2, b2 = accelerations(axpy(x, 0.5 * h, v), v2, q2, w2, act, m, p, True)
+    a2, b2 = accelerations(axpy(x, 0.5 * h, v), v2, q2, w2, act, m, c, True)
     d2 = qdot(q2, w2)
     v3, q3, w3 = axpy(v, 0.5 * h, a2), _q_axpy(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    a3, b3 = accelerations(axpy(x, 0.5 * h, v2), v3, q3, w3, act, m, p, True)
+    a3, b3 = accelerations(axpy(x, 0.5 * h, v2), v3, q3, w3, act, m, c, True)
     d3 = qdot(q3, w3)
     v4, q4, w4 = axpy(v, h, a3), _q_axpy(q, h, d3), axpy(w, h, b3)
-    a4, b4 = accelerations(axpy(x, h, v3), v4, q4, w4, act, m, p, True)
+    a4, b4 = accelerations(axpy(x, h, v3), v4, q4, w4, act, m, c, True)
     d4 = qdot(q4, w4)
-    c = h / 6.0
-    qv = _rk4_sum((q[1], q[2], q[3]), c, d1[1:], d2[1:], d3[1:], d4[1:])
-    q1 = (q[0] + c * (d1[0] + 2.0 * (d2[0] + d3[0]) + d4[0]), qv[0], qv[1], qv[2])
+    sixth = h / 6.0
+    qv = _rk4_sum((q[1], q[2], q[3]), sixth, d1[1:], d2[1:], d3[1:], d4[1:])
+    q1 = (q[0] + sixth * (d1[0] + 2.0 * (d2[0] + d3[0]) + d4[0]), qv[0], qv[1], qv[2])
     return (
-        _rk4_sum(x, c, v, v2, v3, v4),
-        _rk4_sum(v, c, a1, a2, a3, a4),
+        _rk4_sum(x, sixth, v, v2, v3, v4),
+        _rk4_sum(v, sixth, a1, a2, a3, a4),
         normalize(q1),
-        _rk4_sum(w, c, b1, b2, b3, b4),
+        _rk4_sum(w, sixth, b1, b2, b3, b4),
     )
 
 
@@ -200,7 +189,7 @@ def _energy2(w, m):
 
 
 @kernel
-def implicit_gyro(x, v, q, w, act, m, p, h):
+def implicit_gyro(x, v, q, w, act, m, c, h):
     """Semi-implicit Euler with the gyroscopic term taken implicitly by one Newton step
     (E. Catto, "Numerical Methods", GDC 2015; Bullet's ``computeGyroscopicImpulseImplicit``):
 
@@ -214,7 +203,7 @@ def implicit_gyro(x, v, q, w, act, m, p, h):
     projected back onto ``E = E(w_e)`` by the radial scaling ``w1 <- w1 sqrt(E(w_e) / E(w1))``
     (Hairer, Lubich and Wanner, "Geometric Numerical Integration", 2nd ed., Sec. IV.4), formed
     from ``w1 / max|w1|`` so it cannot overflow."""
-    a, alpha = accelerations(x, v, q, w, act, m, p, False)
+    a, alpha = accelerations(x, v, q, w, act, m, c, False)
     v1 = axpy(v, h, a)
     w1 = w_e = axpy(w, h, alpha)
     if m.isotropic == 0.0:
@@ -316,16 +305,16 @@ def free_rotation(q, w, m, h):
 
 
 @kernel
-def splitting(x, v, q, w, act, m, p, h):
+def splitting(x, v, q, w, act, m, c, h):
     """Strang splitting ``kick(h/2) -> [x += h v ; free rotation] -> kick(h/2)``: torque-free it
     keeps ``|L|`` and the world ``L`` to round-off and the energy up to a bounded oscillation
     (symplectic); with forces it is second order."""
-    if p.any_force != 0.0:
-        v, w = kick(x, v, q, w, act, m, p, 0.5 * h)
+    if c.any_force != 0.0:
+        v, w = kick(x, v, q, w, act, m, c, 0.5 * h)
     x1 = axpy(x, h, v)
     q1, w = free_rotation(q, w, m, h)
-    if p.any_force != 0.0:
-        v, w = kick(x1, v, q1, w, act, m, p, 0.5 * h)
+    if c.any_force != 0.0:
+        v, w = kick(x1, v, q1, w, act, m, c, 0.5 * h)
     return x1, v, normalize(q1), w
 
 
@@ -338,22 +327,22 @@ YOSHIDA_C0 = 1.0 - 2.0 * YOSHIDA_C1  # -1.7024..., a step backwards in time
 
 
 @kernel
-def kick_rk4(x, v, q, w, act, m, p, h):
+def kick_rk4(x, v, q, w, act, m, c, h):
     """The kick of :func:`kick` to a local error of ``O(h^5)``: exact in one evaluation when no
     force depends on velocity, otherwise classical RK4 on ``(v, w)`` (the midpoint kick's
     ``O(h^3)`` error would leave the triple jump at order 3 with drag)."""
-    if p.velocity_dependent == 0.0:
-        return kick(x, v, q, w, act, m, p, h)
-    a1, b1 = accelerations(x, v, q, w, act, m, p, False)
-    a2, b2 = accelerations(x, axpy(v, 0.5 * h, a1), q, axpy(w, 0.5 * h, b1), act, m, p, False)
-    a3, b3 = accelerations(x, axpy(v, 0.5 * h, a2), q, axpy(w, 0.5 * h, b2), act, m, p, False)
-    a4, b4 = accelerations(x, axpy(v, h, a3), q, axpy(w, h, b3), act, m, p, False)
-    c = h / 6.0
-    return _rk4_sum(v, c, a1, a2, a3, a4), _rk4_sum(w, c, b1, b2, b3, b4)
+    if c.velocity_dependent == 0.0:
+        return kick(x, v, q, w, act, m, c, h)
+    a1, b1 = accelerations(x, v, q, w, act, m, c, False)
+    a2, b2 = accelerations(x, axpy(v, 0.5 * h, a1), q, axpy(w, 0.5 * h, b1), act, m, c, False)
+    a3, b3 = accelerations(x, axpy(v, 0.5 * h, a2), q, axpy(w, 0.5 * h, b2), act, m, c, False)
+    a4, b4 = accelerations(x, axpy(v, h, a3), q, axpy(w, h, b3), act, m, c, False)
+    sixth = h / 6.0
+    return _rk4_sum(v, sixth, a1, a2, a3, a4), _rk4_sum(w, sixth, b1, b2, b3, b4)
 
 
 @kernel
-def yoshida4(x, v, q, w, act, m, p, h):
+def yoshida4(x, v, q, w, act, m, c, h):
     """Fourth-order symmetric composition (Yoshida 1990; Hairer, Lubich and Wanner, Sec. II.4)
     of the Strang step ``S(h) = K(h/2) D(h) K(h/2)`` of :func:`splitting`:
 
@@ -363,105 +352,22 @@ def yoshida4(x, v, q, w, act, m, p, h):
     (neighbouring half-kicks act at the same ``x, q`` and merge: 4 kicks, 3 turns about ``L`` and
     15 axis rotations per step). Torque-free it keeps ``|L|`` and the world ``L`` to round-off; with
     drag the kicks are taken by RK4 (:func:`kick_rk4`) to stay fourth order."""
-    forces = p.any_force != 0.0
+    forces = c.any_force != 0.0
     if forces:
-        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * YOSHIDA_C1 * h)
+        v, w = kick_rk4(x, v, q, w, act, m, c, 0.5 * YOSHIDA_C1 * h)
     x = axpy(x, YOSHIDA_C1 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C1 * h)
     if forces:
-        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * (YOSHIDA_C1 + YOSHIDA_C0) * h)
+        v, w = kick_rk4(x, v, q, w, act, m, c, 0.5 * (YOSHIDA_C1 + YOSHIDA_C0) * h)
     x = axpy(x, YOSHIDA_C0 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C0 * h)
     if forces:
-        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * (YOSHIDA_C0 + YOSHIDA_C1) * h)
+        v, w = kick_rk4(x, v, q, w, act, m, c, 0.5 * (YOSHIDA_C0 + YOSHIDA_C1) * h)
     x = axpy(x, YOSHIDA_C1 * h, v)
     q, w = free_rotation(q, w, m, YOSHIDA_C1 * h)
     if forces:
-        v, w = kick_rk4(x, v, q, w, act, m, p, 0.5 * YOSHIDA_C1 * h)
+        v, w = kick_rk4(x, v, q, w, act, m, c, 0.5 * YOSHIDA_C1 * h)
     return x, v, normalize(q), w
-
-
-# ---- the array integrator -------------------------------------------------------------------
-_INERTIA = slice(Body._fields.index("inertia_x"), Body._fields.index("inertia_z") + 1)
-_ISOTROPIC = Body._fields.index("isotropic")
-
-
-def exact_free(
-    p: FloatArray,
-    model: FloatArray,
-    state: FloatArray,
-    status: NDArray[np.uint8],
-    wrenches: FloatArray,
-    command: FloatArray,
-) -> int:
-    """The world step of ``exact_free``, arguments and result as a compiled entry's
-    (:func:`rigid_env.core.stepping.advance`; ``wrenches`` a scratch of thrusters as hardware,
-    :func:`_exact_free_hardware`): per substep the speed limit,
-    then Strang splitting ``kick(h/2) -> [x += h v ; exact torque-free flow] -> kick(h/2)``
-    with the compiled kicks of ``splitting`` and the Jacobi elliptic flow
-    (:func:`rigid_env.core.exact.free_rotation_exact`), after the last the same maps and guard
-    as the compiled step (:func:`rigid_env.core.stepping.finish_pass`)."""
-    if not np.all(np.isfinite(command)):
-        return BAD_COMMAND
-    c = unpack(p)
-    before = state.copy()
-    inertia = np.ascontiguousarray(model[_INERTIA].T)
-    isotropic = bool(np.all(model[_ISOTROPIC] != 0.0))
-    x, v, q, w = state[0:3].T, state[3:6].T, state[6:10].T, state[10:13].T
-    if c.hardware != 0.0:
-        with np.errstate(all="ignore"):
-            roots = _exact_free_hardware(p, model, state, wrenches, command, inertia, isotropic)
-        return finish_pass(p, model, state, before, status, roots)
-    with np.errstate(all="ignore"):
-        roots = energy_roots(p, model, state, command, c.h * c.substeps)
-        for _ in range(int(c.substeps)):
-            limit_speed_pass(p, state)
-            if c.any_force != 0.0:
-                kicks(p, model, state, command, 0.5 * c.h)
-            x += c.h * v
-            q[:], w[:] = free_rotation_exact(q, w, inertia, c.h, isotropic)
-            if c.any_force != 0.0:
-                kicks(p, model, state, command, 0.5 * c.h)
-            q[:] = quat_normalize(q)
-    return finish_pass(p, model, state, before, status, roots)
-
-
-def _exact_free_hardware(
-    p: FloatArray,
-    model: FloatArray,
-    state: FloatArray,
-    wrenches: FloatArray,
-    command: FloatArray,
-    inertia: FloatArray,
-    isotropic: bool,
-) -> FloatArray:
-    """``exact_free``'s substeps with thrusters as hardware (:mod:`rigid_env.core.thrusters`):
-    each substep cut at every body's switch times into segments of per-body lengths ``s``
-    (:func:`rigid_env.core.stepping.segments_pass`), each segment one Strang step ``kick(s/2)
-    -> [x += s v ; exact torque-free flow for s] -> kick(s/2)`` under the wrench held over it;
-    a body whose substep has no further segment is left as it is (a select, not a flow by 0).
-    Returns each body's reach for the guard (:func:`rigid_env.core.stepping.segments_pass`)."""
-    c = unpack(p)
-    n = state.shape[1]
-    x, v, q, w = state[0:3].T, state[3:6].T, state[6:10].T, state[10:13].T
-    lengths, t = np.zeros(n), np.zeros(n)
-    substeps = int(c.substeps)
-    roots = None
-    for k in range(substeps):
-        limit_speed_pass(p, state)
-        if roots is None:  # sqrt(E) at the start, then the reach s B of every segment
-            roots = energy_roots(p, model, state, command, 0.0)
-        t[:] = k * c.h
-        t1 = c.dt if k == substeps - 1 else (k + 1) * c.h
-        while segments_pass(p, model, state, command, (t, t1), (lengths, wrenches, roots)):
-            moving = lengths > 0.0
-            segment_kicks(p, model, state, wrenches, lengths, 0.5)
-            x += np.where(moving[:, None], lengths[:, None] * v, 0.0)
-            q1, w1 = free_rotation_exact(q, w, inertia, lengths, isotropic)
-            q[:], w[:] = np.where(moving[:, None], q1, q), np.where(moving[:, None], w1, w)
-            segment_kicks(p, model, state, wrenches, lengths, 0.5)
-            q[:] = np.where(moving[:, None], quat_normalize(q), q)
-    return roots
 
 
 # ---- three compiled entries per method ---------------------------------------------------------
@@ -471,155 +377,169 @@ def _exact_free_hardware(
 # time and caches the loop on disk; a function object from Python would cost a slow type lookup
 # per call, and a closure would not be cached.
 @world_kernel
-def _explicit_euler(p, m, s, f, b, u):
-    return advance(explicit_euler, p, m, (s, f, b), u, (0, s.shape[1]))
+def _explicit_euler(p, model, state, status, wrenches, command):
+    return advance(
+        explicit_euler, p, model, (state, status, wrenches), command, (0, state.shape[1])
+    )
 
 
 @world_kernel
-def _explicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(explicit_euler, p, m, (s, f, b), u, (i, j))
+def _explicit_euler_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(explicit_euler, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _explicit_euler_threads(world, i, j, t):
-    return over_threads(_explicit_euler_range, world, i, j, t)
+def _explicit_euler_threads(world, start, stop, threads):
+    return over_threads(_explicit_euler_range, world, start, stop, threads)
 
 
 @world_kernel
-def _symplectic_euler(p, m, s, f, b, u):
-    return advance(symplectic_euler, p, m, (s, f, b), u, (0, s.shape[1]))
+def _symplectic_euler(p, model, state, status, wrenches, command):
+    return advance(
+        symplectic_euler, p, model, (state, status, wrenches), command, (0, state.shape[1])
+    )
 
 
 @world_kernel
-def _symplectic_euler_range(p, m, s, f, b, u, i, j):
-    return advance(symplectic_euler, p, m, (s, f, b), u, (i, j))
+def _symplectic_euler_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(symplectic_euler, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _symplectic_euler_threads(world, i, j, t):
-    return over_threads(_symplectic_euler_range, world, i, j, t)
+def _symplectic_euler_threads(world, start, stop, threads):
+    return over_threads(_symplectic_euler_range, world, start, stop, threads)
 
 
 @world_kernel
-def _implicit_euler(p, m, s, f, b, u):
-    return advance(implicit_euler, p, m, (s, f, b), u, (0, s.shape[1]))
+def _implicit_euler(p, model, state, status, wrenches, command):
+    return advance(
+        implicit_euler, p, model, (state, status, wrenches), command, (0, state.shape[1])
+    )
 
 
 @world_kernel
-def _implicit_euler_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_euler, p, m, (s, f, b), u, (i, j))
+def _implicit_euler_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(implicit_euler, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _implicit_euler_threads(world, i, j, t):
-    return over_threads(_implicit_euler_range, world, i, j, t)
+def _implicit_euler_threads(world, start, stop, threads):
+    return over_threads(_implicit_euler_range, world, start, stop, threads)
 
 
 @world_kernel
-def _leapfrog(p, m, s, f, b, u):
-    return advance(leapfrog, p, m, (s, f, b), u, (0, s.shape[1]))
+def _leapfrog(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(leapfrog, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _leapfrog_range(p, m, s, f, b, u, i, j):
-    return advance(leapfrog, p, m, (s, f, b), u, (i, j))
+def _leapfrog_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(leapfrog, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _leapfrog_threads(world, i, j, t):
-    return over_threads(_leapfrog_range, world, i, j, t)
+def _leapfrog_threads(world, start, stop, threads):
+    return over_threads(_leapfrog_range, world, start, stop, threads)
 
 
 @world_kernel
-def _midpoint(p, m, s, f, b, u):
-    return advance(midpoint, p, m, (s, f, b), u, (0, s.shape[1]))
+def _midpoint(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(midpoint, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _midpoint_range(p, m, s, f, b, u, i, j):
-    return advance(midpoint, p, m, (s, f, b), u, (i, j))
+def _midpoint_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(midpoint, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _midpoint_threads(world, i, j, t):
-    return over_threads(_midpoint_range, world, i, j, t)
+def _midpoint_threads(world, start, stop, threads):
+    return over_threads(_midpoint_range, world, start, stop, threads)
 
 
 @world_kernel
-def _rk4(p, m, s, f, b, u):
-    return advance(rk4, p, m, (s, f, b), u, (0, s.shape[1]))
+def _rk4(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(rk4, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _rk4_range(p, m, s, f, b, u, i, j):
-    return advance(rk4, p, m, (s, f, b), u, (i, j))
+def _rk4_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(rk4, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _rk4_threads(world, i, j, t):
-    return over_threads(_rk4_range, world, i, j, t)
+def _rk4_threads(world, start, stop, threads):
+    return over_threads(_rk4_range, world, start, stop, threads)
 
 
 @world_kernel
-def _implicit_gyro(p, m, s, f, b, u):
-    return advance(implicit_gyro, p, m, (s, f, b), u, (0, s.shape[1]))
+def _implicit_gyro(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(implicit_gyro, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _implicit_gyro_range(p, m, s, f, b, u, i, j):
-    return advance(implicit_gyro, p, m, (s, f, b), u, (i, j))
+def _implicit_gyro_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(implicit_gyro, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _implicit_gyro_threads(world, i, j, t):
-    return over_threads(_implicit_gyro_range, world, i, j, t)
+def _implicit_gyro_threads(world, start, stop, threads):
+    return over_threads(_implicit_gyro_range, world, start, stop, threads)
 
 
 @world_kernel
-def _splitting(p, m, s, f, b, u):
-    return advance(splitting, p, m, (s, f, b), u, (0, s.shape[1]))
+def _splitting(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(splitting, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _splitting_range(p, m, s, f, b, u, i, j):
-    return advance(splitting, p, m, (s, f, b), u, (i, j))
+def _splitting_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(splitting, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _splitting_threads(world, i, j, t):
-    return over_threads(_splitting_range, world, i, j, t)
+def _splitting_threads(world, start, stop, threads):
+    return over_threads(_splitting_range, world, start, stop, threads)
 
 
 @world_kernel
-def _yoshida4(p, m, s, f, b, u):
-    return advance(yoshida4, p, m, (s, f, b), u, (0, s.shape[1]))
+def _yoshida4(p, model, state, status, wrenches, command):
+    every = (0, state.shape[1])
+    return advance(yoshida4, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
-def _yoshida4_range(p, m, s, f, b, u, i, j):
-    return advance(yoshida4, p, m, (s, f, b), u, (i, j))
+def _yoshida4_range(p, model, state, status, wrenches, command, start, stop):
+    return advance(yoshida4, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
-def _yoshida4_threads(world, i, j, t):
-    return over_threads(_yoshida4_range, world, i, j, t)
+def _yoshida4_threads(world, start, stop, threads):
+    return over_threads(_yoshida4_range, world, start, stop, threads)
 
 
 # An error-controlled method's entries take its (2, N) counts ``n`` before the command: the
 # substeps each body took, and the substep each tries first in the next step (carried).
 @world_kernel
-def _dop853(p, m, s, f, b, n, u):
-    return advance(dop853, p, m, (s, f, b), u, (0, s.shape[1]), n)
+def _dop853(p, model, state, status, wrenches, counts, command):
+    return advance(
+        dop853, p, model, (state, status, wrenches), command, (0, state.shape[1]), counts
+    )
 
 
 @world_kernel
-def _dop853_range(p, m, s, f, b, n, u, i, j):
-    return advance(dop853, p, m, (s, f, b), u, (i, j), n)
+def _dop853_range(p, model, state, status, wrenches, counts, command, start, stop):
+    return advance(dop853, p, model, (state, status, wrenches), command, (start, stop), counts)
 
 
 @threads_kernel
-def _dop853_threads(world, i, j, t):
-    return over_threads(_dop853_range, world, i, j, t)
+def _dop853_threads(world, start, stop, threads):
+    return over_threads(_dop853_range, world, start, stop, threads)
 
 
 # ---- registry --------------------------------------------------------------------------------

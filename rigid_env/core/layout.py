@@ -5,9 +5,9 @@
 * :class:`Params`: the world's parameters, the head of one float64 array (:func:`pack` in
   :mod:`rigid_env.core.effects` fills it by name), followed by the actuators' maps from
   :data:`MAPS` on (then each command component's :class:`Thruster` hardware numbers); the
-  per-body functions read them as ``p.gravity``, ``p.drag_k``. An effect
-  the scene does not list has a 0 flag, skipped by one branch. Adding a field is adding a line
-  here: every offset follows from the order of the declaration.
+  per-body functions read them as ``c.gravity``, ``c.drag_k``. The effects' fields come from
+  their declarations (:data:`EFFECTS`); an effect the scene does not list has a 0 flag, skipped
+  by one branch. Every offset follows from the order of the declaration.
 * the state columns (13, N) ``(x, v, q, w)`` (:func:`load`, :func:`store`), and from
   :data:`THRUST` on the thrusters' levels where they lag.
 * the step's outcome: a body's status (:data:`HEALTHY`, :data:`FROZEN`, :data:`FAILED`) and the
@@ -32,6 +32,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload, register_jitable
 from numpy.typing import NDArray
 
+from rigid_env.core.effect import load_effects
 from rigid_env.core.jit import kernel
 
 FloatArray = NDArray[np.float64]
@@ -53,47 +54,46 @@ class Body(NamedTuple):
     inv_sqrt_inertia: float  # 1 / sqrt(least principal moment), the same [1/(kg^(1/2) m)]
 
 
-class Params(NamedTuple):
-    """The world's parameters: the step, then each effect's flag (1 where the scene lists it,
-    else 0) and numbers, then the step's own settings. Vectors are world frame unless named."""
-
-    h: float  # integrator step dt / substeps [s]
-    substeps: float  # integrator steps per world step
-    gravity: float  # flag
-    gravity_x: float  # g [m/s^2]
-    gravity_y: float
-    gravity_z: float
-    drag: float  # flag
-    drag_k: float  # k = rho cd A / 2 [kg/m]
-    drag_offset: float  # flag: the centre of pressure is off the centre of mass
-    cop_x: float  # centre of pressure, body frame [m]
-    cop_y: float
-    cop_z: float
-    gravity_gradient: float  # flag
-    gradient_mu: float  # mu = G M of the attracting body [m^3/s^2]
-    gradient_center_x: float  # its centre, world frame [m]
-    gradient_center_y: float
-    gradient_center_z: float
-    linear_damping: float  # flag
-    linear_alpha: float  # v <- alpha v each world step
-    angular_damping: float  # flag
-    angular_alpha: float  # w <- alpha w each world step
-    max_speed: float  # flag
-    max_speed_value: float  # the limit on |w| [rad/s]
-    actuator_force: float  # flag: some actuator pushes the centre of mass (not only couples)
-    any_force: float  # flag: some effect or actuator acts (else a splitting skips its kicks)
-    velocity_dependent: float  # flag: some force depends on v or w (kicks need more stages)
-    stable_speed: float  # |w| [rad/s] beyond which the integrator leaves its stable range (0: none)
-    actions: float  # number A of command components
-    rtol: float  # error-controlled integrators (dop853): relative tolerance of a substep's error
-    atol: float  # and its absolute tolerance
-    max_substeps: float  # the most substeps one integrator step may take
-    adaptive: float  # flag: error control on (else one fixed step of h)
-    dt: float  # world step [s]
-    hardware: float  # flag: some thruster has a hardware model (lag, min impulse, on/off, noise)
-    lagged: float  # flag: the thrust levels are state, rows from THRUST on (some thruster lags)
-    noisy: float  # flag: the command carries A thrust factors after its A components
-    body_maps: float  # flag: each body has its own actuator maps, model rows from MODEL_WIDTH on
+_HEAD = (
+    ("h", "integrator step dt / substeps [s]"),
+    ("substeps", "integrator steps per world step"),
+)
+_TAIL = (
+    ("linear_damping", "flag"),
+    ("linear_alpha", "v <- alpha v each world step"),
+    ("angular_damping", "flag"),
+    ("angular_alpha", "w <- alpha w each world step"),
+    ("max_speed", "flag"),
+    ("max_speed_value", "the limit on |w| [rad/s]"),
+    ("actuator_force", "flag: some actuator pushes the centre of mass (not only couples)"),
+    ("any_force", "flag: some effect or actuator acts (else a splitting skips its kicks)"),
+    ("velocity_dependent", "flag: some force depends on v or w (kicks need more stages)"),
+    ("stable_speed", "|w| [rad/s] beyond which the integrator leaves its stable range (0: none)"),
+    ("actions", "number A of command components"),
+    ("rtol", "error-controlled integrators (dop853): relative tolerance of a substep's error"),
+    ("atol", "and its absolute tolerance"),
+    ("max_substeps", "the most substeps one integrator step may take"),
+    ("adaptive", "flag: error control on (else one fixed step of h)"),
+    ("dt", "world step [s]"),
+    ("hardware", "flag: some thruster has a hardware model (lag, min impulse, on/off, noise)"),
+    ("lagged", "flag: the thrust levels are state, rows from THRUST on (some thruster lags)"),
+    ("noisy", "flag: the command carries A thrust factors after its A components"),
+    ("body_maps", "flag: each body has its own actuator maps, model rows from MODEL_WIDTH on"),
+)
+EFFECTS = load_effects()
+"""The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""
+_FIELDS = (
+    *(name for name, _ in _HEAD),
+    *(name for e in EFFECTS for name in (e.name, *e.fields)),
+    *(name for name, _ in _TAIL),
+)
+Params = NamedTuple("Params", [(name, float) for name in _FIELDS])  # type: ignore[misc]
+Params.__doc__ = (
+    "The world's parameters: the step, then each registered effect's flag (1 where the scene "
+    "lists it, else 0) and fields (:class:`rigid_env.core.effect.Effect`), then the step's own "
+    "settings. Vectors are world frame unless named.\n\n"
+    + "\n".join(f"* ``{name}``: {doc}" for name, doc in (*_HEAD, *_TAIL))
+)
 
 
 MAPS = len(Params._fields)
@@ -215,59 +215,6 @@ def _body_model(model, i):
     return lambda model, i: _read(model, i, _BODY0)
 
 
-RARE = ("gravity_gradient", "hardware")
-"""The flags of the effects that only the per-body passes carry
-(:func:`rigid_env.core.stepping.advance`): the vectorised passes see them as the constant 0 of
-:func:`common`, so their code is not in those loops at all (a flag read from the array would
-keep it there: the compiler computes both sides of a branch inside a vectorised loop)."""
-
-
-def rare(c: Params) -> bool:
-    """Whether one of the :data:`RARE` flags of ``c`` is set."""
-    return any(getattr(c, name) != 0.0 for name in RARE)
-
-
-@intrinsic
-def _rare(typingctx, c):
-    def codegen(context, builder, sig, args):
-        out = cgutils.false_bit
-        zero = context.get_constant(types.float64, 0.0)
-        for name in RARE:
-            flag = builder.extract_value(args[0], Params._fields.index(name))
-            out = builder.or_(out, builder.fcmp_unordered("!=", flag, zero))
-        return out
-
-    return types.boolean(c), codegen
-
-
-@overload(rare, inline="always")
-def _overload_rare(c):
-    return lambda c: _rare(c)
-
-
-def common(c: Params) -> Params:
-    """``c`` with the :data:`RARE` flags 0; compiled, 0 as constants that remove the effects'
-    branches from the code."""
-    return c._replace(**dict.fromkeys(RARE, 0.0))
-
-
-@intrinsic
-def _common(typingctx, c):
-    def codegen(context, builder, sig, args):
-        out = args[0]
-        zero = context.get_constant(types.float64, 0.0)
-        for name in RARE:
-            out = builder.insert_value(out, zero, Params._fields.index(name))
-        return out
-
-    return c(c), codegen
-
-
-@overload(common, inline="always")
-def _overload_common(c):
-    return lambda c: _common(c)
-
-
 def thruster(p: FloatArray, actions: int, a: int) -> Thruster:
     """Command component ``a``'s hardware numbers, after the ``actions`` rows of maps."""
     k = MAPS + 6 * actions + THRUSTER_WIDTH * a
@@ -277,6 +224,15 @@ def thruster(p: FloatArray, actions: int, a: int) -> Thruster:
 @overload(thruster, inline="always")
 def _thruster(p, actions, a):
     return lambda p, actions, a: _read(p, MAPS + 6 * actions + THRUSTER_WIDTH * a, _THRUSTER0)
+
+
+@kernel
+def command_level(command, r, a):
+    """Component ``a`` of row ``r`` of the command (N | 1, A), clipped to ``[-1, 1]`` (full
+    throttle either way). The one rule of every entry point (``World.step``, ``World.advance``,
+    the envs): a command beyond full throttle gives full throttle; a NaN or inf is refused
+    before the step (:data:`BAD_COMMAND`)."""
+    return min(max(command[r, a], -1.0), 1.0)
 
 
 @kernel

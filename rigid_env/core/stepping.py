@@ -16,6 +16,14 @@ import numpy as np
 from numba import prange, types
 from numba.extending import overload
 
+from rigid_env.core.compose import (
+    add_force_bounds,
+    add_potential_roots,
+    add_torque_bounds,
+    any_potential,
+    common,
+    rare,
+)
 from rigid_env.core.dynamics import ZERO_WRENCH, accelerations, kick, kinetic_energy, wrench
 from rigid_env.core.jit import kernel, pass_kernel
 from rigid_env.core.layout import (
@@ -25,17 +33,15 @@ from rigid_env.core.layout import (
     REACH,
     beyond_of,
     body_model,
-    common,
     failures_of,
     load,
     load_wrench,
-    rare,
     step_code,
     store,
     store_wrench,
     unpack,
 )
-from rigid_env.core.maths import axpy, norm
+from rigid_env.core.maths import norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
 
@@ -86,7 +92,8 @@ EXPLOSION_FACTOR = 10.0
 guard fails the body (its kinetic energy ``100 x`` beyond). Reach: with power ``P = F . v + tau
 . w`` (drag only dissipates, ``F . v_p <= 0``) and ``|v| <= sqrt(2 E / m)``, ``|w| <= sqrt(2 E /
 I_min)``, ``d sqrt(E) / dt = P / (2 sqrt(E)) <= B = (|F| / sqrt(m) + |tau| / sqrt(I_min)) /
-sqrt(2)`` with ``F`` the actuators' force and gravity's ``m g``: the exact flow ends with
+sqrt(2)`` with ``F`` the actuators' force and the effects' bounds (gravity's ``m g``, a
+conservative effect's potential span instead, :func:`energy_root`): the exact flow ends with
 ``sqrt(E1) <= sqrt(E0) + h B``. A method adds its own one-step error; the largest inside the
 stable ranges is forward Euler's, torque-free ``E1 = E0 + h^2 / 2 f . I f`` with Euler's rates
 ``I_i f_i^2 = (I_j - I_k)^2 w_j^2 w_k^2 / I_i <= max(I_j, I_k) w_j^2 w_k^2 <= 2 E |w|^2`` for a
@@ -98,9 +105,9 @@ for that and trips only where the state explodes: the three-axis splitting's ``|
 
 @kernel
 def start_energy(x, v, w, m, c):
-    """Where a body's reach starts, as an energy [J]: its kinetic energy ``E0``, or with the
-    gravity gradient ``(sqrt(E0) + sqrt(dV))^2`` (:func:`gradient_reach`)."""
-    if c.gravity_gradient == 0.0:
+    """Where a body's reach starts, as an energy [J]: its kinetic energy ``E0``, or with a
+    conservative effect listed ``(sqrt(E0) + sum sqrt(dV))^2`` (:func:`energy_root`)."""
+    if not any_potential(c):
         return kinetic_energy(v, w, m)
     root = energy_root(x, v, w, m, c)
     return root * root
@@ -108,9 +115,10 @@ def start_energy(x, v, w, m, c):
 
 @kernel
 def energy_root(x, v, w, m, c):
-    """Where a body's reach starts: ``sqrt(E0)`` [J^(1/2)] plus the gravity gradient's
-    ``sqrt(dV)`` (:func:`gradient_reach`)."""
-    return math.sqrt(kinetic_energy(v, w, m)) + gradient_reach(x, m, c)
+    """Where a body's reach starts: ``sqrt(E0)`` [J^(1/2)] plus the ``sqrt(dV)`` each listed
+    conservative effect declares (its ``potential_bound``: the most potential energy it can
+    release, :mod:`rigid_env.core.effect`)."""
+    return add_potential_roots(math.sqrt(kinetic_energy(v, w, m)), x, m, c)
 
 
 @kernel
@@ -136,24 +144,12 @@ def within_reach(energy, reach):
 
 @kernel
 def force_reach(act, m, c):
-    """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the world's
-    gravity: ``(|F| + m |g|) / sqrt(m) + |tau| / sqrt(I_min)``."""
+    """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the listed effects'
+    force and torque bounds (:mod:`rigid_env.core.effect`): ``(|F| + sum B_F) / sqrt(m) +
+    (|tau| + sum B_tau) / sqrt(I_min)``."""
     fb, tb = act
-    g = m.mass * math.sqrt(c.gravity_x**2 + c.gravity_y**2 + c.gravity_z**2)  # 0 without
-    return (norm(fb) + g) * m.inv_sqrt_mass + norm(tb) * m.inv_sqrt_inertia
-
-
-@kernel
-def gradient_reach(x, m, c):
-    """``sqrt(dV)``: the gravity-gradient torque is conservative, with the potential ``V = mu /
-    (2 |r|^3) (3 r^.I r^ - tr I)``, which over every orientation spans ``dV = 3 mu (I_max -
-    I_min) / (2 |r|^3)`` (``|r|`` at the step's start); 0 without the effect."""
-    if c.gravity_gradient == 0.0:
-        return 0.0
-    center = (c.gradient_center_x, c.gradient_center_y, c.gradient_center_z)
-    r = norm(axpy(x, -1.0, center))
-    spread = max(m.inertia_x, m.inertia_y, m.inertia_z) - min(m.inertia_x, m.inertia_y, m.inertia_z)
-    return math.sqrt(1.5 * c.gradient_mu * spread / (r * r * r))
+    forces = add_force_bounds(norm(fb), m, c)
+    return forces * m.inv_sqrt_mass + add_torque_bounds(norm(tb), m, c) * m.inv_sqrt_inertia
 
 
 @kernel
@@ -238,6 +234,26 @@ def _clear_counts(counts, bodies):
     return clear
 
 
+@kernel
+def begin_substep(state, model, i, c):
+    """The first stages of a substep of body ``i``, shared by both passes: its state before
+    (``old``), its model, and its ``w`` under the speed limit."""
+    old = load(state, i)
+    return old, body_model(model, i), limit_speed(old[3], c)
+
+
+@kernel
+def end_substep(state, status, i, states, m, reach, c, last):
+    """The last stages of a substep of body ``i``, shared by both passes: on the ``last``
+    substep :func:`step_maps`, then the :func:`guard` of ``states = (new, old)`` with the
+    ``reach``. Returns ``(failed, beyond)``, each 0 or 1."""
+    (x, v, q, w), old = states
+    if last:
+        v, w = step_maps(v, w, c)
+    ok, failed = guard(state, status, i, (x, v, q, w), old, m, reach)
+    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+
+
 @pass_kernel
 def substep(step, c, model, wrenches, state, status, at, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
@@ -247,17 +263,13 @@ def substep(step, c, model, wrenches, state, status, at, counts):
     is not read. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps
     each body took (:func:`integrate`)."""
     i, last, actuated = at
-    x0, v0, q0, w0 = load(state, i)
-    m = body_model(model, i)
+    old, m, w = begin_substep(state, model, i, c)
+    x0, v0, q0, _ = old
     act = load_wrench(wrenches, i) if actuated else ZERO_WRENCH
     forces = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
-    w = limit_speed(w0, c)
     reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, forces))
-    x, v, q, w = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
-    if last:
-        v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reach)
-    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+    new = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
+    return end_substep(state, status, i, (new, old), m, reach, c, last)
 
 
 @pass_kernel
@@ -272,10 +284,9 @@ def body_substep(step, p, model, command, world, when, i, counts):
     state, status = world
     k, last = when
     c = unpack(p)
-    x0, v0, q0, w0 = load(state, i)
-    m = body_model(model, i)
-    x, v, q, w = x0, v0, q0, limit_speed(w0, c)
-    start, span = start_energy(x0, v, w, m, c), 0.0  # span: + s B a segment
+    old, m, w = begin_substep(state, model, i, c)
+    x, v, q, _ = old
+    start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
@@ -288,16 +299,13 @@ def body_substep(step, p, model, command, world, when, i, counts):
         span += held_reach(end - t, force_reach(act, m, c))
         x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
         t = end
-    if last:
-        v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, (start, span))
-    return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
+    return end_substep(state, status, i, ((x, v, q, w), old), m, (start, span), c, last)
 
 
 @pass_kernel
 def body_advance(step, p, model, world, command, bodies, counts):
     """:func:`advance` of bodies ``start <= i < stop`` (``bodies``) body by body, every effect
-    included (the :data:`rigid_env.core.layout.RARE` ones too): each body's substeps by
+    included (the :data:`rigid_env.core.compose.RARE` ones too): each body's substeps by
     :func:`body_substep`. Returns the step's code."""
     c = unpack(p)
     start, stop = bodies
@@ -320,7 +328,7 @@ def advance(step, p, model, world, command, bodies, counts=None):
     the compiler vectorises (struct-of-arrays columns; no call, inner loop or branch in the
     body, only selects): the actuators' wrench of each body's command (:func:`wrench`), if
     any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`). These
-    passes see the flags of the rarely used effects (:data:`rigid_env.core.layout.RARE`) as the
+    passes see the flags of the rarely used effects (:data:`rigid_env.core.compose.RARE`) as the
     constant 0, so a disabled one adds nothing to their loops; a world that has one is stepped
     body by body instead (:func:`body_advance`), every effect included.
 
@@ -442,8 +450,8 @@ def segments_pass(p, model, state, command, span, out):
 
 @kernel
 def energy_roots(p, model, state, command, span):
-    """(N,) each body's ``sqrt(E)`` [J^(1/2)] plus the gravity gradient's
-    :func:`gradient_reach` and, for ``span > 0`` [s], the reach ``span B`` of the command's
+    """(N,) each body's ``sqrt(E)`` [J^(1/2)] plus the conservative effects' ``sqrt(dV)``
+    (:func:`energy_root`) and, for ``span > 0`` [s], the reach ``span B`` of the command's
     wrench held over it (:func:`held_reach`; thrusters as hardware add their segments'
     instead, :func:`segments_pass`): where ``sqrt(E)`` may reach over the step, over 10
     (:func:`finish_pass`)."""

@@ -39,7 +39,7 @@ import math
 
 from rigid_env.core.dynamics import ZERO_WRENCH, add_scaled
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import THRUST, map_row, thruster
+from rigid_env.core.layout import THRUST, command_level, map_row, thruster
 
 
 @kernel
@@ -49,7 +49,7 @@ def firing(p, c, command, i, a):
     the step's start (``dt`` unless on/off). ``c``: the named parameters of ``p``."""
     actions = int(c.actions)
     r = 0 if command.shape[0] == 1 else i
-    u = command[r, a]
+    u = command_level(command, r, a)
     th = thruster(p, actions, a)
     if abs(u) * th.max_force * c.dt < th.min_impulse:
         u = 0.0  # below the minimum impulse bit: the valve does not open

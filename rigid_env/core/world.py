@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
@@ -31,17 +32,32 @@ from rigid_env.core.layout import (
     decode,
     unpack,
 )
+from rigid_env.core.plan import (
+    DEFAULT_ATOL,
+    DEFAULT_MAX_SUBSTEPS,
+    DEFAULT_RTOL,
+    MAX_BODIES,
+    StepPlan,
+    check_state,
+    check_tolerances,
+    number,
+)
 from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
 
 __all__ = [
+    "DEFAULT_ATOL",
+    "DEFAULT_MAX_SUBSTEPS",
+    "DEFAULT_RTOL",
     "THREAD_MIN_BODIES",
     "NumericalInstabilityError",
     "SubstepLimitError",
     "World",
     "call_threaded",
+    "check_state",
+    "check_tolerances",
     "threaded",
 ]
 
@@ -59,13 +75,6 @@ steps of 0.01 s, splitting 30, the explicit ones overflow)."""
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 _FLOAT64 = np.dtype(np.float64)
-DEFAULT_RTOL = 1.0e-10
-"""Relative tolerance of an error-controlled integrator (``dop853``) when none is given."""
-DEFAULT_ATOL = 1.0e-10
-"""Absolute tolerance of an error-controlled integrator when none is given."""
-DEFAULT_MAX_SUBSTEPS = 1000
-"""The most substeps (accepted or rejected) an error-controlled integrator may take per
-integrator step before the body counts as failed (:class:`SubstepLimitError`)."""
 
 
 class NumericalInstabilityError(FloatingPointError):
@@ -157,44 +166,21 @@ class World:
         max_substeps: int = DEFAULT_MAX_SUBSTEPS,
         adaptive: bool = True,
     ) -> None:
-        if not (np.isfinite(dt) and dt > 0.0):
-            raise ValueError(f"dt: must be a finite time step > 0 [s], got {dt}")
-        if int(substeps) != substeps or substeps < 1:
-            raise ValueError(f"substeps: must be an integer >= 1, got {substeps}")
-        if max_angular_speed is not None and not (
-            np.isfinite(max_angular_speed) and max_angular_speed > 0.0
-        ):
-            raise ValueError(
-                f"max_angular_speed: must be a finite number > 0 [rad/s] or None "
-                f"(off), got {max_angular_speed}"
-            )
-        if on_error not in ("raise", "freeze"):
-            raise ValueError(f"on_error: must be 'raise' or 'freeze', got {on_error!r}")
-        unknown = [e for e in effects if not isinstance(e, ForceEffect | StepMap)]
-        if unknown:
-            raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
-        self.effects = tuple(effects)
-        self.force_effects = tuple(e for e in effects if isinstance(e, ForceEffect))
-        self._integrator = get_integrator(integrator)
-        self.tolerances = check_tolerances(integrator, rtol, atol, max_substeps)
-        """``(rtol, atol, max_substeps)`` of an error-controlled integrator, else None."""
-        self._adaptive = bool(adaptive)
-        self._dt = float(dt)
-        self._substeps = int(substeps)
-        self.h = self._dt / self._substeps
-        """The integrator's step ``dt / substeps`` [s]."""
-        self.max_angular_speed = None if max_angular_speed is None else float(max_angular_speed)
-        self.on_error = on_error
-        stability = self._integrator.stability
-        control = None if self.tolerances is None else (*self.tolerances, self._adaptive)
+        self._plan = plan = StepPlan.build(
+            effects, integrator, dt, substeps, max_angular_speed, on_error,
+            (rtol, atol, max_substeps), adaptive,
+        )  # fmt: skip
+        self._integrator = plan.integrator
+        self._dt, self._substeps = plan.dt, plan.substeps
+        control = None if plan.tolerances is None else (*plan.tolerances, plan.adaptive)
         self.params = pack(
-            self.effects,
-            self.h,
-            self._substeps,
-            self.max_angular_speed,
-            stability,
+            plan.effects,
+            plan.h,
+            plan.substeps,
+            plan.max_angular_speed,
+            plan.integrator.stability,
             control=control,
-            dt=self._dt,
+            dt=plan.dt,
         )
         """The world's parameters for the compiled step: the named :class:`Params`
         (:attr:`parameters`), then the actuators' maps (:mod:`rigid_env.core.layout`)."""
@@ -203,7 +189,9 @@ class World:
         if state is not None:
             check_state(state)
             n = state.n
-        self._n = int(n)
+        self._n = number("n", n, integer=True)
+        if not 1 <= self._n <= MAX_BODIES:
+            raise ValueError(f"n: must be an integer from 1 to {MAX_BODIES} (bodies), got {n}")
         hw = self.parameters
         # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed).
         width = STATE_WIDTH + (self.action_dim if hw.lagged != 0.0 else 0)
@@ -215,7 +203,7 @@ class World:
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
-            (on_error == "raise" and self._n > 1) or self.substeps > 1 or hw.lagged != 0.0
+            (plan.on_error == "raise" and self._n > 1) or plan.substeps > 1 or hw.lagged != 0.0
         )
         self._state.q[:, 0] = 1.0
         if state is not None:
@@ -251,41 +239,65 @@ class World:
 
         return property(get, refuse, doc=doc)
 
+    plan = _read_only("plan", "Every setting the step reads (:class:`StepPlan`, frozen).")
     dt = _read_only("dt", "Time per :meth:`step` [s] (read-only: :meth:`with_settings`).")
     substeps = _read_only("substeps", "Integrator steps per :meth:`step` (read-only).")
     integrator = _read_only("integrator", "The integrator's registry entry (read-only).")
     del _read_only
 
-    def with_settings(
-        self,
-        *,
-        dt: float | None = None,
-        substeps: int | None = None,
-        integrator: str | None = None,
-        rtol: float | None = None,
-        atol: float | None = None,
-    ) -> World:
-        """A new world of this one's model, effects, bodies and state (copied) with another
-        ``dt``, ``substeps``, ``integrator``, ``rtol`` or ``atol`` (each left out: kept, the
-        tolerances only while the integrator controls its error), its step counter at 0."""
-        name = self._integrator.name if integrator is None else integrator
-        kept = self.tolerances if get_integrator(name).error_control else None
-        rtol = rtol if rtol is not None or kept is None else kept[0]
-        atol = atol if atol is not None or kept is None else kept[1]
-        world = World(
-            self.model,
-            self.effects,
-            name,
-            self._dt if dt is None else dt,
-            self._substeps if substeps is None else substeps,
-            state=self._state.copy(),
-            max_angular_speed=self.max_angular_speed,
-            on_error=self.on_error,
-            rtol=rtol,
-            atol=atol,
-            max_substeps=DEFAULT_MAX_SUBSTEPS if kept is None else kept[2],
-            adaptive=self._adaptive,
-        )
+    def _planned(name: str, doc: str) -> property:  # type: ignore[misc]
+        def get(self: World) -> Any:
+            return getattr(self._plan, name)
+
+        def refuse(self: World, value: Any) -> None:
+            raise AttributeError(
+                f"World.{name} is read-only (the compiled step is set up for it); make a new "
+                f"world with it: world = world.with_settings({name}={value!r})"
+            )
+
+        return property(get, refuse, doc=doc)
+
+    h = _planned("h", "The integrator's step ``dt / substeps`` [s] (read-only).")
+    max_angular_speed = _planned("max_angular_speed", "The limit on ``|w|`` [rad/s] or None.")
+    on_error = _planned("on_error", "``'raise'`` or ``'freeze'`` (read-only).")
+    tolerances = _planned(
+        "tolerances", "``(rtol, atol, max_substeps)`` of an error-controlled integrator, or None."
+    )
+    effects = _planned("effects", "The active effects (read-only).")
+    del _planned
+
+    @property
+    def force_effects(self) -> tuple[ForceEffect, ...]:
+        """The active force effects (actuators among them)."""
+        return tuple(e for e in self._plan.effects if isinstance(e, ForceEffect))
+
+    def with_settings(self, **settings: Any) -> World:
+        """A new world of this one's model, bodies and state (copied) with other settings:
+        any of ``effects``, ``integrator``, ``dt``, ``substeps``, ``max_angular_speed`` (None:
+        off), ``on_error``, ``rtol``, ``atol``, ``max_substeps``, ``adaptive``; each left out is
+        kept (the tolerances while the integrator controls its error). Its step counter is 0.
+
+        Raises:
+            ValueError: for an unknown setting, or a value the constructor refuses.
+        """
+        plan = self._plan
+        kept = {
+            "effects": plan.effects, "integrator": plan.integrator.name, "dt": plan.dt,
+            "substeps": plan.substeps, "max_angular_speed": plan.max_angular_speed,
+            "on_error": plan.on_error, "adaptive": plan.adaptive,
+        }  # fmt: skip
+        unknown = sorted(set(settings) - {*kept, "rtol", "atol", "max_substeps"})
+        if unknown:
+            raise ValueError(
+                f"with_settings: unknown setting {unknown[0]!r}; choose from "
+                f"{sorted({*kept, 'rtol', 'atol', 'max_substeps'})}"
+            )
+        name = settings.get("integrator", kept["integrator"])
+        if plan.tolerances is not None and get_integrator(name).error_control:
+            kept |= dict(zip(("rtol", "atol", "max_substeps"), plan.tolerances, strict=True))
+        merged = kept | settings
+        world = World(self.model, merged.pop("effects"), merged.pop("integrator"),
+                      state=self._state.copy(), **merged)  # fmt: skip
         world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]  # the thrust levels, if they lag
         maps = self.body_maps
         if maps is not None:
@@ -301,6 +313,7 @@ class World:
 
     @state.setter
     def state(self, state: State) -> None:
+        check_state(state)  # as the constructor checks it
         if state.n != self._n:
             raise ValueError(f"state: has {state.n} bodies, this world has {self._n}")
         self._state.assign(state)
@@ -453,7 +466,18 @@ class World:
         """Clear what the ``bodies`` (an index, or a mask, of the N) carry from one step to the
         next besides their state, as :meth:`reset` does for all: the thrusters' lagging levels
         (valves closed) and the substep ``dop853`` tries first (its initial-step guess again).
-        For a new episode of some bodies of a world, so that it repeats a fresh world's."""
+        For a new episode of some bodies of a world, so that it repeats a fresh world's.
+
+        Raises:
+            ValueError: for an index out of range or a mask of the wrong length.
+        """
+        try:
+            np.arange(self._n)[bodies]
+        except (IndexError, TypeError, ValueError):
+            raise ValueError(
+                f"bodies: {bodies!r} is no index or mask of this world's {self._n} bodies "
+                f"(indices 0 to {self._n - 1})"
+            ) from None
         self._cols[STATE_WIDTH:, bodies] = 0.0
         self._counts[1, bodies] = 0.0
 
@@ -461,11 +485,13 @@ class World:
         """Pickled with the integrator's name (its compiled step is looked up again)."""
         out = self.__dict__.copy()
         out["_integrator"] = self._integrator.name
+        out["_plan"] = replace(self._plan, integrator=self._integrator.name)
         return out
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._integrator = get_integrator(state["_integrator"])
+        self._plan = replace(self._plan, integrator=self._integrator)
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
 
@@ -475,14 +501,16 @@ class World:
 
         Args:
             action: (N, action_dim), (1, action_dim) or (action_dim,) command for the
-                actuators; None = zeros.
+                actuators, real numbers; None = zeros. Each component is clipped to [-1, 1]
+                (full throttle), the one rule of every entry point (:meth:`advance`, the envs);
+                a NaN or inf is refused.
 
         Returns:
             (N,) mask of the bodies whose state turned non-finite in this step (only with
             ``on_error="freeze"``; they are left at their state before the step). Read-only.
 
         Raises:
-            ValueError: if ``action`` has the wrong shape or a non-finite entry.
+            ValueError: if ``action`` has the wrong shape or type, or a non-finite entry.
             NumericalInstabilityError: if a state turns non-finite with ``on_error="raise"``.
         """
         a = action  # first the common cases: no command, or a float64 array used as it is
@@ -570,7 +598,7 @@ class World:
             if limited is not None:
                 raise limited
             bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
-            cause = self._likely_cause()
+            cause = self._likely_cause(bad)
             raise NumericalInstabilityError(bodies, step, self._integrator.name, self._dt, cause)
         if limited is not None:
             warnings.warn(str(limited), RuntimeWarning, stacklevel=3)
@@ -594,11 +622,30 @@ class World:
         )  # fmt: skip
 
     def _check_action(self, action: ArrayLike | None) -> FloatArray | None:
+        """``action`` as the C-contiguous float64 (N | 1, A) command, or None for no command.
+        Real numbers of any dtype; bools, strings and complex numbers are refused (a bool is
+        no throttle level); values beyond [-1, 1] are clipped in the step
+        (:func:`rigid_env.core.layout.command_level`), a NaN or inf refused there.
+
+        Raises:
+            ValueError: one line naming the shape or type expected and the one given.
+        """
+        try:
+            raw = np.asarray(action)
+        except Exception as exc:  # e.g. a tensor that requires grad, a ragged list
+            raise ValueError(
+                f"action: must be an array of real numbers, got {type(action).__name__} "
+                f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})"
+            ) from None
+        if action is not None and raw.dtype.kind not in "iuf":
+            raise ValueError(
+                f"action: must be real numbers (an int or float dtype), got dtype {raw.dtype}"
+            )
         if action is None or self.action_dim == 0:
             if action is not None and np.size(action) != 0:
                 raise ValueError(f"action: the world has no actuators, got {np.size(action)}")
             return None
-        act = np.ascontiguousarray(action, dtype=np.float64)
+        act = np.ascontiguousarray(raw, dtype=np.float64)
         if act.ndim == 1:
             act = act.reshape(1, -1)
         if act.ndim != 2 or act.shape[-1] != self.action_dim or act.shape[0] not in (1, self.n):
@@ -608,8 +655,17 @@ class World:
             )
         return act
 
-    def _likely_cause(self) -> str:
-        """The fix the error proposes when the body itself is extreme ("": the step size)."""
+    def _likely_cause(self, bad: BoolArray) -> str:
+        """The fix the error proposes when the cause is not the step size ("": the step size):
+        a state already non-finite before the step (left as it was), or a body whose mass
+        properties are extreme."""
+        before = self._cols[:STATE_WIDTH, bad]  # the failed bodies' state before the step
+        if not np.isfinite(before).all():
+            b = int(np.flatnonzero(bad)[np.flatnonzero(~np.isfinite(before).all(axis=0))[0]])
+            return (
+                f"body {b}'s state was already non-finite before the step (a NaN or inf written "
+                "into world.state or its arrays): set a finite state with world.reset(state)"
+            )
         m = self.model
         scale = np.max(np.abs(np.concatenate([m.mass, m.inertia.ravel(), 1.0 / m.inertia.ravel()])))
         if not scale < 1.0e150:
@@ -691,63 +747,6 @@ class World:
     def angular_momentum_world(self) -> FloatArray:
         """(N, 3) spin angular momentum about the COM, world frame, ``R (I w)`` [kg m^2/s]."""
         return quat_rotate(self.state.q, self.model.inertia * self.state.w)
-
-
-def check_tolerances(
-    integrator: str, rtol: float | None, atol: float | None, max_substeps: int
-) -> tuple[float, float, int] | None:
-    """``(rtol, atol, max_substeps)`` for an error-controlled integrator (defaults filled in),
-    None for a fixed-step one.
-
-    Raises:
-        ValueError: for a tolerance given to a fixed-step integrator, or one out of range.
-    """
-    if not get_integrator(integrator).error_control:
-        given = [k for k, v in (("rtol", rtol), ("atol", atol)) if v is not None]
-        if given:
-            raise ValueError(
-                f"{given[0]}: integrator {integrator!r} takes fixed steps; rtol and atol set the "
-                "error control of 'dop853' (leave them out, or choose integrator 'dop853')"
-            )
-        return None
-    rtol = DEFAULT_RTOL if rtol is None else float(rtol)
-    atol = DEFAULT_ATOL if atol is None else float(atol)
-    if not 0.0 < rtol < 1.0:
-        raise ValueError(f"rtol: must be a relative tolerance with 0 < rtol < 1, got {rtol}")
-    if not (np.isfinite(atol) and atol > 0.0):
-        raise ValueError(f"atol: must be a finite absolute tolerance > 0, got {atol}")
-    if int(max_substeps) != max_substeps or max_substeps < 1:
-        raise ValueError(f"max_substeps: must be an integer >= 1, got {max_substeps}")
-    return rtol, atol, int(max_substeps)
-
-
-def check_state(state: State) -> None:
-    """Check an outside state: shapes ``(N, 3|4)``, finite numbers, no zero quaternion.
-
-    Raises:
-        ValueError: naming the field, the first bad body and the fix.
-    """
-    n = state.x.shape[0] if np.ndim(state.x) == 2 else -1
-    for name, width in (("x", 3), ("v", 3), ("q", 4), ("w", 3)):
-        a = np.asarray(getattr(state, name))
-        if a.shape != (n, width):
-            raise ValueError(
-                f"state.{name}: expected shape ({max(n, 1)}, {width}) like state.x, got {a.shape}"
-            )
-        finite = np.isfinite(a).all(axis=1)
-        if not finite.all():
-            b = int(np.flatnonzero(~finite)[0])
-            raise ValueError(
-                f"state.{name}: body {b} has a non-finite entry {a[b].tolist()}; "
-                "every state number must be finite"
-            )
-    zero = ~np.any(state.q != 0.0, axis=1)
-    if zero.any():
-        b = int(np.flatnonzero(zero)[0])
-        raise ValueError(
-            f"state.q: body {b} is the zero quaternion, which is no rotation; give "
-            "a unit quaternion (w, x, y, z), e.g. [1, 0, 0, 0]"
-        )
 
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:

@@ -1,0 +1,164 @@
+"""The registered effects (:data:`rigid_env.core.layout.EFFECTS`) composed for the compiled
+step: the sum of their forces and torques, their bounds for the guard, and the flags the
+vectorised passes leave out. No effect is named here.
+
+Each composition is a chain built once, at import, from the registry: one small function per
+effect, ``if flag: out = effect(out); return rest(out)``, inlined by Numba at its IR level
+(``inline="always"``), so the compiled code is the same sequence of guarded blocks one would
+write by hand, in the registry's order; the flag is read by its index in the named parameters
+``c`` (a constant). Where a pass sees a flag as the constant 0 (:func:`common`) the block
+vanishes. As plain Python (``NUMBA_DISABLE_JIT=1``) the chain runs as it is.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from numba import njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic, overload
+
+from rigid_env.core.layout import EFFECTS, Params
+
+inline = njit(inline="always", error_model="numpy")
+"""A link of a chain: inlined into the compiled function that calls it."""
+
+RARE = (*(e.name for e in EFFECTS if e.rare), "hardware")
+"""The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
+rare effects', and the thrusters' hardware (its switch times split a substep per body). The
+vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
+loops at all (a flag read from the array would keep it there: the compiler computes both sides
+of a branch inside a vectorised loop)."""
+
+
+def _chain(links: list[tuple[int, Callable]], step: Callable) -> Callable:
+    """``f(c, *args, out)`` applying ``step(link, c, *args, out)`` for each ``(flag index,
+    link)`` whose flag is set, in order; with no links, ``out`` unchanged."""
+    done = inline(lambda c, a, out: out)
+    for k, link in reversed(links):
+        done = step(k, link, done)
+    return done
+
+
+def _terms_link(k: int, apply: Callable, rest: Callable) -> Callable:
+    @inline
+    def link(c, a, out):
+        if c[k] != 0.0:
+            out = apply(a[0], a[1], a[2], a[3], a[4], c, out[0], out[1])
+        return rest(c, a, out)
+
+    return link
+
+
+def _bound_link(k: int, bound: Callable, rest: Callable) -> Callable:
+    @inline
+    def link(c, a, out):
+        if c[k] != 0.0:
+            out = out + bound(*a, c)
+        return rest(c, a, out)
+
+    return link
+
+
+def _links(attribute: str) -> list[tuple[int, Callable]]:
+    """``(flag index, kernel)`` of the effects that declare ``attribute``."""
+    return [
+        (Params._fields.index(e.name), getattr(e, attribute))
+        for e in EFFECTS
+        if getattr(e, attribute) is not None
+    ]
+
+
+_terms = _chain(_links("apply"), _terms_link)
+_forces = _chain(_links("force_bound"), _bound_link)
+_torques = _chain(_links("torque_bound"), _bound_link)
+_potentials = _chain(_links("potential_bound"), _bound_link)
+_POTENTIAL_FLAGS = tuple(k for k, _ in _links("potential_bound"))
+
+
+@inline
+def effect_terms(x, v, q, w, m, c, f, tau):
+    """``(f, tau)`` with every listed effect's force (world) [N] and torque (body) [N m] added,
+    in the registry's order."""
+    return _terms(c, (x, v, q, w, m), (f, tau))
+
+
+@inline
+def add_force_bounds(force, m, c):
+    """``force`` [N] plus the most force the listed effects supply."""
+    return _forces(c, (m,), force)
+
+
+@inline
+def add_torque_bounds(torque, m, c):
+    """``torque`` [N m] plus the most torque the listed effects supply."""
+    return _torques(c, (m,), torque)
+
+
+@inline
+def add_potential_roots(root, x, m, c):
+    """``root`` [J^(1/2)] plus ``sqrt(dV)`` of each listed conservative effect from ``x``."""
+    return _potentials(c, (x, m), root)
+
+
+def any_potential(c: Params) -> bool:
+    """Whether a conservative effect (one with a ``potential_bound``) is listed."""
+    return any(c[k] != 0.0 for k in _POTENTIAL_FLAGS)
+
+
+def rare(c: Params) -> bool:
+    """Whether one of the :data:`RARE` flags of ``c`` is set."""
+    return any(getattr(c, name) != 0.0 for name in RARE)
+
+
+def common(c: Params) -> Params:
+    """``c`` with the :data:`RARE` flags 0; compiled, 0 as constants that remove the effects'
+    branches from the code."""
+    return c._replace(**dict.fromkeys(RARE, 0.0))
+
+
+def _any_set(indices: tuple[int, ...]) -> Callable:
+    @intrinsic
+    def any_set(typingctx, c):
+        def codegen(context, builder, sig, args):
+            out = cgutils.false_bit
+            zero = context.get_constant(types.float64, 0.0)
+            for k in indices:
+                flag = builder.extract_value(args[0], k)
+                out = builder.or_(out, builder.fcmp_unordered("!=", flag, zero))
+            return out
+
+        return types.boolean(c), codegen
+
+    return any_set
+
+
+_rare = _any_set(tuple(Params._fields.index(name) for name in RARE))
+_potential = _any_set(_POTENTIAL_FLAGS)
+
+
+@intrinsic
+def _common(typingctx, c):
+    def codegen(context, builder, sig, args):
+        out = args[0]
+        zero = context.get_constant(types.float64, 0.0)
+        for name in RARE:
+            out = builder.insert_value(out, zero, Params._fields.index(name))
+        return out
+
+    return c(c), codegen
+
+
+@overload(rare, inline="always")
+def _overload_rare(c):
+    return lambda c: _rare(c)
+
+
+@overload(any_potential, inline="always")
+def _overload_any_potential(c):
+    return lambda c: _potential(c)
+
+
+@overload(common, inline="always")
+def _overload_common(c):
+    return lambda c: _common(c)

@@ -1,0 +1,106 @@
+"""An effect, declared once: its parameters, its force/torque function, whether it is rare,
+its bounds for the world's guard, and whether it depends on velocity.
+
+The declarations (:class:`Effect`) are the registry (:data:`EFFECTS`): the built-in ones of
+:mod:`rigid_env.core.forces`, then those of the modules named in the environment variable
+``RIGID_ENV_EFFECTS`` (comma-separated module names, each with a sequence ``EFFECTS``). From the
+registry the core derives, with no effect named anywhere else:
+
+* the effects' fields of the world's parameters (:class:`rigid_env.core.layout.Params`: the
+  flag ``name``, 1 where the scene lists the effect, else 0, then ``fields``);
+* the sum of their forces and torques in :func:`rigid_env.core.dynamics.accelerations`, one
+  inlined call of each effect's ``apply`` behind its flag (:mod:`rigid_env.core.compose`);
+* the guard's reach (:mod:`rigid_env.core.stepping`): the bounds each effect declares;
+* the flags the vectorised passes see as the constant 0 (``rare``;
+  :func:`rigid_env.core.compose.common`), so that a rare effect's code is not in those loops at all.
+
+Why the registry is closed when the core is imported: Numba composes the effects at compile
+time, and the compiled step is cached on disk under a key of the core's sources
+(:mod:`rigid_env.numba_cache`). An effect registered later would be missing from code already
+compiled in this process, and code cached on disk would not know it. So the registry is read
+once, at import, from the core and the ``RIGID_ENV_EFFECTS`` modules, and the cache key hashes
+those modules' sources as it hashes the core's: a world of other effects compiles under another
+key (one folder per registry), never from stale code.
+
+Adding an effect (the checklist):
+
+1. its declaration: an :class:`Effect` with its kernels, in :mod:`rigid_env.core.forces` (or
+   in a module named by ``RIGID_ENV_EFFECTS``);
+2. its spec, a :class:`rigid_env.core.effects.ForceEffect` whose ``parameters()`` fills the
+   flag and fields by name (and ``potential_energy`` if it is conservative);
+3. its scene section in :mod:`rigid_env.scene_sections`;
+4. tests: the generic ones (``tests/core/test_effects_generic.py``) pick it up from the
+   registry; add one against a closed form.
+"""
+
+from __future__ import annotations
+
+import importlib
+import os
+from collections.abc import Callable
+from dataclasses import dataclass
+
+ENV_VAR = "RIGID_ENV_EFFECTS"
+"""The environment variable naming modules of further effects (comma-separated)."""
+
+
+@dataclass(frozen=True)
+class Effect:
+    """A term of the equations of motion, as the compiled core sees it.
+
+    Attributes:
+        name: its flag among the world's parameters (the scene key, or its short form:
+            ``drag`` for ``quadratic_drag``).
+        fields: its numbers' names among the world's parameters (after the flag); its kernels
+            read them by name from the named parameters ``c`` (``c.gravity_x``).
+        apply: ``(x, v, q, w, m, c, f, tau) -> (f, tau)``: the force (world frame, on the
+            centre of mass) [N] and torque (body frame) [N m] accumulated so far, with this
+            effect's added, at the state ``(x, v, q, w)`` of the body ``m`` (a ``kernel``).
+            Called only where the flag is set.
+        rare: stepped body by body (its flag a constant 0 in the vectorised passes): for an
+            effect few scenes use, whose code would otherwise cost every world a little.
+        velocity_dependent: whether the force or torque depends on ``v`` or ``w`` (the kicks
+            of the splitting methods then take more stages to keep their order).
+        force_bound: ``(m, c) -> B_F`` [N], the most ``|F|`` it supplies in any state; None: it
+            supplies none (or only dissipates: ``F . v <= 0``).
+        torque_bound: ``(m, c) -> B_tau`` [N m], the same for ``|tau|``.
+        potential_bound: ``(x, m, c) -> sqrt(dV)`` [J^(1/2)] for a conservative effect: the root
+            of the most potential energy it can release over the step from position ``x`` (the
+            span of its potential over the states reachable in a step); None: not conservative.
+            Its work then needs no force or torque bound.
+    """
+
+    name: str
+    fields: tuple[str, ...]
+    apply: Callable
+    rare: bool = False
+    velocity_dependent: bool = False
+    force_bound: Callable | None = None
+    torque_bound: Callable | None = None
+    potential_bound: Callable | None = None
+
+
+def plugin_modules() -> list[str]:
+    """The module names in ``RIGID_ENV_EFFECTS`` (none if unset)."""
+    return [name.strip() for name in os.environ.get(ENV_VAR, "").split(",") if name.strip()]
+
+
+def load_effects() -> tuple[Effect, ...]:
+    """The registry: the built-in effects, then each ``RIGID_ENV_EFFECTS`` module's ``EFFECTS``.
+
+    Raises:
+        ValueError: for a module without ``EFFECTS``, or a name declared twice.
+    """
+    from rigid_env.core.forces import BUILT_IN  # the built-ins' kernels, after Effect exists
+
+    effects = list(BUILT_IN)
+    for module in plugin_modules():
+        declared = getattr(importlib.import_module(module), "EFFECTS", None)
+        if declared is None:
+            raise ValueError(f"{ENV_VAR}: module {module!r} has no EFFECTS (a sequence of Effect)")
+        effects.extend(declared)
+    names = [e.name for e in effects]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ValueError(f"{ENV_VAR}: effect {twice[0]!r} is declared twice; rename one")
+    return tuple(effects)
