@@ -10,6 +10,7 @@ reports. A body whose state turns NaN or inf is never handed back silently (``on
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import replace
@@ -227,9 +228,12 @@ class World:
         self._direct = self._serial and not self._copy_before_step and not self._noisy
 
     # ---- settings, read-only: a new world for new ones --------------------------------------
-    def _read_only(name: str, doc: str) -> property:  # type: ignore[misc]
+    def _read_only(name: str, doc: str, planned: bool = False) -> property:  # type: ignore[misc]
+        """A setting read from ``self._<name>``, or from the frozen plan where ``planned``,
+        which refuses assignment with the :meth:`with_settings` call that does it."""
+
         def get(self: World) -> Any:
-            return getattr(self, "_" + name)
+            return getattr(self._plan, name) if planned else getattr(self, "_" + name)
 
         def refuse(self: World, value: Any) -> None:
             raise AttributeError(
@@ -243,20 +247,7 @@ class World:
     dt = _read_only("dt", "Time per :meth:`step` [s] (read-only: :meth:`with_settings`).")
     substeps = _read_only("substeps", "Integrator steps per :meth:`step` (read-only).")
     integrator = _read_only("integrator", "The integrator's registry entry (read-only).")
-    del _read_only
-
-    def _planned(name: str, doc: str) -> property:  # type: ignore[misc]
-        def get(self: World) -> Any:
-            return getattr(self._plan, name)
-
-        def refuse(self: World, value: Any) -> None:
-            raise AttributeError(
-                f"World.{name} is read-only (the compiled step is set up for it); make a new "
-                f"world with it: world = world.with_settings({name}={value!r})"
-            )
-
-        return property(get, refuse, doc=doc)
-
+    _planned = functools.partial(_read_only, planned=True)
     h = _planned("h", "The integrator's step ``dt / substeps`` [s] (read-only).")
     max_angular_speed = _planned("max_angular_speed", "The limit on ``|w|`` [rad/s] or None.")
     on_error = _planned("on_error", "``'raise'`` or ``'freeze'`` (read-only).")
@@ -264,7 +255,7 @@ class World:
         "tolerances", "``(rtol, atol, max_substeps)`` of an error-controlled integrator, or None."
     )
     effects = _planned("effects", "The active effects (read-only).")
-    del _planned
+    del _planned, _read_only
 
     @property
     def force_effects(self) -> tuple[ForceEffect, ...]:

@@ -278,47 +278,39 @@ def test_unlisted_effect_has_no_flag_and_listed_one_does() -> None:
 UNLISTED_PROBE = """
 import sys
 import numpy as np
-from rigid_env.core import BodyModel, Gravity, QuadraticDrag, World, dynamics
-lines, code = set(), dynamics.accelerations.__code__
+from rigid_env.core import BodyModel, Gravity, QuadraticDrag, World, forces
+codes = {forces.gravity.__code__: "gravity", forces.drag.__code__: "drag"}
+ran = set()
 def trace(frame, event, arg):
-    if frame.f_code is code:
-        lines.add(frame.f_lineno - code.co_firstlineno)
-        return trace
+    if event == "call" and frame.f_code in codes:
+        ran.add(codes[frame.f_code])
     return None
 def run(effects):
-    lines.clear()
+    ran.clear()
     world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), effects, "rk4", 0.01)
     world.state.w[0] = [1.0, 2.0, 3.0]
     sys.settrace(trace)
     world.step()
     sys.settrace(None)
-    return set(lines)
-bare, full = run(()), run((Gravity(), QuadraticDrag(center_of_pressure=[0.0, 0.0, 0.1])))
-import inspect
-source, first = inspect.getsourcelines(dynamics.accelerations)
-effect = {k + first - code.co_firstlineno for k, text in enumerate(source)
-          if "* p.gravity_" in text or "p.drag_k" in text or "drag[" in text}
-print((sorted(effect), sorted(bare), sorted(full)))
+    return sorted(ran), np.isfinite(world.state.w).all()
+print((run(()), run((Gravity(), QuadraticDrag(center_of_pressure=[0.0, 0.0, 0.1])))))
 """
 
 
 @pytest.mark.slow
 def test_unlisted_effects_never_run_without_jit() -> None:
-    """With ``NUMBA_DISABLE_JIT=1`` the same kernels run as Python, and a line tracer shows
-    which lines of :func:`rigid_env.core.dynamics.accelerations` ran: a world with no effects
-    runs none of the gravity or drag lines that a world listing them runs (so they cost
-    nothing but the skipped branch), and the rk4 step itself works without the compiler."""
+    """With ``NUMBA_DISABLE_JIT=1`` the same kernels run as Python, and a tracer shows which
+    effects' force functions (:mod:`rigid_env.core.forces`) the step calls: a world with no
+    effects calls neither gravity's nor drag's (they cost nothing but the skipped flag), a
+    world that lists them calls both, and the rk4 step works without the compiler."""
     env = {**os.environ, "NUMBA_DISABLE_JIT": "1"}
     out = subprocess.run(
         [sys.executable, "-c", UNLISTED_PROBE], env=env, capture_output=True, text=True
     )
     assert out.returncode == 0, out.stderr
-    effect, bare, full = (set(x) for x in eval(out.stdout.strip().splitlines()[-1]))
-    # The effects' own lines: gravity's three force lines, drag's coefficient and its three
-    # force lines (found by what they read: ``* p[G``, ``DRAG_K``, ``drag[``).
-    assert len(effect) >= 7, effect
-    assert effect <= full  # listed, every one of them runs ...
-    assert not effect & bare  # ... unlisted, none of them does
+    (bare, bare_finite), (full, full_finite) = eval(out.stdout.strip().splitlines()[-1])
+    assert bare == [] and full == ["drag", "gravity"], (bare, full)
+    assert bare_finite and full_finite
 
 
 def test_torque_free_world_leaves_translation_alone() -> None:
