@@ -9,8 +9,9 @@ frame (principal axes), so the inertia is the constant diagonal ``I``.
 from __future__ import annotations
 
 from rigid_env.core.compose import effect_terms
+from rigid_env.core.forces import add, dipole_torque
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import command_level, map_row
+from rigid_env.core.layout import ZERO3, command_level, dipole_row, field_of, map_row
 from rigid_env.core.maths import axpy, rotate
 
 
@@ -44,27 +45,43 @@ def gyro_jacobian(w, m):
 
 @kernel
 def wrench(p, c, model, command, i):
-    """Body-frame actuator force and torque of body ``i``'s command (``c``: the named ``p``; row
-    ``i`` of ``command`` (N, A), or its only row, each ``u_a`` clipped to [-1, 1],
-    :func:`rigid_env.core.layout.command_level`): ``f_body = sum_a u_a F_a``, ``tau_body = sum_a
-    u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own, :func:`map_row`), summed in a
-    fixed order."""
+    """Body ``i``'s actuation ``(force, torque, dipole, field)`` of its command (``c``: the
+    named ``p``; row ``i`` of ``command`` (N, A), or its only row, each ``u_a`` clipped to
+    [-1, 1], :func:`rigid_env.core.layout.command_level`): the body-frame ``f_body = sum_a u_a
+    F_a``, ``tau_body = sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own,
+    :func:`map_row`), summed in a fixed order; where magnetorquers act, the dipole ``m_b =
+    m_res + sum_a u_a m_a`` (body frame) and the field ``B`` (world frame) the command carries
+    (:func:`add_component`, :func:`with_field`), else zeros."""
     r = 0 if command.shape[0] == 1 else i
     act = ZERO_WRENCH
-    for a in range(command.shape[1]):
-        act = add_scaled(act, command_level(command, r, a), map_row(p, c, model, a, i))
-    return act
+    for a in range(int(c.actions)):
+        act = add_component(act, command_level(command, r, a), p, c, model, a, i)
+    return with_field(act, command, r, c)
 
 
-ZERO_WRENCH = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
-"""No force and no torque: constants the compiler folds."""
+ZERO_WRENCH = (ZERO3, ZERO3, ZERO3, ZERO3)
+"""No force, no torque, no dipole, no field: constants the compiler folds."""
 
 
 @kernel
-def add_scaled(act, u, row):
-    """``act + u row`` of two ``(force, torque)`` pairs: a wrench plus a command component's
-    map row scaled by its level ``u``."""
-    return axpy(act[0], u, row[0]), axpy(act[1], u, row[1])
+def add_component(act, u, p, c, model, a, i):
+    """``act`` plus command component ``a`` at level ``u`` (its map row scaled, and its dipole
+    where magnetorquers act, :func:`rigid_env.core.layout.dipole_row`)."""
+    force, torque = map_row(p, c, model, a, i)
+    dipole = act[2]
+    if c.magnetorquers != 0.0:
+        dipole = axpy(dipole, u, dipole_row(p, c, a))
+    return axpy(act[0], u, force), axpy(act[1], u, torque), dipole, act[3]
+
+
+@kernel
+def with_field(act, command, r, c):
+    """``act`` with the body's residual dipole added to its dipole and the field of row ``r``
+    of the command (:func:`rigid_env.core.layout.field_of`), where magnetorquers act."""
+    if c.magnetorquers == 0.0:
+        return act
+    residual = (c.residual_dipole_x, c.residual_dipole_y, c.residual_dipole_z)
+    return act[0], act[1], axpy(act[2], 1.0, residual), field_of(command, r, c)
 
 
 @kernel
@@ -73,9 +90,12 @@ def accelerations(x, v, q, w, act, m, c, gyro):
     [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuators' body wrench
     ``act = (force, torque)`` (the force turned to the world frame) and the listed effects'
     forces and torques (:func:`rigid_env.core.compose.effect_terms`, each effect's own
-    function, :mod:`rigid_env.core.forces`); with ``gyro``, Euler's ``I w' = tau - w x I w``
-    (skipped for an isotropic body, where the term vanishes)."""
-    fb, tb = act
+    function, :mod:`rigid_env.core.forces`); where magnetorquers act, the torque ``m_b x R^T
+    B`` of the dipole and field in ``act`` (:func:`wrench`); with ``gyro``, Euler's ``I w' =
+    tau - w x I w`` (skipped for an isotropic body, where the term vanishes)."""
+    fb, tb = act[0], act[1]
+    if c.magnetorquers != 0.0:
+        tb = add(tb, dipole_torque(act[2], act[3], q))
     f = (0.0, 0.0, 0.0)
     if c.actuator_force != 0.0:
         f = rotate(q, fb)

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from dataclasses import field as dataclass_field
 from typing import ClassVar
 
 import numpy as np
@@ -414,6 +415,67 @@ class PointForces(LinearActuator):
         object.__setattr__(self, "torque_map", tmap)
 
 
+@dataclass(frozen=True)
+class Magnetorquers(LinearActuator):
+    """Magnetorquers: coil ``k`` makes the magnetic dipole ``u_k max_dipole[k] axes[k]`` (body
+    frame), ``u_k`` in [-1, 1]; with the body's residual dipole ``m_res`` the torque is ``tau_body
+    = m_b x R^T B`` in the field ``B`` (world frame) each body's command carries
+    (:attr:`rigid_env.core.world.World.magnetic_field`, held over a world step). No force: a
+    uniform field pushes no dipole. The torque lies across the field, so a field that does not
+    turn (relative to the body) leaves one axis uncontrolled: magnetorquers act over an orbit.
+
+    Attributes:
+        max_dipole: (K,) or one dipole at ``|u| = 1`` [A m^2] (a CubeSat's: about 0.2 to 1).
+        axes: (K, 3) each coil's axis, body frame (normalised here); default the body axes.
+        residual: (3,) the body's own dipole, body frame [A m^2] (a disturbance).
+        field: (3,) the field each body starts with, world frame [T].
+    """
+
+    max_dipole: FloatArray | float = 0.35
+    axes: FloatArray = field(default_factory=lambda: np.eye(3))
+    residual: FloatArray = field(default_factory=lambda: np.zeros(3))
+    field: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 3.0e-5]))
+    name: ClassVar[str] = "magnetorquers"
+    force_map: FloatArray = dataclass_field(init=False, repr=False)
+    torque_map: FloatArray = dataclass_field(init=False, repr=False)
+    dipole_map: FloatArray = dataclass_field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        axes = np.asarray(self.axes, dtype=np.float64)
+        if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] == 0:
+            raise ValueError(
+                f"magnetorquers.axes: expected a list of K >= 1 body-frame axes [x, y, z], got "
+                f"shape {axes.shape}"
+            )
+        axes = checked_floats("magnetorquers.axes", axes, axes.shape)
+        length = np.linalg.norm(axes, axis=1)
+        if np.any(length == 0.0):
+            raise ValueError(
+                f"magnetorquers.axes[{int(np.argmin(length))}]: a zero vector has no direction; "
+                "give each coil's axis"
+            )
+        k = axes.shape[0]
+        moment = np.broadcast_to(np.asarray(self.max_dipole, dtype=np.float64), (k,)).copy()
+        bad = np.flatnonzero(~(np.isfinite(moment) & (moment >= 0.0)))
+        if bad.size:
+            raise ValueError(
+                f"magnetorquers.max_dipole: must be finite and >= 0 [A m^2], got {moment[bad[0]]}"
+            )
+        for name in ("residual", "field"):
+            value = checked_floats(f"magnetorquers.{name}", getattr(self, name), (3,))
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "axes", axes / length[:, None])
+        object.__setattr__(self, "max_dipole", moment)
+        object.__setattr__(self, "force_map", np.zeros((k, 3)))
+        object.__setattr__(self, "torque_map", np.zeros((k, 3)))
+        object.__setattr__(self, "dipole_map", self.axes * moment[:, None])
+
+    def parameters(self) -> dict[str, float]:
+        """The flag and the residual dipole; the coils' rows go after the maps (:func:`pack`)."""
+        axes = ("residual_dipole_x", "residual_dipole_y", "residual_dipole_z")
+        return {"magnetorquers": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
+
+
 def pack(
     effects: Sequence[ForceEffect | StepMap],
     h: float,
@@ -469,6 +531,11 @@ def pack(
         rtol, atol, max_substeps, adaptive = control
         named |= {"rtol": rtol, "atol": atol, "max_substeps": float(max_substeps),
                   "adaptive": 1.0 if adaptive else 0.0}  # fmt: skip
+    magnetic = [a for a in actuators if isinstance(a, Magnetorquers)]
+    if len(magnetic) > 1:
+        raise ValueError("magnetorquers: listed twice; give every coil in one list of axes")
+    if magnetic:  # each component's dipole at |u| = 1 after the maps and hardware rows
+        tail.extend(getattr(a, "dipole_map", np.zeros((a.action_dim, 3))) for a in actuators)
     named["actions"] = float(maps.shape[0])
     named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
     named["any_force"] = 1.0 if forces else 0.0

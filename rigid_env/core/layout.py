@@ -79,6 +79,14 @@ _TAIL = (
     ("lagged", "flag: the thrust levels are state, rows from THRUST on (some thruster lags)"),
     ("noisy", "flag: the command carries A thrust factors after its A components"),
     ("body_maps", "flag: each body has its own actuator maps, model rows from MODEL_WIDTH on"),
+    (
+        "magnetorquers",
+        "flag: some command components are magnetic dipoles (dipole_row); the "
+        "command carries each body's field B (3, world) [T] after its components (field_of)",
+    ),
+    ("residual_dipole_x", "the body's own dipole where magnetorquers act, body frame [A m^2]"),
+    ("residual_dipole_y", "its y component"),
+    ("residual_dipole_z", "its z component"),
 )
 EFFECTS = load_effects()
 """The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""
@@ -104,10 +112,12 @@ MODEL_WIDTH = len(Body._fields)
 actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH + 6 a`` ..
 ``+ 5`` hold component ``a``'s ``(force, torque)`` at ``|u| = 1`` (body frame), as the rows of
 :data:`MAPS` do for all bodies."""
-WRENCH_WIDTH = 7
+WRENCH_WIDTH = 13
 """Rows of the world step's scratch columns ``wrenches`` (WRENCH_WIDTH, N): each body's
-actuator force (0:3) and torque (3:6), body frame, held over the world step, and its
-:data:`REACH`."""
+actuator force (0:3) and torque (3:6), body frame, held over the world step, its
+:data:`REACH`, and where magnetorquers act (``Params.magnetorquers``) its dipole (7:10, body
+frame) and the field (10:13, world frame): the four parts of an actuation ``act``
+(:func:`rigid_env.core.dynamics.wrench`)."""
 REACH = 6
 """Row of ``wrenches`` holding each body's force reach for the guard
 (:func:`rigid_env.core.stepping.force_reach`), computed once per world step."""
@@ -251,6 +261,24 @@ def map_row(p, c, model, a, i):
 
 
 @kernel
+def dipole_row(p, c, a):
+    """Command component ``a``'s magnetic dipole at ``|u| = 1``, body frame [A m^2] (zero for
+    a thruster): rows after the maps and the thrusters' hardware rows, where magnetorquers act
+    (``c.magnetorquers``)."""
+    actions = int(c.actions)
+    k = MAPS + 6 * actions + (THRUSTER_WIDTH * actions if c.hardware != 0.0 else 0) + 3 * a
+    return (p[k], p[k + 1], p[k + 2])
+
+
+@kernel
+def field_of(command, r, c):
+    """The field ``B`` [T], world frame, that row ``r`` of the command carries after its ``A``
+    components (and their thrust factors where noisy), where magnetorquers act."""
+    k = int(c.actions) * (2 if c.noisy != 0.0 else 1)
+    return (command[r, k], command[r, k + 1], command[r, k + 2])
+
+
+@kernel
 def load(state, i):
     """Body ``i``'s ``(x, v, q, w)`` from the state columns (13, N), as tuples."""
     return (
@@ -262,18 +290,30 @@ def load(state, i):
 
 
 @kernel
-def load_wrench(wrenches, i):
-    """Body ``i``'s ``(force, torque)`` from its column of ``wrenches`` (:data:`WRENCH_WIDTH`,
-    N)."""
+def load_wrench(wrenches, i, c):
+    """Body ``i``'s actuation ``(force, torque, dipole, field)`` from its column of
+    ``wrenches`` (:data:`WRENCH_WIDTH`, N); the dipole and field zero unless magnetorquers
+    act."""
     f = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
-    return f, (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+    t = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
+    if c.magnetorquers == 0.0:
+        return f, t, ZERO3, ZERO3
+    d = (wrenches[7, i], wrenches[8, i], wrenches[9, i])
+    return f, t, d, (wrenches[10, i], wrenches[11, i], wrenches[12, i])
 
 
 @kernel
-def store_wrench(wrenches, i, act):
-    """Write body ``i``'s ``act = (force, torque)`` into its column of ``wrenches``."""
+def store_wrench(wrenches, i, act, c):
+    """Write body ``i``'s actuation ``act`` into its column of ``wrenches``."""
     wrenches[0, i], wrenches[1, i], wrenches[2, i] = act[0]
     wrenches[3, i], wrenches[4, i], wrenches[5, i] = act[1]
+    if c.magnetorquers != 0.0:
+        wrenches[7, i], wrenches[8, i], wrenches[9, i] = act[2]
+        wrenches[10, i], wrenches[11, i], wrenches[12, i] = act[3]
+
+
+ZERO3 = (0.0, 0.0, 0.0)
+"""The zero 3-vector, a constant the compiler folds."""
 
 
 @kernel

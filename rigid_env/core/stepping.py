@@ -147,9 +147,11 @@ def force_reach(act, m, c):
     """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the listed effects'
     force and torque bounds (:mod:`rigid_env.core.effect`): ``(|F| + sum B_F) / sqrt(m) +
     (|tau| + sum B_tau) / sqrt(I_min)``."""
-    fb, tb = act
-    forces = add_force_bounds(norm(fb), m, c)
-    return forces * m.inv_sqrt_mass + add_torque_bounds(norm(tb), m, c) * m.inv_sqrt_inertia
+    torque = norm(act[1])
+    if c.magnetorquers != 0.0:  # |m_b x R^T B| <= |m_b| |B|
+        torque += norm(act[2]) * norm(act[3])
+    forces = add_force_bounds(norm(act[0]), m, c)
+    return forces * m.inv_sqrt_mass + add_torque_bounds(torque, m, c) * m.inv_sqrt_inertia
 
 
 @kernel
@@ -265,7 +267,7 @@ def substep(step, c, model, wrenches, state, status, at, counts):
     i, last, actuated = at
     old, m, w = begin_substep(state, model, i, c)
     x0, v0, q0, _ = old
-    act = load_wrench(wrenches, i) if actuated else ZERO_WRENCH
+    act = load_wrench(wrenches, i, c) if actuated else ZERO_WRENCH
     forces = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
     reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, forces))
     new = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
@@ -364,7 +366,7 @@ def advance(step, p, model, world, command, bodies, counts=None):
     if actuated:
         for i in range(start, stop):  # each body's wrench and its reach into its column
             act = wrench(p, c, model, command, i)
-            store_wrench(wrenches, i, act)
+            store_wrench(wrenches, i, act, c)
             wrenches[REACH, i] = force_reach(act, body_model(model, i), c)
     clear_counts(counts, bodies)
     failures = over = 0
@@ -440,7 +442,7 @@ def segments_pass(p, model, state, command, span, out):
         if t[i] < t1:
             end = next_switch(p, c, command, i, t[i], t1)
             act = segment_wrench(p, c, model, command, state, i, t[i], end - t[i])
-            store_wrench(wrenches, i, act)
+            store_wrench(wrenches, i, act, c)
             lengths[i] = end - t[i]
             roots[i] += held_reach(lengths[i], force_reach(act, body_model(model, i), c))
             t[i] = end
@@ -494,7 +496,7 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
         if lengths[i] > 0.0:
             x, v, q, w = load(state, i)
             m = body_model(model, i)
-            v, w = kick(x, v, q, w, load_wrench(wrenches, i), m, c, fraction * lengths[i])
+            v, w = kick(x, v, q, w, load_wrench(wrenches, i, c), m, c, fraction * lengths[i])
             store(state, i, x, v, q, w)
 
 

@@ -37,9 +37,9 @@ from __future__ import annotations
 
 import math
 
-from rigid_env.core.dynamics import ZERO_WRENCH, add_scaled
+from rigid_env.core.dynamics import ZERO_WRENCH, add_component, with_field
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import THRUST, command_level, map_row, thruster
+from rigid_env.core.layout import THRUST, command_level, thruster
 
 
 @kernel
@@ -77,7 +77,7 @@ def segment_wrench(p, c, model, command, state, i, t, s):
     """Body-frame ``(force, torque)`` of body ``i``'s thrusters held over the segment ``[t, t +
     s]`` (no switch inside): each component's level (its mean over the segment where it lags,
     whose state in ``state`` advances to the segment's end) times its map row
-    (:func:`rigid_env.core.layout.map_row`)."""
+    (:func:`rigid_env.core.dynamics.add_component`)."""
     act = ZERO_WRENCH
     actions = int(c.actions)
     for a in range(actions):
@@ -91,5 +91,5 @@ def segment_wrench(p, c, model, command, state, i, t, s):
             # (1 - e^{-x}) / x by expm1: no cancellation for a segment short against TAU.
             g = target + (g0 - target) * (-math.expm1(-x) / x)
             state[THRUST + a, i] = target + (g0 - target) * math.exp(-x)
-        act = add_scaled(act, g, map_row(p, c, model, a, i))
-    return act
+        act = add_component(act, g, p, c, model, a, i)
+    return with_field(act, command, 0 if command.shape[0] == 1 else i, c)

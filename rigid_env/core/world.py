@@ -19,7 +19,7 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.effects import ForceEffect, StepMap, Thrusters, pack
+from rigid_env.core.effects import ForceEffect, Magnetorquers, StepMap, Thrusters, pack
 from rigid_env.core.integrators import get_integrator
 from rigid_env.core.layout import (
     FAILED,
@@ -201,6 +201,12 @@ class World:
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
         self._noisy = hw.noisy != 0.0
+        self._magnetic = hw.magnetorquers != 0.0
+        coils = [e for e in plan.effects if isinstance(e, Magnetorquers)]
+        self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
+        """(N, 3) the field ``B`` each body's magnetorquers see in the next :meth:`step`, world
+        frame [T], held over the step (set it between steps, e.g. along an orbit:
+        :class:`rigid_env.core.geomagnetic.OrbitField`); None without magnetorquers."""
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
@@ -224,8 +230,10 @@ class World:
         self.set_model(model)
         self._serial = self._integrator.world_step_threads is None or not threaded(self._n)
         self._lagged = hw.lagged != 0.0
-        # step() calls the kernel itself (a noisy world appends its factors to the command)
-        self._direct = self._serial and not self._copy_before_step and not self._noisy
+        # step() calls the kernel itself (a noisy or magnetic world appends to the command)
+        self._direct = self._serial and not (
+            self._copy_before_step or self._noisy or self._magnetic
+        )
 
     # ---- settings, read-only: a new world for new ones --------------------------------------
     def _read_only(name: str, doc: str, planned: bool = False) -> property:  # type: ignore[misc]
@@ -535,8 +543,8 @@ class World:
             u = self._no_command
         else:  # a view of the state: copied, as the compiled step's arrays must not overlap
             u = command.copy() if command.base is self._cols else command
-        if self._noisy:  # the core reads the thrust factors after the command's A components
-            u = self._with_factors(u)
+        if self._noisy or self._magnetic:  # the core reads them after the A components
+            u = self._carried(u)
         # A failed body is left at its state before the step: by the kernel itself for one
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
@@ -553,16 +561,28 @@ class World:
             self._cols[THRUST:, frozen] = backup[THRUST:, frozen]
         return self._outcome(code, backup)
 
-    def _with_factors(self, command: FloatArray) -> FloatArray:
-        """(N, 2A) the command (N | 1, A) and then :attr:`thrust_factors`, checked."""
-        f = np.asarray(self.thrust_factors, dtype=np.float64)
-        if f.shape != (self._n, self.action_dim) or not np.all(np.isfinite(f) & (f >= 0.0)):
-            raise ValueError(
-                f"thrust_factors: expected finite factors >= 0 of shape ({self._n}, "
-                f"{self.action_dim}), got shape {f.shape}; draw them with draw_thrust_factors"
-            )
-        u = np.broadcast_to(command, (self._n, self.action_dim))
-        return np.ascontiguousarray(np.concatenate([u, f], axis=1))
+    def _carried(self, command: FloatArray) -> FloatArray:
+        """(N, A + ...) the command (N | 1, A), then the :attr:`thrust_factors` where noisy and
+        the :attr:`magnetic_field` where magnetorquers act, each checked."""
+        parts = [np.broadcast_to(command, (self._n, self.action_dim))]
+        if self._noisy:
+            f = np.asarray(self.thrust_factors, dtype=np.float64)
+            if f.shape != (self._n, self.action_dim) or not np.all(np.isfinite(f) & (f >= 0.0)):
+                raise ValueError(
+                    f"thrust_factors: expected finite factors >= 0 of shape ({self._n}, "
+                    f"{self.action_dim}), got shape {f.shape}; draw them with "
+                    "draw_thrust_factors"
+                )
+            parts.append(f)
+        if self._magnetic:
+            b = np.asarray(self.magnetic_field, dtype=np.float64)
+            if b.shape != (self._n, 3) or not np.all(np.isfinite(b)):
+                raise ValueError(
+                    f"magnetic_field: expected finite fields [T] of shape ({self._n}, 3), got "
+                    f"shape {b.shape}; set each body's row, world frame"
+                )
+            parts.append(b)
+        return np.ascontiguousarray(np.concatenate(parts, axis=1))
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the world step's ``code`` (:mod:`rigid_env.core.stepping`)."""
@@ -709,7 +729,8 @@ class World:
         action: ArrayLike | None = None,
     ) -> tuple[FloatArray, FloatArray]:
         """Linear (world) [m/s^2] and angular (body) [rad/s^2] accelerations (N, 3) of this
-        world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A):
+        world's bodies and effects at the given (N, 3|4) state, under a command (N | 1, A) (and
+        the :attr:`magnetic_field`):
         the right-hand side ``v' = F / m``, ``I w' = tau - w x I w`` of the compiled step."""
         cols = np.ascontiguousarray(np.hstack([np.atleast_2d(a) for a in (x, v, q, w)]).T)
         n = cols.shape[1]
@@ -717,8 +738,15 @@ class World:
         if model.shape[0] > MODEL_WIDTH and n != self._n:
             raise ValueError(f"x, v, q, w: the bodies have their own maps, give {self._n} rows")
         u = self._check_action(action)
+        u = self._no_command if u is None else u
+        if self._magnetic:  # the field each body sees rides with its command
+            if n != self._n:
+                raise ValueError(
+                    f"x, v, q, w: each body has its magnetic_field, give {self._n} rows"
+                )
+            u = self._carried(u)
         out = np.empty((cols.shape[1], 6))
-        derivatives(self.params, model, cols, self._no_command if u is None else u, out)
+        derivatives(self.params, model, cols, u, out)
         return out[:, 0:3], out[:, 3:6]
 
     # ---------------------------------------------------------------------------------------

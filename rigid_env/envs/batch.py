@@ -77,7 +77,6 @@ def as_actions(action: ArrayLike) -> NDArray[Any]:
     return act
 
 
-
 def _array_of(action: Any) -> NDArray[Any]:
     """A NumPy array of ``action``; a tensor (torch: one that requires grad, on a GPU or in
     bfloat16, which NumPy cannot take as it is) detached to the CPU first, bfloat16 as the

@@ -13,6 +13,7 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from rigid_env.core import INTEGRATORS, BodyModel, State, Thrusters, World, get_integrator, layout
+from rigid_env.core.dynamics import ZERO_WRENCH
 from rigid_env.core.layout import Body
 from rigid_env.core.rotation import quat_angle_between, quat_from_rotvec, quat_mul, quat_rotate
 
@@ -328,15 +329,16 @@ def test_step_renormalises(name: str) -> None:
 
 @pytest.mark.parametrize("name", [n for n, i in INTEGRATORS.items() if i.body is not None])
 def test_per_body_function_is_the_world_step(name: str) -> None:
-    """The registry's per-body function, called on one body's tuples, gives the world's step
-    bit for bit (the world step is that function looped over the bodies). An error-controlled
-    step takes ``(h, first substep)``, 0 in a new world (its own first guess)."""
+    """The registry's per-body function, called on one body's tuples (no actuation), gives the
+    world's step bit for bit (the world step is that function looped over the bodies). An
+    error-controlled step takes ``(h, first substep)``, 0 in a new world (its own first
+    guess)."""
     world = make_world(name, 0.05)
     r = world.rows[0].tolist()
     h = (world.h, 0.0) if INTEGRATORS[name].error_control else world.h
     out = INTEGRATORS[name].body(
         tuple(r[0:3]), tuple(r[3:6]), tuple(r[6:10]), tuple(r[10:13]),
-        ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), Body(*world.model.rows()[0]), world.parameters, h,
+        ZERO_WRENCH, Body(*world.model.rows()[0]), world.parameters, h,
     )  # fmt: skip
     world.step()
     state = out[:4]  # an error-controlled step also returns its substeps and the next first
