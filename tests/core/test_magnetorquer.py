@@ -40,8 +40,9 @@ def test_torque_is_the_commanded_dipole_across_the_field(noisy: bool) -> None:
     thrusters (with thrust noise: their factors ride in the command before the field) and
     three skewed coils: ``I alpha = r x F + m_b x R^T B`` with ``m_b = m_res + sum u_a m_a``
     (``World.accelerations`` gives the nominal thrust: the factors are the hardware's, drawn
-    per step, and only shift where the field sits in the command). Tolerance: a rotation, two cross products and sums of numbers of
-    size ``|m| |B|`` and ``|r| |F|``, a few tens of roundings of each."""
+    per step, and only shift where the field sits in the command). Tolerance: a rotation, two
+    cross products and sums of numbers of size ``|m| |B|`` and ``|r| |F|``, a few tens of
+    roundings of each."""
     gen = np.random.default_rng(11)
     n = 16
     s = random_states(n, gen)
