@@ -54,6 +54,7 @@ from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, number, read_yaml, validate
 from rigid_env.core.effects import (
     ForceEffect,
+    Magnetorquers,
     PointForces,
     StepMap,
     Thrusters,
@@ -242,7 +243,8 @@ class Scene(Spec):
         """The listed effects as core objects (nothing else), in body-frame coordinates.
 
         Order: the force effects in the order of :class:`EffectsSpec` (gravity, quadratic drag,
-        ...), the actuators (thrusters, point forces: the action vector follows their order),
+        ...), the actuators (thrusters, point forces, magnetorquers: the action vector follows
+        their order),
         then the per-step maps (linear damping, angular damping).
         """
         forces, maps = self.effects_spec.effects(self.point_to_body)
@@ -279,6 +281,17 @@ class Scene(Spec):
                         np.full(3 * k, pf.max_force),
                     )
                 )
+        coils = act.magnetorquers
+        if coils is not None:
+            out.append(
+                Magnetorquers(
+                    coils.max_dipole,
+                    self.direction_to_body(coils.axes),
+                    residual=self.direction_to_body(coils.residual),  # a free vector, as axes
+                    field=np.zeros(3) if coils.field is None else np.array(coils.field),
+                    orbit=None if coils.orbit is None else coils.orbit.field(),
+                )
+            )
         return out
 
     def initial_state(self, n: int = 1) -> State:
@@ -392,6 +405,9 @@ class Scene(Spec):
         if self.actuators.point_forces is not None:
             k = len(self.actuators.point_forces.points)
             parts.append(f"{k} point force{'s' if k > 1 else ''}")
+        if self.actuators.magnetorquers is not None:
+            k = len(self.actuators.magnetorquers.axes)
+            parts.append(f"{k} magnetorquer{'s' if k > 1 else ''}")
         return "; ".join(parts)
 
 

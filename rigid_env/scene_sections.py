@@ -39,6 +39,7 @@ from rigid_env.core.effects import (
     QuadraticDrag,
     StepMap,
 )
+from rigid_env.core.geomagnetic import CircularOrbit, OrbitField
 from rigid_env.core.inertia import MassProperties
 
 # |q| of initial.orientation may differ from 1 by this much (rounding of hand-typed decimals
@@ -508,8 +509,72 @@ class PointForcesSpec(Spec):
     """Force per component at ``|u| = 1`` [N], >= 0."""
 
 
+Degrees = Annotated[float, Field(ge=-360, le=360, allow_inf_nan=False), Quantity("deg")]
+
+
+class OrbitSpec(Spec):
+    """A circular orbit about the Earth, along which the field is the IGRF-2020 tilted dipole
+    (:class:`rigid_env.core.geomagnetic.OrbitField`); the world starts at the orbit's
+    ``phase``."""
+
+    altitude: Annotated[float, Field(gt=0, le=1.0e8, allow_inf_nan=False), Quantity("m")]
+    """Height above the Earth's reference radius [m] (a low orbit: 4e5 to 8e5)."""
+    inclination: Annotated[float, Field(ge=0, le=180, allow_inf_nan=False), Quantity("deg")]
+    """Inclination to the equator [deg], 0 to 180 (polar: 90)."""
+    raan: Degrees = 0.0
+    """Right ascension of the ascending node [deg]."""
+    phase: Degrees = 0.0
+    """Argument of latitude at the start [deg]."""
+
+    def field(self) -> OrbitField:
+        """The field along this orbit."""
+        orbit = CircularOrbit(
+            self.altitude, *np.radians([self.inclination, self.raan, self.phase]).tolist()
+        )
+        return OrbitField(orbit)
+
+
+class MagnetorquersSpec(Spec):
+    """Magnetorquers: coil ``k`` makes the dipole ``u_k max_dipole axes[k]``, one action
+    component each (after the thrusters and point forces); the torque ``m x B`` in a constant
+    ``field`` or the Earth's along an ``orbit`` (give one of them)."""
+
+    axes: Annotated[tuple[Direction, ...], Field(min_length=1, max_length=12)] = (
+        (1.0, 0.0, 0.0),
+        (0.0, 1.0, 0.0),
+        (0.0, 0.0, 1.0),
+    )
+    """Each coil's axis, shape frame (non-zero; normalised); default the three axes."""
+    max_dipole: Annotated[Dipole, Field(ge=0)]
+    """Dipole of each coil at ``|u| = 1`` [A m^2], >= 0 (a CubeSat's: 0.2 to 1)."""
+    residual: Annotated[tuple[Dipole, Dipole, Dipole], vector(3, "A m^2")] = (0.0, 0.0, 0.0)
+    """The body's own dipole, shape frame [A m^2]: a disturbance (a CubeSat's: up to 0.01)."""
+    field: Annotated[tuple[Tesla, Tesla, Tesla] | None, vector(3, "T")] = None
+    """A constant field, world frame [T] (Earth's: 2.5e-5 to 6.5e-5)."""
+    orbit: Annotated[OrbitSpec | None, _present("{altitude: m, inclination: deg}")] = None
+    """Or the Earth's field along this orbit, turning as the world steps."""
+
+    @field_validator("axes")
+    @classmethod
+    def _non_zero(cls, axes: tuple[tuple[float, float, float], ...]) -> Any:
+        for k, a in enumerate(axes):
+            if not any(a):
+                raise ValueError(f"[{k}] is zero; give each coil's axis (it is normalised)")
+        return axes
+
+    @model_validator(mode="after")
+    def _one_field(self) -> MagnetorquersSpec:
+        if (self.field is None) == (self.orbit is None):
+            raise ValueError(
+                "give the field the coils act in: either field: [Bx, By, Bz] (T, world frame) "
+                "or orbit: {altitude: m, inclination: deg}, not both"
+            )
+        return self
+
+
 class ActuatorsSpec(Spec):
-    """Actuators, read from the action vector: thrusters first, then point forces."""
+    """Actuators, read from the action vector: thrusters first, then point forces, then
+    magnetorquers."""
 
     thrusters: tuple[ThrusterSpec, ...] = ()
     """Thrusters in action order: [{point, direction, max_force}, ...]."""
@@ -517,12 +582,17 @@ class ActuatorsSpec(Spec):
         PointForcesSpec | None, _present("{points: [[x, y, z], ...], max_force: F}")
     ] = None
     """Optional general point forces."""
+    magnetorquers: Annotated[
+        MagnetorquersSpec | None, _present("{max_dipole: A m^2, field: [Bx, By, Bz]}")
+    ] = None
+    """Optional magnetorquers (coils) and the field they act in."""
 
     @property
     def action_dim(self) -> int:
         """Number of action components."""
         pf = 0 if self.point_forces is None else 3 * len(self.point_forces.points)
-        return len(self.thrusters) + pf
+        coils = 0 if self.magnetorquers is None else len(self.magnetorquers.axes)
+        return len(self.thrusters) + pf + coils
 
     def check(self, dt: float) -> None:
         """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one

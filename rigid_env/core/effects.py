@@ -20,6 +20,7 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.inertia import checked_floats
 from rigid_env.core.layout import EFFECTS, THRUSTER_WIDTH, Params, Thruster
 from rigid_env.core.rotation import cross, quat_rotate_inv
@@ -429,12 +430,16 @@ class Magnetorquers(LinearActuator):
         axes: (K, 3) each coil's axis, body frame (normalised here); default the body axes.
         residual: (3,) the body's own dipole, body frame [A m^2] (a disturbance).
         field: (3,) the field each body starts with, world frame [T].
+        orbit: or the Earth's field along an orbit, which the world then sets before each
+            step at the step's middle (:class:`rigid_env.core.geomagnetic.OrbitField`); None:
+            the field stays as set.
     """
 
     max_dipole: FloatArray | float = 0.35
     axes: FloatArray = field(default_factory=lambda: np.eye(3))
     residual: FloatArray = field(default_factory=lambda: np.zeros(3))
     field: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 3.0e-5]))
+    orbit: OrbitField | None = None
     name: ClassVar[str] = "magnetorquers"
     force_map: FloatArray = dataclass_field(init=False, repr=False)
     torque_map: FloatArray = dataclass_field(init=False, repr=False)
@@ -461,6 +466,8 @@ class Magnetorquers(LinearActuator):
             raise ValueError(
                 f"magnetorquers.max_dipole: must be finite and >= 0 [A m^2], got {moment[bad[0]]}"
             )
+        if self.orbit is not None:
+            object.__setattr__(self, "field", self.orbit.at(0.0))
         for name in ("residual", "field"):
             value = checked_floats(f"magnetorquers.{name}", getattr(self, name), (3,))
             object.__setattr__(self, name, value)

@@ -204,9 +204,11 @@ class World:
         self._magnetic = hw.magnetorquers != 0.0
         coils = [e for e in plan.effects if isinstance(e, Magnetorquers)]
         self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
+        self._orbit = coils[0].orbit if coils else None
         """(N, 3) the field ``B`` each body's magnetorquers see in the next :meth:`step`, world
-        frame [T], held over the step (set it between steps, e.g. along an orbit:
-        :class:`rigid_env.core.geomagnetic.OrbitField`); None without magnetorquers."""
+        frame [T], held over the step: set it between steps, or give the coils an ``orbit``,
+        along which the world sets it at each step's middle (the midpoint rule: second order
+        in the field's slow turn, ``dt`` times the orbit's rate); None without magnetorquers."""
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
@@ -543,6 +545,8 @@ class World:
             u = self._no_command
         else:  # a view of the state: copied, as the compiled step's arrays must not overlap
             u = command.copy() if command.base is self._cols else command
+        if self._orbit is not None:
+            self.magnetic_field[:] = self._orbit.at(self.time + 0.5 * self._dt)
         if self._noisy or self._magnetic:  # the core reads them after the A components
             u = self._carried(u)
         # A failed body is left at its state before the step: by the kernel itself for one

@@ -6,8 +6,11 @@ effect; the field's checks."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+import yaml
 from test_magnetic_dipole import matrix
 
 from rigid_env.core import (
@@ -19,6 +22,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
+from rigid_env.scene import SceneError, load_scene
 
 from roundoff import U
 
@@ -165,3 +169,48 @@ def test_a_bad_field_is_refused_before_the_step(value: np.ndarray, match: str) -
 def test_bad_coils_are_refused_by_name(kwargs: dict, match: str) -> None:
     with pytest.raises(ValueError, match=match):
         Magnetorquers(**kwargs)
+
+
+# ---- the scene's section, and B-dot along an orbit -------------------------------------------
+SCENE_FILE = Path(__file__).parents[2] / "configs" / "scenes" / "bdot_detumble.yaml"
+
+
+def test_the_orbit_sets_each_steps_field_at_its_middle() -> None:
+    """The world sets the field before each step to the orbit's at the step's middle: the same
+    function of the same time, so equal bit for bit."""
+    world = load_scene(SCENE_FILE).build_world()
+    (coils,) = [e for e in world.force_effects if isinstance(e, Magnetorquers)]
+    np.testing.assert_array_equal(world.magnetic_field[0], coils.orbit.at(0.0))
+    for k in range(3):
+        world.step(np.zeros(3))
+        np.testing.assert_array_equal(world.magnetic_field[0], coils.orbit.at((k + 0.5) * 1.0))
+
+
+@pytest.mark.parametrize(
+    ("section", "field"),
+    [
+        ({"max_dipole": 0.35}, "actuators.magnetorquers"),
+        (
+            {
+                "max_dipole": 0.35,
+                "field": [0, 0, 3e-5],
+                "orbit": {"altitude": 5e5, "inclination": 97},
+            },
+            "actuators.magnetorquers",
+        ),
+        ({"max_dipole": -1, "field": [0, 0, 3e-5]}, "actuators.magnetorquers.max_dipole"),
+        (
+            {"max_dipole": 1, "field": [0, 0, 3e-5], "axes": [[0, 0, 0]]},
+            "actuators.magnetorquers.axes",
+        ),
+        ({"max_dipole": 1, "field": [0, 0, "x"]}, "actuators.magnetorquers.field"),
+        ({"max_dipole": 1, "orbit": {"altitude": -5, "inclination": 97}}, "altitude"),
+        ({"max_dipole": 1, "orbit": {"altitude": 5e5, "inclination": 200}}, "inclination"),
+        ({"max_dipole": 1, "orbit": {"altitude": 5e5}}, "inclination"),
+    ],
+)
+def test_scene_section_refuses_bad_values(section: dict, field: str) -> None:
+    with pytest.raises(SceneError, match=field.replace(".", r"\.")):
+        load_scene(
+            yaml.safe_load(SCENE_FILE.read_text()) | {"actuators": {"magnetorquers": section}}
+        )
