@@ -205,10 +205,15 @@ class World:
         coils = [e for e in plan.effects if isinstance(e, Magnetorquers)]
         self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
         self._orbit = coils[0].orbit if coils else None
+        self.orbit_time = np.zeros(self._n) if self._orbit is not None else None
+        """(N,) each body's time along the coils' ``orbit`` [s] (its phase there), advanced by
+        ``dt`` per step, cleared by :meth:`restart`: set it to put bodies at other points of
+        the orbit (an env's episode at a random phase); None without an orbit."""
         """(N, 3) the field ``B`` each body's magnetorquers see in the next :meth:`step`, world
         frame [T], held over the step: set it between steps, or give the coils an ``orbit``,
-        along which the world sets it at each step's middle (the midpoint rule: second order
-        in the field's slow turn, ``dt`` times the orbit's rate); None without magnetorquers."""
+        along which the world sets it at the middle of each body's step (:attr:`orbit_time`;
+        the midpoint rule: second order in the field's slow turn, ``dt`` times the orbit's
+        rate); None without magnetorquers."""
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
@@ -466,7 +471,8 @@ class World:
     def restart(self, bodies: Any) -> None:
         """Clear what the ``bodies`` (an index, or a mask, of the N) carry from one step to the
         next besides their state, as :meth:`reset` does for all: the thrusters' lagging levels
-        (valves closed) and the substep ``dop853`` tries first (its initial-step guess again).
+        (valves closed), the substep ``dop853`` tries first (its initial-step guess again) and
+        the time along an orbit (:attr:`orbit_time`, back to 0).
         For a new episode of some bodies of a world, so that it repeats a fresh world's.
 
         Raises:
@@ -481,6 +487,8 @@ class World:
             ) from None
         self._cols[STATE_WIDTH:, bodies] = 0.0
         self._counts[1, bodies] = 0.0
+        if self.orbit_time is not None:
+            self.orbit_time[bodies] = 0.0
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled with the integrator's name (its compiled step is looked up again)."""
@@ -545,8 +553,8 @@ class World:
             u = self._no_command
         else:  # a view of the state: copied, as the compiled step's arrays must not overlap
             u = command.copy() if command.base is self._cols else command
-        if self._orbit is not None:
-            self.magnetic_field[:] = self._orbit.at(self.time + 0.5 * self._dt)
+        if self._orbit is not None:  # each body's field at its step's middle
+            self.magnetic_field[:] = self._orbit.at(self.orbit_time + 0.5 * self._dt)
         if self._noisy or self._magnetic:  # the core reads them after the A components
             u = self._carried(u)
         # A failed body is left at its state before the step: by the kernel itself for one
@@ -563,7 +571,10 @@ class World:
             code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
         if frozen is not None and frozen.any():
             self._cols[THRUST:, frozen] = backup[THRUST:, frozen]
-        return self._outcome(code, backup)
+        outcome = self._outcome(code, backup)  # raises where the world was left as it was
+        if self.orbit_time is not None:
+            self.orbit_time += self._dt
+        return outcome
 
     def _carried(self, command: FloatArray) -> FloatArray:
         """(N, A + ...) the command (N | 1, A), then the :attr:`thrust_factors` where noisy and

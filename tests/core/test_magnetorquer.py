@@ -186,6 +186,21 @@ def test_the_orbit_sets_each_steps_field_at_its_middle() -> None:
         np.testing.assert_array_equal(world.magnetic_field[0], coils.orbit.at((k + 0.5) * 1.0))
 
 
+def test_each_body_keeps_its_own_orbit_clock() -> None:
+    """Bodies put at other points of the orbit (``orbit_time``) each see the orbit's field at
+    the middle of their own step, advance by ``dt`` together, and :meth:`restart` sets a body's
+    clock back to 0 alone: the same function of the same times, so equal bit for bit."""
+    scene = load_scene(SCENE_FILE)
+    world = scene.build_world(n=3)
+    (coils,) = [e for e in world.force_effects if isinstance(e, Magnetorquers)]
+    world.orbit_time[:] = [0.0, 1000.0, 2500.5]
+    world.step(np.zeros(3))
+    np.testing.assert_array_equal(world.magnetic_field, coils.orbit.at([0.5, 1000.5, 2501.0]))
+    np.testing.assert_array_equal(world.orbit_time, [1.0, 1001.0, 2501.5])
+    world.restart([1])
+    np.testing.assert_array_equal(world.orbit_time, [1.0, 0.0, 2501.5])
+
+
 @pytest.mark.parametrize(
     ("section", "field"),
     [
