@@ -9,6 +9,7 @@ works on a single env (N = 1) and on a vector env alike.
   names the task gives its parts); allocated to the thrusters by bounded least squares.
   On on/off thrusters with a minimum impulse bit, a :class:`PulseModulator` turns the
   continuous commands into valve duties.
+* :class:`BdotController`: the B-dot law of magnetic detumbling (BdotDetumble).
 * :class:`ZeroController` and :class:`RandomController`: the floor to beat.
 """
 
@@ -21,7 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import LinearActuator, QuadraticDrag
+from agents.bdot import avanzini_gain, bdot_rate
+from rigid_env.core.effects import LinearActuator, Magnetorquers, QuadraticDrag
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -30,6 +32,7 @@ from rigid_env.core.rotation import (
     quat_to_rotvec,
 )
 from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.bdot_detumble import FIELD_SCALE, BdotDetumbleTask
 from rigid_env.envs.detumble import DetumbleTask
 from rigid_env.envs.reorient import ReorientTask
 from rigid_env.envs.spin_stabilize import SpinStabilizeTask
@@ -253,6 +256,45 @@ class PDController:
         return cross(d.center_of_pressure, quat_rotate_inv(q, f))
 
 
+class BdotController:
+    """The B-dot law (:func:`agents.bdot.bdot_rate`) from the observed gyro ``w`` and
+    magnetometer field, for a task on magnetorquers along an orbit (BdotDetumble): the gain of
+    Avanzini and Giulietti for the orbit's rate and its inclination to the geomagnetic
+    equator, the coils' dipoles read from the scene.
+
+    Args:
+        env: the (single or vector, possibly wrapped) environment it will control.
+        gain: ``k`` [kg m^2/s] (default :func:`agents.bdot.avanzini_gain`).
+    """
+
+    def __init__(self, env: Any, gain: float | None = None) -> None:
+        self.task = task_of(env)
+        coils = [e for e in self.task.world.force_effects if isinstance(e, Magnetorquers)]
+        if not coils or coils[0].orbit is None or "field_x" not in self.task.obs_slices:
+            raise KeyError(
+                f"BdotController: task {type(self.task).__name__} observes no magnetometer on "
+                "magnetorquers along an orbit (BdotDetumble does)"
+            )
+        orbit = coils[0].orbit
+        self.max_dipole = coils[0].max_dipole
+        tilt = orbit.dipole.tilt  # the orbit's inclination to the geomagnetic equator, at most
+        inclination = min(orbit.orbit.inclination, np.pi - orbit.orbit.inclination) + tilt
+        least = float(np.min(self.task.world.model.inertia))
+        self.gain = (
+            avanzini_gain(orbit.orbit.mean_motion, inclination, least) if gain is None else gain
+        )
+
+    def __call__(self, obs: NDArray[Any]) -> NDArray[np.float32]:
+        """Commands (N, 3) float32 for observations (N, obs_dim) or (obs_dim,)."""
+        obs = np.asarray(obs, dtype=np.float64)
+        single = obs.ndim == 1
+        obs = np.atleast_2d(obs)
+        w = observed(self.task, obs, "w") * self.task.w_scale
+        field = observed(self.task, obs, "field_x", "field_z") * FIELD_SCALE
+        u = bdot_rate(w, field, self.gain, self.max_dipole).astype(np.float32)
+        return u[0] if single else u
+
+
 class ZeroController:
     """Never fires (shows what the uncontrolled body does)."""
 
@@ -278,4 +320,18 @@ class RandomController:
         return self.rng.uniform(-1.0, 1.0, size=shape).astype(np.float32)
 
 
-CONTROLLERS = {"pd": PDController, "zero": ZeroController, "random": RandomController}
+def analytic_controller(env: Any) -> PDController | BdotController:
+    """The task's analytic baseline: B-dot for a task on magnetorquers alone (:data:`ANALYTIC`),
+    else its PD law (:data:`PD_LAWS`)."""
+    return ANALYTIC.get(type(task_of(env)), PDController)(env)
+
+
+ANALYTIC: dict[type[TaskBatch], type] = {BdotDetumbleTask: BdotController}
+"""The tasks whose analytic baseline is not a PD law, by task class."""
+
+CONTROLLERS = {
+    "pd": analytic_controller,
+    "bdot": BdotController,
+    "zero": ZeroController,
+    "random": RandomController,
+}

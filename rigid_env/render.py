@@ -248,7 +248,8 @@ def actuator_layout(effects: Sequence[ForceEffect]) -> tuple[FloatArray, FloatAr
     """Body point (A, 3) [m] and unit direction (A, 3) of each action component.
 
     Read from the actuators among ``effects`` (body frame), in action order; a
-    ``point_forces`` point gives three components, along its three force directions.
+    ``point_forces`` point gives three components, along its three force directions; a
+    magnetorquer sits at the centre of mass along its coil's axis (its arrow: the dipole).
     """
     points, dirs = [], []
     for eff in effects:
@@ -257,7 +258,7 @@ def actuator_layout(effects: Sequence[ForceEffect]) -> tuple[FloatArray, FloatAr
         fmap = np.asarray(eff.force_map, dtype=np.float64)
         p = np.asarray(getattr(eff, "points", np.zeros((1, 3))), dtype=np.float64).reshape(-1, 3)
         points.append(np.repeat(p, fmap.shape[0] // p.shape[0], axis=0))
-        d = getattr(eff, "directions", None)
+        d = getattr(eff, "directions", getattr(eff, "axes", None))
         if d is None or np.shape(d) != fmap.shape:
             norm = np.linalg.norm(fmap, axis=1, keepdims=True)
             d = np.divide(fmap, norm, out=np.zeros_like(fmap), where=norm > 0.0)

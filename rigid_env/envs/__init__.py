@@ -114,6 +114,7 @@ TASKS: dict[str, Task] = _by_name(
             max_episode_steps=200,
             newest=1,
         ),
+        Task("BdotDetumble", module="bdot_detumble", scene="bdot_detumble", max_episode_steps=480),
     )
 )
 """Every registered task by name."""

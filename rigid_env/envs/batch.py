@@ -158,9 +158,13 @@ class TaskBatch:
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
         self.base_model = self.world.model
-        # Per-component force at |u| = 1 [N], for the fuel measure.
+        # Per-component force at |u| = 1 [N] (a coil's dipole [A m^2]), for the fuel measure:
+        # the impulse spent [N s] (a coil's dipole-time [A m^2 s], its charge and energy's
+        # measure).
         actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
-        self.max_force = np.concatenate([np.linalg.norm(a.force_map, axis=1) for a in actuators])
+        self.max_force = np.concatenate(
+            [np.linalg.norm(getattr(a, "dipole_map", a.force_map), axis=1) for a in actuators]
+        )
         self.action_dim = self.world.action_dim
         self.w_scale = self.angular_velocity_scale()
         self.obs_slices = self._observation_slices()
@@ -231,6 +235,11 @@ class TaskBatch:
         """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
         raise NotImplementedError
 
+    def before_pass(self, rows: NDArray[np.int64] | slice, reset: bool) -> None:
+        """Before the task's pass over the envs ``rows`` (after their world step, or their
+        reset), read what else of the world ``evaluate`` needs into their :attr:`target` (the
+        field a magnetometer measures); nothing by default."""
+
     def derived_numbers(self) -> dict[str, float]:
         """Numbers ``evaluate`` reads beside the parameters, derived from them and the scene
         (none by default)."""
@@ -257,7 +266,8 @@ class TaskBatch:
         )
         if world.action_dim == 0:
             raise ValueError(
-                "scene: a task needs actuators (thrusters or point_forces); the scene has none"
+                "scene: a task needs actuators (thrusters, point_forces or magnetorquers); the "
+                "scene has none"
             )
         return world
 
@@ -467,10 +477,12 @@ class TaskBatch:
         self._own_obs(keep=stepping is not None)
         if some:
             idx = np.flatnonzero(stepping)
+            self.before_pass(idx, reset=False)
             self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
             self._count_delivered(idx)
             return failed
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
+        self.before_pass(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
                                 noise, self.record, self.obs), True)  # fmt: skip
         self._count_delivered()
@@ -584,6 +596,7 @@ class TaskBatch:
         if idx.size == 0:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
+        self.before_pass(idx, reset=True)
         self._pass_rows(idx, rngs, stepped=False)
         self._observe_period(idx)
 

@@ -16,6 +16,17 @@ from rigid_env.envs.environments import RigidBodyVectorEnv
 from roundoff import gamma
 
 ENV_IDS = rigid_env.envs.ENV_IDS
+
+
+def action_dim(env_id: str) -> int:
+    """The env's number of action components (its scene's actuators)."""
+    env = gym.make(env_id)
+    try:
+        return env.action_space.shape[0]
+    finally:
+        env.close()
+
+
 # The shipped tasks, whose episodes the scenarios below are written around (a task added later
 # runs every other contract test through ENV_IDS).
 BUILT_IN = [
@@ -64,7 +75,7 @@ def test_sb3_check_env(env_id):
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_same_seed_same_episode_bit_for_bit(env_id):
     rng = np.random.default_rng(0)
-    actions = rng.uniform(-1, 1, size=(60, 6)).astype(np.float32)
+    actions = rng.uniform(-1, 1, size=(60, action_dim(env_id))).astype(np.float32)
     obs_a, rew_a, _ = rollout_single(env_id, 7, actions)
     obs_b, rew_b, _ = rollout_single(env_id, 7, actions)
     obs_c, _, _ = rollout_single(env_id, 8, actions)
@@ -77,7 +88,7 @@ def assert_vector_env_equals_single_envs(env_id: str, n: int, **kwargs) -> None:
     to the end of its first episode (observations, rewards, episode ends)."""
     steps, seed = 40, 100
     rng = np.random.default_rng(1)
-    actions = rng.uniform(-1, 1, size=(steps, n, 6)).astype(np.float32)
+    actions = rng.uniform(-1, 1, size=(steps, n, action_dim(env_id))).astype(np.float32)
     venv = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
     assert isinstance(venv.unwrapped, RigidBodyVectorEnv)
     obs, _ = venv.reset(seed=seed)
@@ -266,13 +277,14 @@ def test_envs_pickle_and_continue_identically(env_id):
     env = gym.make(env_id)
     env.reset(seed=5)
     clone = pickle.loads(pickle.dumps(env))
-    a = np.full(6, 0.3, np.float32)
+    k = action_dim(env_id)
+    a = np.full(k, 0.3, np.float32)
     assert np.array_equal(env.step(a)[0], clone.step(a)[0])
     venv = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
     venv.reset(seed=5)
-    venv.step(np.zeros((2, 6), np.float32))  # infos read before pickling, too
+    venv.step(np.zeros((2, k), np.float32))  # infos read before pickling, too
     vclone = pickle.loads(pickle.dumps(venv))
-    a2 = np.full((2, 6), -0.2, np.float32)
+    a2 = np.full((2, k), -0.2, np.float32)
     (obs, _, _, _, info), (clone_obs, _, _, _, clone_info) = venv.step(a2), vclone.step(a2)
     assert np.array_equal(obs, clone_obs)
     for key in ("angular_speed", "energy", "fuel", "angular_velocity_world"):  # the clone's own

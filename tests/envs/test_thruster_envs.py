@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 
 import rigid_env.envs
+from rigid_env.resources import scene_path
+from rigid_env.scene import load_scene
 
 HARDWARE = {
     "thrusters": "realistic",
@@ -17,7 +19,11 @@ HARDWARE = {
         "thruster_faults": {"probability": 1.0, "within_steps": 8},
     },
 }
-TASKS = rigid_env.envs.ENV_IDS  # every registered task's newest id
+TASKS = [  # every registered task's newest id whose scene has thrusters
+    task.env_id
+    for task in rigid_env.envs.TASKS.values()
+    if load_scene(scene_path(task.scene)).actuators.thrusters
+]
 
 
 def rollout(env_id: str, seed: int, actions: np.ndarray, **kwargs):
