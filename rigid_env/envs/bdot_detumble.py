@@ -12,7 +12,7 @@ from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
-from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
 
 FIELD_SCALE = 5.0e-5
@@ -41,15 +41,8 @@ def evaluate(body, effort, goal, memory, task, stepped):
     field its target carries (world frame, over FIELD_SCALE) turned into the body frame."""
     speed = safe_norm(body.w)
     success = speed < task.success_threshold
-    at_rest = tolerance_one(
-        speed,
-        lower=0.0,
-        upper=task.success_threshold,
-        margin=task.max_initial_spin,
-        sigmoid=LINEAR,
-        value_at_margin=0.0,
-    )
-    reward = at_rest - 1.0 - task.effort_weight * effort + (task.success_bonus if success else 0.0)
+    cost = spin_cost(speed, task.success_threshold, task.max_initial_spin)
+    reward = -cost - task.effort_weight * effort + (task.success_bonus if success else 0.0)
     field = rotate_inv(body.q, (goal[0], goal[1], goal[2]))
     return Outcome(reward, terminated=success, success=success, memory=memory, extra=field)
 

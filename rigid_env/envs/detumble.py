@@ -9,7 +9,7 @@ from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import NO_EXTRA, Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
-from rigid_env.envs.rewards import LINEAR, tolerance_one
+from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
 
 
@@ -33,16 +33,8 @@ def evaluate(body, effort, goal, memory, task, stepped):
     speed = safe_norm(body.w)
     success = speed < task.success_threshold
     # 0 at rest, -1 at the largest initial spin: a linear tolerance shaped as a cost.
-    at_rest = tolerance_one(
-        speed,
-        lower=0.0,
-        upper=task.success_threshold,
-        margin=task.max_initial_spin,
-        sigmoid=LINEAR,
-        value_at_margin=0.0,
-    )
-    spin_cost = 1.0 - at_rest
-    reward = -spin_cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
+    cost = spin_cost(speed, task.success_threshold, task.max_initial_spin)
+    reward = -cost - task.fuel_weight * effort + (task.success_bonus if success else 0.0)
     return Outcome(reward, terminated=success, success=success, memory=memory, extra=NO_EXTRA)
 
 

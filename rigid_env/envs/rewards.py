@@ -40,6 +40,15 @@ def tolerance_one(x, lower, upper, margin, sigmoid, value_at_margin):
 
 
 @kernel
+def spin_cost(speed, threshold, spread):
+    """0 for ``|w| = speed`` at or below ``threshold``, rising linearly to 1 at ``speed =
+    threshold + spread`` and beyond: a linear :func:`tolerance_one` shaped as a cost (the
+    detumbling tasks' per-step cost of spin)."""
+    at_rest = tolerance_one(speed, 0.0, threshold, spread, LINEAR, 0.0)
+    return 1.0 - at_rest
+
+
+@kernel
 def _tolerance_all(x, lower, upper, margin, sigmoid, value_at_margin, out):
     for i in range(x.shape[0]):
         out[i] = tolerance_one(x[i], lower, upper, margin, sigmoid, value_at_margin)
