@@ -22,7 +22,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from agents.bdot import avanzini_gain, bdot_rate
 from rigid_env.core.effects import LinearActuator, Magnetorquers, QuadraticDrag
 from rigid_env.core.rotation import (
     cross,
@@ -37,6 +36,8 @@ from rigid_env.envs.detumble import DetumbleTask
 from rigid_env.envs.reorient import ReorientTask
 from rigid_env.envs.spin_stabilize import SpinStabilizeTask
 from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE, TumblingFallTask
+
+from .bdot import avanzini_gain, bdot_rate
 
 FloatArray = NDArray[np.float64]
 
