@@ -33,6 +33,7 @@ from rigid_env.envs.hardware import (
 )
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
+from rigid_env.envs.sensors import SensorSuite
 from rigid_env.render import Frame, TaskView
 from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
@@ -108,7 +109,7 @@ class TaskBatch:
         num_envs: number of bodies ``N``.
         **kwargs: the task's parameters (:attr:`params_model`) and the settings every task
             takes (:class:`~rigid_env.envs.params.EnvSettings`: ``scene``, ``integrator``,
-            ``dt``, ``substeps``, ``rotation_repr``, ``randomization``).
+            ``dt``, ``substeps``, ``rotation_repr``, ``randomization``, ``sensors``, ...).
     """
 
     params_model: ClassVar[type[TaskParams]]
@@ -125,6 +126,9 @@ class TaskBatch:
     memory_dim: ClassVar[int] = 0
     """Numbers of task memory ``evaluate`` keeps from step to step (its ``memory`` and
     ``Outcome.memory``; at most :data:`~rigid_env.envs.kernels.MEMORY_WIDTH`)."""
+    refused_sensors: ClassVar[dict[str, str]] = {}
+    """``sensors`` keys the task refuses, each with why (it observes what that sensor would
+    hide: a one-line error names the sensor and this reason)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Refuse a task that declares more target or memory numbers than the pass holds."""
@@ -225,6 +229,8 @@ class TaskBatch:
         self._fuel_after: FloatArray | None = None
         self._observes_period = settings.observe_control_period
         self._check_extra_observations()
+        self.sensors = SensorSuite.of(settings.sensors, self)
+        """The observation's sensors (the ``sensors`` keyword; None: off, the truth observed)."""
 
     # ---- task interface ------------------------------------------------------------------
     def angular_velocity_scale(self) -> float:
@@ -239,6 +245,12 @@ class TaskBatch:
         """Before the task's pass over the envs ``rows`` (after their world step, or their
         reset), read what else of the world ``evaluate`` needs into their :attr:`target` (the
         field a magnetometer measures); nothing by default."""
+
+    def observed_field(self, rows: NDArray[np.int64]) -> tuple[FloatArray, float] | None:
+        """The magnetic field the task observes as ``field_x..field_z`` in the envs ``rows``
+        (a magnetometer's truth): ((K, 3) body frame [T], the field [T] it is observed over);
+        None (the default): the task observes none."""
+        return None
 
     def derived_numbers(self) -> dict[str, float]:
         """Numbers ``evaluate`` reads beside the parameters, derived from them and the scene
@@ -424,6 +436,9 @@ class TaskBatch:
             self.steps += 1
         if self._observes_period:
             self._observe_period()
+        if self.sensors is not None:
+            self.sensors.measure(self, rngs, restarting)
+            self.sensors.delay(self)
         return None, failed
 
     def _step_repeated(
@@ -444,13 +459,18 @@ class TaskBatch:
             if not stepping.any():
                 break
             failed = self._step_envs(rngs, stepping=stepping)
+            if self.sensors is not None:
+                self.sensors.measure(self, rngs, ~stepping)
             if self.world.tolerances is not None:
                 self.substeps[stepping] += self.world.substeps_taken[stepping]
             failed_any |= failed
             reward[stepping] += self.record["reward"][stepping]
             ended |= stepping & (self.record["terminated"] | failed)
         self.steps += 1
+        self._own_obs(keep=True)  # no pass ran if every env was restarting
         self._observe_period()
+        if self.sensors is not None:
+            self.sensors.delay(self)
         return reward, failed_any
 
     def _step_envs(
@@ -599,6 +619,8 @@ class TaskBatch:
         self.before_pass(idx, reset=True)
         self._pass_rows(idx, rngs, stepped=False)
         self._observe_period(idx)
+        if self.sensors is not None:
+            self.sensors.reset(self, idx, rngs)
 
     def _randomize(self, i: int, rng: np.random.Generator) -> None:
         r = self.randomization

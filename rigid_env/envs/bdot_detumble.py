@@ -7,6 +7,7 @@ import numpy as np
 
 from rigid_env.core.effects import Magnetorquers
 from rigid_env.core.maths import rotate_inv
+from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
@@ -82,6 +83,12 @@ class BdotDetumbleTask(TaskBatch):
             world.orbit_time[rows] = self.target[rows, 3]
         self.target[rows, :3] = self._orbit().at(world.orbit_time[rows]) / FIELD_SCALE
 
+    def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
+        """Each env's field in the body frame [T] (what its magnetometer measures), observed
+        over :data:`FIELD_SCALE`."""
+        field_world = self.target[rows, :3] * FIELD_SCALE
+        return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
+
     def _orbit(self):
         (coils,) = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
         if coils.orbit is None:
@@ -144,9 +151,11 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ``gym.make("RigidEnv/BdotDetumble-v0", max_initial_spin=0.1745, success_threshold=0.01745,
     effort_weight=0.05, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
-    rotation_repr="quaternion", randomization=None, observe_control_period=False,
+    rotation_repr="quaternion", randomization=None, observe_control_period=False, sensors=None,
     render_mode=None)``; ``randomization`` as for the other tasks (``"sensor_noise"``: a
-    gyro's white noise on the observed ``w`` [rad/s]).
+    gyro's white noise on the observed ``w`` [rad/s]); ``sensors`` takes a gyro, a
+    magnetometer (noise on the observed field), a star tracker and a delay
+    (:class:`rigid_env.envs.params.Sensors`).
 
     ## Info
 

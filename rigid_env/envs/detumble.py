@@ -102,7 +102,7 @@ class DetumbleEnv(RigidBodyEnv):
 
     ``gym.make("RigidEnv/Detumble-v0", max_initial_spin=3.0, success_threshold=0.05,
     fuel_weight=0.1, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
-    rotation_repr="quaternion", randomization=None, observe_control_period=False,
+    rotation_repr="quaternion", randomization=None, observe_control_period=False, sensors=None,
     render_mode=None)``; ``randomization`` takes ``{"mass": a, "inertia": a, "thrust": a,
     "sensor_noise": sigma, "action_repeat": [k, ...]}`` (each action held for ``k`` world steps,
     ``k`` drawn per episode; ``observe_control_period=True`` observes ``k dt`` [s] last; see
@@ -110,7 +110,8 @@ class DetumbleEnv(RigidBodyEnv):
     nothing here: the thrusters are pure couples (no net force), so the mass enters only the
     translation, which nothing observes or rewards; the moments are drawn on their own by
     ``"inertia"`` (not scaled with the mass). It matters only where forces move the centre of
-    mass (TumblingFall).
+    mass (TumblingFall). ``sensors`` takes a gyro, a star tracker and a delay
+    (:class:`rigid_env.envs.params.Sensors`).
 
     ## Info
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import ClassVar
 
 import numpy as np
 
@@ -88,6 +89,10 @@ class ReorientTask(TaskBatch):
     task_pass = reorient_pass
     extra_observations = ("error_w", "error_x", "error_y", "error_z")
     target_dim = 4
+    refused_sensors: ClassVar[dict[str, str]] = {
+        "star_tracker": "observes its error quaternion (error_w..error_z) from the true "
+        "attitude, which gives away the attitude a star tracker's noise would hide"
+    }
 
     def angular_velocity_scale(self) -> float:
         return self.params.max_initial_spin
@@ -145,8 +150,9 @@ class ReorientEnv(RigidBodyEnv):
 
     ``max_initial_spin=1.0, success_angle=5 deg, success_spin=0.05, fuel_weight=0.05``, plus
     the common ``integrator, dt, substeps, scene, rotation_repr, randomization,
-    observe_control_period, render_mode``. As in Detumble, ``randomization={"mass": a}`` changes
-    nothing (pure couples, no gravity).
+    observe_control_period, sensors, render_mode`` (``sensors`` without a star tracker: the
+    observed error quaternion comes from the true attitude). As in Detumble,
+    ``randomization={"mass": a}`` changes nothing (pure couples, no gravity).
 
     ## Version History
 

@@ -183,7 +183,7 @@ class SpinStabilizeEnv(RigidBodyEnv):
 
     ``target_spin=2.0, max_initial_tilt=10 deg, success_angle=5 deg, hold_time=1.0,
     fuel_weight=0.1``, plus the common ``integrator, dt, substeps, scene, rotation_repr,
-    randomization, observe_control_period, render_mode``. As in Detumble,
+    randomization, observe_control_period, sensors, render_mode``. As in Detumble,
     ``randomization={"mass": a}`` changes nothing (pure couples, no gravity).
 
     ## Version History

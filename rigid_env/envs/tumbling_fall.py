@@ -161,7 +161,7 @@ class TumblingFallEnv(RigidBodyEnv):
 
     ``max_initial_spin=3.0, drop_height=(50, 70), success_threshold=0.1, fuel_weight=0.05,
     success_bonus=10.0`` plus the common ``integrator, dt, substeps, scene, rotation_repr,
-    randomization, observe_control_period, render_mode`` (``randomization={"action_repeat":
+    randomization, observe_control_period, sensors, render_mode`` (``randomization={"action_repeat":
     [1, 2, 4]}`` holds each action for a number of world steps drawn per episode; with
     ``observe_control_period=True`` the observation ends with that period [s]).
 
