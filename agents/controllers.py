@@ -330,9 +330,6 @@ def analytic_controller(env: Any) -> PDController | BdotController:
 ANALYTIC: dict[type[TaskBatch], type] = {BdotDetumbleTask: BdotController}
 """The tasks whose analytic baseline is not a PD law, by task class."""
 
-CONTROLLERS = {
-    "pd": analytic_controller,
-    "bdot": BdotController,
-    "zero": ZeroController,
-    "random": RandomController,
-}
+CONTROLLERS = {"pd": analytic_controller, "zero": ZeroController, "random": RandomController}
+"""The baselines a policy is compared with, by the name of their rows: ``pd`` is the task's
+analytic baseline (:func:`analytic_controller`: B-dot on BdotDetumble)."""
