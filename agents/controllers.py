@@ -209,6 +209,9 @@ class PDController:
         KeyError: the env's task has no PD law (add one to :data:`PD_LAWS`).
     """
 
+    label = "PD"
+    """Its row's name in the demo's table."""
+
     def __init__(self, env: Any, k_p: float | None = None, k_d: float | None = None) -> None:
         self.task = task_of(env)
         law = PD_LAWS.get(type(self.task))
@@ -267,6 +270,9 @@ class BdotController:
         env: the (single or vector, possibly wrapped) environment it will control.
         gain: ``k`` [kg m^2/s] (default :func:`agents.bdot.avanzini_gain`).
     """
+
+    label = "B-dot"
+    """Its row's name in the demo's table."""
 
     def __init__(self, env: Any, gain: float | None = None) -> None:
         self.task = task_of(env)

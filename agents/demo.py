@@ -244,7 +244,10 @@ def markdown_report(rows: list[Row], seed: int) -> str:
         "(episode k resets with the first + k; none is used in training or in the README's "
         "evaluations). Success "
         "rate, final |w|, fuel and return are means over the episodes; time to success is the "
-        "mean over the successful episodes only.\n\n" + markdown_table(rows) + "\n"
+        "mean over the successful episodes only. Fuel is the impulse the thrusters delivered "
+        "[N s]; on magnetorquers (BdotDetumble) the coils' dipole-time [A m^2 s].\n\n"
+        + markdown_table(rows)
+        + "\n"
     )
 
 
@@ -387,16 +390,17 @@ def run(
         label = policy_label(model)
         learned = load_policy(model, env_id(name))
         pd = pd_policy(name)
-        for policy_name, policy in ((label, learned), ("PD", pd)):
+        analytic = getattr(pd, "label", "PD")  # the task's analytic baseline: PD, or B-dot
+        for policy_name, policy in ((label, learned), (analytic, pd)):
             ticker = _Progress(f"{name} {policy_name}", episodes, log)
             rows.append(Row(name, policy_name, run_episodes(name, policy, episodes, seed, ticker)))
         gif = animation_path(out, name)
-        pair = [(f"{label} (pretrained)", learned), ("PD controller", pd)]
+        pair = [(f"{label} (pretrained)", learned), (f"{analytic} controller", pd)]
         record_side_by_side(env_id(name), pair, seed, gif)
         written.append(gif)
         log(
             f"{name}: {rows[-2].success_rate:.2f} / {rows[-1].success_rate:.2f} success "
-            f"({label} / PD), {time.perf_counter() - t0:.1f} s"
+            f"({label} / {analytic}), {time.perf_counter() - t0:.1f} s"
         )
     for name, text in (
         ("results.md", markdown_report(rows, seed)),

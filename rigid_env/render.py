@@ -159,6 +159,7 @@ class TaskView:
         gauge_top: height at the top of the gauge [m].
         readouts: text readouts after the success flag (and the height), keys of
             :data:`READOUTS`, one number each in :attr:`Frame.readouts`.
+        fuel_unit: the unit of :attr:`Frame.fuel` (a coil's dipole-time: ``A m^2 s``).
     """
 
     title: str
@@ -171,6 +172,7 @@ class TaskView:
     ground: bool = False
     gauge_top: float = 1.0
     readouts: tuple[str, ...] = ()
+    fuel_unit: str = "N s"
 
     def __post_init__(self) -> None:
         unknown = [r for r in self.readouts if r not in READOUTS]
@@ -704,7 +706,7 @@ class TaskRenderer:
         rows: list[list[tuple[str, Color]]] = [
             [
                 (f"|w| {speed:.3f} rad/s", TEXT_COLOR),
-                (f"fuel {float(frame.fuel):.3f} N s", TEXT_COLOR),
+                (f"fuel {float(frame.fuel):.3f} {self.view.fuel_unit}", TEXT_COLOR),
             ],
             [
                 (

@@ -3,6 +3,8 @@ field along its orbit."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from rigid_env.core.effects import Magnetorquers
@@ -15,6 +17,7 @@ from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
 from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
+from rigid_env.render import TaskView
 
 FIELD_SCALE = 5.0e-5
 """[T] the observed field is divided by this (the Earth's is 2e-5 to 6e-5 in low orbit)."""
@@ -82,6 +85,10 @@ class BdotDetumbleTask(TaskBatch):
         if reset:
             world.orbit_time[rows] = self.target[rows, 3]
         self.target[rows, :3] = self._orbit().at(world.orbit_time[rows]) / FIELD_SCALE
+
+    def view(self) -> TaskView:
+        """The body and its coils (drawn along their axes), the fuel as dipole-time."""
+        return replace(super().view(), fuel_unit="A m^2 s")
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (what its magnetometer measures), observed

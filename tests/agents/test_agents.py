@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from agents.config import ConfigError, load_config
-from agents.controllers import PD_LAWS, BoundedAllocator, PDController
+from agents.controllers import ANALYTIC, PD_LAWS, BoundedAllocator, PDController
 from agents.demo import pretrained_model
 from agents.evaluate import evaluate
 from agents.evaluate import main as evaluate_main
@@ -289,11 +289,12 @@ def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
 
 
 def test_every_shipped_task_has_its_configs_policy_and_pd_law():
-    """agents.shipped lists the tasks with a config per algorithm, a pretrained policy and a PD
-    law; the demo and the tests loop over those, not over every registered task."""
+    """agents.shipped lists the tasks with a config per algorithm, a pretrained policy and an
+    analytic baseline (a PD law, or another controller: B-dot); the demo and the tests loop
+    over those, not over every registered task."""
     root = Path(__file__).resolve().parents[2]
     for name, task in SHIPPED_TASKS.items():
-        assert task.task_class() in PD_LAWS
+        assert task.task_class() in PD_LAWS or task.task_class() in ANALYTIC
         for algo in ("ppo", "sac", "td3"):
             assert (root / "configs" / "agents" / f"{algo}_{task.module}.yaml").exists()
         assert pretrained_model(name).exists()
