@@ -305,6 +305,10 @@ class World:
         world = World(self.model, merged.pop("effects"), merged.pop("integrator"),
                       state=self._state.copy(), **merged)  # fmt: skip
         world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]  # the thrust levels, if they lag
+        for name in ("magnetic_field", "orbit_time"):  # the coils' field and orbit clocks
+            mine, theirs = getattr(self, name), getattr(world, name)
+            if mine is not None and theirs is not None:
+                theirs[:] = mine
         maps = self.body_maps
         if maps is not None:
             world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])

@@ -203,6 +203,17 @@ def test_each_body_keeps_its_own_orbit_clock() -> None:
     np.testing.assert_array_equal(world.orbit_time, [start[0] + world.dt, 0.0, start[2] + world.dt])
 
 
+def test_new_settings_keep_the_field_and_the_orbit_clocks() -> None:
+    """``with_settings`` (another integrator) goes on from each body's point of the orbit and
+    its field, as it goes on from the state."""
+    world = load_scene(SCENE_FILE).build_world(n=2)
+    world.orbit_time[:] = [10.0, 2000.0]
+    world.step(np.zeros(3))
+    other = world.with_settings(integrator="dop853")
+    np.testing.assert_array_equal(other.orbit_time, world.orbit_time)
+    np.testing.assert_array_equal(other.magnetic_field, world.magnetic_field)
+
+
 @pytest.mark.parametrize(
     ("section", "field"),
     [
