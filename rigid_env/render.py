@@ -160,6 +160,7 @@ class TaskView:
         readouts: text readouts after the success flag (and the height), keys of
             :data:`READOUTS`, one number each in :attr:`Frame.readouts`.
         fuel_unit: the unit of :attr:`Frame.fuel` (a coil's dipole-time: ``A m^2 s``).
+        actuation: the legend's name of what the actuators' arrows show.
     """
 
     title: str
@@ -173,6 +174,7 @@ class TaskView:
     gauge_top: float = 1.0
     readouts: tuple[str, ...] = ()
     fuel_unit: str = "N s"
+    actuation: str = "thrust"
 
     def __post_init__(self) -> None:
         unknown = [r for r in self.readouts if r not in READOUTS]
@@ -460,7 +462,10 @@ class TaskRenderer:
             bg.blit(label, (tips[k, 0] - w / 2, tips[k, 1] - h / 2))
         legend: list[tuple[str, Color]] = [
             ("angular velocity (world)", ARROW_COLOR),
-            ("thrust (length ~ |thrust|)", _mix(FLAME_NOZZLE, FLAME_TIP, 0.5)),
+            (
+                f"{self.view.actuation} (length ~ |{self.view.actuation}|)",
+                _mix(FLAME_NOZZLE, FLAME_TIP, 0.5),
+            ),
         ]
         if self.view.target_orientation:
             legend.append(("target orientation", TARGET_COLOR))

@@ -88,7 +88,7 @@ class BdotDetumbleTask(TaskBatch):
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""
-        return replace(super().view(), fuel_unit="A m^2 s")
+        return replace(super().view(), fuel_unit="A m^2 s", actuation="dipole")
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (what its magnetometer measures), observed
