@@ -4,10 +4,12 @@ field along its orbit."""
 from __future__ import annotations
 
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from rigid_env.core.effects import Magnetorquers
+from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.maths import rotate_inv
 from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.envs.batch import TaskBatch
@@ -75,7 +77,7 @@ class BdotDetumbleTask(TaskBatch):
 
     def sample(self, rng: np.random.Generator):
         q, w = random_tumble(rng, self.params.max_initial_spin)
-        start = rng.uniform(0.0, self._orbit().orbit.period)
+        start = rng.uniform(0.0, self.orbit.orbit.period)
         return np.zeros(3), np.zeros(3), q, w, np.array([0.0, 0.0, 0.0, start])
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
@@ -84,7 +86,7 @@ class BdotDetumbleTask(TaskBatch):
         world = self.world
         if reset:
             world.orbit_time[rows] = self.target[rows, 3]
-        self.target[rows, :3] = self._orbit().at(world.orbit_time[rows]) / FIELD_SCALE
+        self.target[rows, :3] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""
@@ -96,14 +98,17 @@ class BdotDetumbleTask(TaskBatch):
         field_world = self.target[rows, :3] * FIELD_SCALE
         return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
 
-    def _orbit(self):
-        (coils,) = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
-        if coils.orbit is None:
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        super().__init__(num_envs, **kwargs)
+        coils = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
+        if not coils or coils[0].orbit is None:
             raise ValueError(
-                "scene: BdotDetumble needs magnetorquers on an orbit (actuators.magnetorquers."
-                "orbit: {altitude: m, inclination: deg}); the scene gives a constant field"
+                "scene: BdotDetumble needs magnetorquers on an orbit (actuators.magnetorquers: "
+                "{max_dipole: A m^2, orbit: {altitude: m, inclination: deg}}); this scene has "
+                + ("a constant field" if coils else "no magnetorquers")
             )
-        return coils.orbit
+        self.orbit: OrbitField = coils[0].orbit
+        """The orbit the coils' field follows (the scene's)."""
 
 
 class BdotDetumbleEnv(RigidBodyEnv):

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
+import pytest
 
 from agents.controllers import CONTROLLERS, BdotController
 from rigid_env.core.rotation import quat_rotate_inv
@@ -23,7 +24,7 @@ def test_magnetometer_reads_the_orbits_field_in_the_body_frame() -> None:
     venv = gym.make_vec(ENV_ID, num_envs=4, vectorization_mode="vector_entry_point")
     obs, _ = venv.reset(seed=3)
     task = venv.unwrapped.task
-    orbit = task._orbit()
+    orbit = task.orbit
     times = task.world.orbit_time.copy()
     assert np.unique(times).size == 4 and np.all((times >= 0) & (times < orbit.orbit.period))
     running = np.ones(4, bool)
@@ -65,3 +66,26 @@ def test_bdot_detumbles_the_held_out_episodes() -> None:
         if done.all():
             break
     assert success.mean() >= 0.95
+
+
+def test_a_scene_without_an_orbit_is_refused_by_name(tmp_path) -> None:
+    """The task's field follows an orbit: a scene of constant field, or of no coils, is a
+    one-line error when the env is made."""
+    import yaml
+
+    from rigid_env.resources import scene_path
+
+    scene = yaml.safe_load(scene_path("bdot_detumble").read_text())
+    coils = scene["actuators"]["magnetorquers"]
+    del coils["orbit"]
+    coils["field"] = [0.0, 0.0, 3.0e-5]
+    path = tmp_path / "constant.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    with pytest.raises(ValueError, match=r"needs magnetorquers on an orbit.*a constant field"):
+        gym.make(ENV_ID, scene=str(path))
+    scene["actuators"] = {
+        "thrusters": [{"point": [0.05, 0, 0], "direction": [0, 1, 0], "max_force": 0.1}]
+    }
+    path.write_text(yaml.safe_dump(scene))
+    with pytest.raises(ValueError, match="no magnetorquers"):
+        gym.make(ENV_ID, scene=str(path))
