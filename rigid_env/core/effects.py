@@ -446,7 +446,8 @@ class Magnetorquers(LinearActuator):
     dipole_map: FloatArray = dataclass_field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        axes = np.asarray(self.axes, dtype=np.float64)
+        axes = _floats("magnetorquers.axes", self.axes, "[[x, y, z], ...], body frame")
+        moment = _floats("magnetorquers.max_dipole", self.max_dipole, "A m^2, one or one per coil")
         if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] == 0:
             raise ValueError(
                 f"magnetorquers.axes: expected a list of K >= 1 body-frame axes [x, y, z], got "
@@ -460,11 +461,21 @@ class Magnetorquers(LinearActuator):
                 "give each coil's axis"
             )
         k = axes.shape[0]
-        moment = np.broadcast_to(np.asarray(self.max_dipole, dtype=np.float64), (k,)).copy()
+        if moment.shape not in ((), (k,)):
+            raise ValueError(
+                f"magnetorquers.max_dipole: one dipole or one per coil ({k}), got shape "
+                f"{moment.shape}"
+            )
+        moment = np.broadcast_to(moment, (k,)).copy()
         bad = np.flatnonzero(~(np.isfinite(moment) & (moment >= 0.0)))
         if bad.size:
             raise ValueError(
                 f"magnetorquers.max_dipole: must be finite and >= 0 [A m^2], got {moment[bad[0]]}"
+            )
+        if self.orbit is not None and not isinstance(self.orbit, OrbitField):
+            raise TypeError(
+                f"magnetorquers.orbit: expected an OrbitField (rigid_env.core.geomagnetic), got "
+                f"{type(self.orbit).__name__}"
             )
         if self.orbit is not None:
             object.__setattr__(self, "field", self.orbit.at(0.0))
@@ -481,6 +492,14 @@ class Magnetorquers(LinearActuator):
         """The flag and the residual dipole; the coils' rows go after the maps (:func:`pack`)."""
         axes = ("residual_dipole_x", "residual_dipole_y", "residual_dipole_z")
         return {"magnetorquers": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
+
+
+def _floats(where: str, value: object, what: str) -> FloatArray:
+    """``value`` as a float array, or a one-line ``ValueError`` naming ``where``."""
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{where}: expected numbers ({what}), got {value!r}") from None
 
 
 def pack(

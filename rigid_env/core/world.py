@@ -204,16 +204,15 @@ class World:
         self._magnetic = hw.magnetorquers != 0.0
         coils = [e for e in plan.effects if isinstance(e, Magnetorquers)]
         self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
+        """(N, 3) the field ``B`` each body's coils see in the next :meth:`step`, world frame
+        [T], held over the step: set it between steps, or give the coils an ``orbit`` and the
+        world sets it at the middle of each body's step (:attr:`orbit_time`; the midpoint rule:
+        second order in the field's slow turn); None without magnetorquers."""
         self._orbit = coils[0].orbit if coils else None
         self.orbit_time = np.zeros(self._n) if self._orbit is not None else None
-        """(N,) each body's time along the coils' ``orbit`` [s] (its phase there), advanced by
-        ``dt`` per step, cleared by :meth:`restart`: set it to put bodies at other points of
-        the orbit (an env's episode at a random phase); None without an orbit."""
-        """(N, 3) the field ``B`` each body's magnetorquers see in the next :meth:`step`, world
-        frame [T], held over the step: set it between steps, or give the coils an ``orbit``,
-        along which the world sets it at the middle of each body's step (:attr:`orbit_time`;
-        the midpoint rule: second order in the field's slow turn, ``dt`` times the orbit's
-        rate); None without magnetorquers."""
+        """(N,) each body's time along the coils' ``orbit`` [s], advanced by ``dt`` a step and
+        cleared by :meth:`restart` (set it to put bodies at other points of the orbit); None
+        without an orbit."""
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
@@ -594,11 +593,16 @@ class World:
                 )
             parts.append(f)
         if self._magnetic:
-            b = np.asarray(self.magnetic_field, dtype=np.float64)
-            if b.shape != (self._n, 3) or not np.all(np.isfinite(b)):
+            try:  # one field (3,) for every body, or each body's (N, 3)
+                b = np.asarray(self.magnetic_field, dtype=np.float64)
+                b = np.broadcast_to(b, (self._n, 3))
+            except (TypeError, ValueError):
+                b = np.full((self._n, 3), np.nan)  # refused below, named
+            if not np.all(np.isfinite(b)):
+                got = " ".join(repr(self.magnetic_field).split())
                 raise ValueError(
-                    f"magnetic_field: expected finite fields [T] of shape ({self._n}, 3), got "
-                    f"shape {b.shape}; set each body's row, world frame"
+                    f"magnetic_field: expected finite fields [T], (3,) or ({self._n}, 3), world "
+                    f"frame, got {got if len(got) <= 60 else got[:57] + '...'}"
                 )
             parts.append(b)
         return np.ascontiguousarray(np.concatenate(parts, axis=1))

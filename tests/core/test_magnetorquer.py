@@ -144,7 +144,8 @@ def test_each_body_sees_its_own_field() -> None:
     ("value", "match"),
     [
         (np.full((1, 3), np.nan), "magnetic_field: expected finite"),
-        (np.zeros((2, 3)), r"magnetic_field: .*shape \(1, 3\)"),
+        (np.zeros((2, 3)), r"magnetic_field: .*\(3,\) or \(1, 3\)"),
+        ("north", r"magnetic_field: .*got 'north'"),
     ],
 )
 def test_a_bad_field_is_refused_before_the_step(value: np.ndarray, match: str) -> None:
@@ -164,6 +165,8 @@ def test_a_bad_field_is_refused_before_the_step(value: np.ndarray, match: str) -
         ({"max_dipole": -1.0}, "magnetorquers.max_dipole: must be finite and >= 0"),
         ({"residual": [0.0, np.inf, 0.0]}, "magnetorquers.residual"),
         ({"field": [0.0, 0.0]}, "magnetorquers.field"),
+        ({"axes": "xyz"}, "magnetorquers.axes: expected numbers"),
+        ({"max_dipole": [0.1, 0.2]}, r"magnetorquers.max_dipole: one dipole or one per coil \(3\)"),
     ],
 )
 def test_bad_coils_are_refused_by_name(kwargs: dict, match: str) -> None:
