@@ -87,12 +87,12 @@ def with_field(act, command, r, c):
 @kernel
 def accelerations(x, v, q, w, act, m, c, gyro):
     """``(v', w')``: linear acceleration (world) [m/s^2] and angular acceleration (body)
-    [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuators' body wrench
-    ``act = (force, torque)`` (the force turned to the world frame) and the listed effects'
-    forces and torques (:func:`rigid_env.core.compose.effect_terms`, each effect's own
-    function, :mod:`rigid_env.core.forces`); where magnetorquers act, the torque ``m_b x R^T
-    B`` of the dipole and field in ``act`` (:func:`wrench`); with ``gyro``, Euler's ``I w' =
-    tau - w x I w`` (skipped for an isotropic body, where the term vanishes)."""
+    [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuation ``act = (force,
+    torque, dipole, field)`` (:func:`wrench`; the body-frame force turned to the world frame)
+    and the listed effects' forces and torques (:func:`rigid_env.core.compose.effect_terms`,
+    each effect's own function, :mod:`rigid_env.core.forces`); where magnetorquers act, the
+    torque ``m_b x R^T B`` of its dipole and field; with ``gyro``, Euler's ``I w' = tau - w x
+    I w`` (skipped for an isotropic body, where the term vanishes)."""
     fb, tb = act[0], act[1]
     if c.magnetorquers != 0.0:
         tb = add(tb, dipole_torque(act[2], act[3], q))

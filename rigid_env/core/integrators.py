@@ -2,8 +2,9 @@
 
 An integrator advances one body's ``(x, v, q, w)`` (x, v world frame; q body -> world
 ``(w, x, y, z)``; w body frame) by one step ``h`` under the active effects,
-``step(x, v, q, w, act, m, c, h) -> (x, v, q, w)``, with ``act = (force, torque)`` the
-actuators' body-frame wrench (constant over a world step), ``m`` the body's model and ``c`` the
+``step(x, v, q, w, act, m, c, h) -> (x, v, q, w)``, with ``act = (force, torque, dipole,
+field)`` the actuation (:func:`rigid_env.core.dynamics.wrench`: the body-frame wrench, and the
+coils' dipole and field; constant over a world step), ``m`` the body's model and ``c`` the
 world's parameters, both named tuples (:mod:`rigid_env.core.layout`). A world step is that
 function looped over the bodies (:func:`rigid_env.core.stepping.advance`); ``exact_free`` is
 the one NumPy array integrator (:mod:`rigid_env.core.exact`).
