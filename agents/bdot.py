@@ -51,10 +51,7 @@ def bdot_rate(
         max_dipole: (3,) or one dipole at ``|u| = 1`` [A m^2].
     """
     w, b = np.atleast_2d(w_body), np.atleast_2d(field_body)
-    m = gain * np.cross(w, b)
-    if normalise:
-        m /= np.maximum(np.sum(b * b, axis=1, keepdims=True), np.finfo(float).tiny)
-    return np.clip(m / np.asarray(max_dipole, dtype=np.float64), -1.0, 1.0)
+    return _commands(gain * np.cross(w, b), b, max_dipole, normalise)
 
 
 def bdot_measured(
@@ -69,7 +66,12 @@ def bdot_measured(
     magnetometer samples ``dt`` [s] apart, no gyro; equal to :func:`bdot_rate` as ``dt -> 0``
     (the difference quotient is ``-w x B_b`` to ``O(dt |w|^2 |B|)``)."""
     b, b0 = np.atleast_2d(field_body), np.atleast_2d(previous)
-    m = -gain * (b - b0) / dt
+    return _commands(-gain * (b - b0) / dt, b, max_dipole, normalise)
+
+
+def _commands(m: FloatArray, b: FloatArray, max_dipole: ArrayLike, normalise: bool) -> FloatArray:
+    """The coils' commands in [-1, 1] for the dipoles ``m`` (N, 3) [A m^2], divided by
+    ``|B_b|^2`` first where ``normalise``."""
     if normalise:
-        m /= np.maximum(np.sum(b * b, axis=1, keepdims=True), np.finfo(float).tiny)
+        m = m / np.maximum(np.sum(b * b, axis=1, keepdims=True), np.finfo(float).tiny)
     return np.clip(m / np.asarray(max_dipole, dtype=np.float64), -1.0, 1.0)
