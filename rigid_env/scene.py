@@ -51,11 +51,12 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, Field, ValidationInfo, field_validator, model_validator
 
 from rigid_env import knobs
-from rigid_env.config_files import ConfigFileError, number, read_yaml, validate
+from rigid_env.config_files import ConfigFileError, FieldError, number, read_yaml, validate
 from rigid_env.core.effects import (
     ForceEffect,
     Magnetorquers,
     PointForces,
+    ReactionWheels,
     StepMap,
     Thrusters,
 )
@@ -70,6 +71,7 @@ from rigid_env.core.rotation import (
     quat_rotate_inv,
 )
 from rigid_env.core.state import BodyModel, State
+from rigid_env.core.wheels import NO_WHEELS, WHEEL_STEPS
 from rigid_env.core.world import World
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene_sections import (
@@ -185,6 +187,12 @@ class Scene(Spec):
         _ = self._frame  # the mass properties are computed (and checked) when loading
         self.effects_spec.check(self)
         self.actuators.check(self.dt)
+        if self.actuators.reaction_wheels is not None and self.integrator in NO_WHEELS:
+            raise FieldError(
+                "integrator",
+                f"{self.integrator!r} does not step reaction wheels ({NO_WHEELS[self.integrator]})",
+                f"choose one of: {', '.join(WHEEL_STEPS)}",
+            )
         return self
 
     # ---- derived ---------------------------------------------------------------------------
@@ -292,6 +300,18 @@ class Scene(Spec):
                     orbit=None if coils.orbit is None else coils.orbit.field(),
                 )
             )
+        wheels = act.reaction_wheels
+        if wheels is not None:
+            out.append(
+                ReactionWheels(
+                    self.direction_to_body(wheels.axes),
+                    inertia=wheels.inertia,
+                    max_torque=wheels.max_torque,
+                    max_speed=wheels.max_speed,
+                    viscous=wheels.viscous,
+                    coulomb=wheels.coulomb,
+                )
+            )
         return out
 
     def initial_state(self, n: int = 1) -> State:
@@ -343,7 +363,7 @@ class Scene(Spec):
         )  # fmt: skip
         changes = {k: v for k, v in overrides if v is not None}
         scene = self.replace(**changes) if changes else self
-        return World(
+        built = World(
             scene.body_model(),
             scene.effects(),
             integrator=scene.integrator,
@@ -356,6 +376,10 @@ class Scene(Spec):
             atol=scene.atol,
             **world,
         )
+        wheels = scene.actuators.reaction_wheels
+        if wheels is not None and wheels.speeds:
+            built.set_wheel_speed(wheels.speeds)
+        return built
 
     # ---- variants and serialisation --------------------------------------------------------
     def replace(self, **changes: Any) -> Scene:
@@ -408,6 +432,9 @@ class Scene(Spec):
         if self.actuators.magnetorquers is not None:
             k = len(self.actuators.magnetorquers.axes)
             parts.append(f"{k} magnetorquer{'s' if k > 1 else ''}")
+        if self.actuators.reaction_wheels is not None:
+            k = len(self.actuators.reaction_wheels.axes)
+            parts.append(f"{k} reaction wheel{'s' if k > 1 else ''}")
         return "; ".join(parts)
 
 

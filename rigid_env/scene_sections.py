@@ -572,6 +572,53 @@ class MagnetorquersSpec(Spec):
         return self
 
 
+NewtonMeters = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N m")]
+
+
+class ReactionWheelsSpec(Spec):
+    """Reaction wheels: wheel ``k`` spins about ``axes[k]``, one action component each (after
+    the magnetorquers), ``u_k`` in [-1, 1] driving it with ``u_k max_torque`` up to its speed
+    limit; the body keeps the total angular momentum (:mod:`rigid_env.core.wheels`). Identical
+    wheels (one number each); step them with explicit_euler, symplectic_euler, leapfrog,
+    midpoint or rk4."""
+
+    axes: Annotated[tuple[Direction, ...], Field(min_length=1, max_length=4)] = (
+        (1.0, 0.0, 0.0),
+        (0.0, 1.0, 0.0),
+        (0.0, 0.0, 1.0),
+    )
+    """Each wheel's spin axis, shape frame (non-zero; normalised); 1 to 4 wheels."""
+    inertia: Moment
+    """Each wheel's axial inertia [kg m^2] (a CubeSat wheel's: 1e-6 to 1e-4)."""
+    max_torque: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("N m")]
+    """Motor torque at ``|u| = 1`` [N m] (a CubeSat wheel's: 1e-3 to 1e-2)."""
+    max_speed: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("rad/s")]
+    """Speed limit relative to the body [rad/s]: no torque drives a wheel beyond it (6000 rpm
+    is 628 rad/s)."""
+    viscous: Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N m s/rad")] = 0.0
+    """Viscous bearing friction ``-viscous Omega`` [N m s/rad]."""
+    coulomb: NewtonMeters = 0.0
+    """Coulomb bearing friction ``-coulomb sign(Omega)`` [N m]."""
+    speeds: tuple[Rate, ...] = ()
+    """Each wheel's speed relative to the body at the start [rad/s]; none: at rest."""
+
+    @field_validator("axes")
+    @classmethod
+    def _non_zero(cls, axes: tuple[tuple[float, float, float], ...]) -> Any:
+        for k, a in enumerate(axes):
+            if not any(a):
+                raise ValueError(f"[{k}] is zero; give each wheel's axis (it is normalised)")
+        return axes
+
+    @model_validator(mode="after")
+    def _speeds(self) -> ReactionWheelsSpec:
+        if self.speeds and len(self.speeds) != len(self.axes):
+            raise ValueError(
+                f"speeds: give one speed per wheel ({len(self.axes)}), got {len(self.speeds)}"
+            )
+        return self
+
+
 class ActuatorsSpec(Spec):
     """Actuators, read from the action vector: thrusters first, then point forces, then
     magnetorquers."""
@@ -586,19 +633,33 @@ class ActuatorsSpec(Spec):
         MagnetorquersSpec | None, _present("{max_dipole: A m^2, field: [Bx, By, Bz]}")
     ] = None
     """Optional magnetorquers (coils) and the field they act in."""
+    reaction_wheels: Annotated[
+        ReactionWheelsSpec | None,
+        _present("{inertia: kg m^2, max_torque: N m, max_speed: rad/s}"),
+    ] = None
+    """Optional reaction wheels (momentum exchange inside the body)."""
 
     @property
     def action_dim(self) -> int:
         """Number of action components."""
         pf = 0 if self.point_forces is None else 3 * len(self.point_forces.points)
         coils = 0 if self.magnetorquers is None else len(self.magnetorquers.axes)
-        return len(self.thrusters) + pf + coils
+        wheels = 0 if self.reaction_wheels is None else len(self.reaction_wheels.axes)
+        return len(self.thrusters) + pf + coils + wheels
 
     def check(self, dt: float) -> None:
         """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one
         step can reach (``max_force dt``); raise :class:`FieldError` naming the thruster
         (``actuators.thrusters[k].<field>``)."""
         for k, t in enumerate(self.thrusters):
+            hardware = t.lag > 0 or t.min_impulse > 0 or t.mode == "on_off" or t.noise > 0
+            if hardware and self.reaction_wheels is not None:
+                raise FieldError(
+                    f"actuators.thrusters[{k}]",
+                    "has a hardware model (lag, min_impulse, on_off or noise), which does not "
+                    "step with reaction wheels",
+                    "make the thrusters ideal or leave reaction_wheels out",
+                )
             if t.min_impulse > t.max_force * dt:
                 raise FieldError(
                     f"actuators.thrusters[{k}].min_impulse",

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.inertia import checked_floats
-from rigid_env.core.layout import EFFECTS, THRUSTER_WIDTH, Params, Thruster
+from rigid_env.core.layout import EFFECTS, MAPS, THRUSTER_WIDTH, WHEEL_WIDTH, Params, Thruster
 from rigid_env.core.rotation import cross, quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
@@ -494,6 +494,88 @@ class Magnetorquers(LinearActuator):
         return {"magnetorquers": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
 
 
+@dataclass(frozen=True)
+class ReactionWheels(LinearActuator):
+    """Reaction wheels (:mod:`rigid_env.core.wheels`): wheel ``k`` spins about the body axis
+    ``axes[k]``; command component ``u_k`` in [-1, 1] drives it with the motor torque ``u_k
+    max_torque[k]``, none beyond ``max_speed[k]``, against the bearing's friction ``-viscous
+    Omega - coulomb sign(Omega)``. The body feels ``-sum_k a_k h_k'`` and ``-w x h``: momentum
+    moves between body and wheels, the total stays. No force, no torque map: the wheels' torque
+    is internal, evaluated in the dynamics at every stage.
+
+    Attributes:
+        axes: (K, 3) each wheel's spin axis, body frame (normalised here), 1 to 4 wheels.
+        inertia: (K,) or one axial inertia ``J`` [kg m^2] (a CubeSat's: 1e-6 to 1e-4).
+        max_torque: (K,) or one motor torque at ``|u| = 1`` [N m] (a CubeSat's: 1e-3 to 1e-2).
+        max_speed: (K,) or one speed limit relative to the body [rad/s] (6000 rpm: 628).
+        viscous: (K,) or one viscous friction coefficient [N m s/rad], >= 0.
+        coulomb: (K,) or one Coulomb friction torque [N m], >= 0.
+    """
+
+    axes: FloatArray = field(default_factory=lambda: np.eye(3))
+    inertia: FloatArray | float = 1.0e-5
+    max_torque: FloatArray | float = 2.0e-3
+    max_speed: FloatArray | float = 628.0
+    viscous: FloatArray | float = 0.0
+    coulomb: FloatArray | float = 0.0
+    name: ClassVar[str] = "reaction_wheels"
+    force_map: FloatArray = dataclass_field(init=False, repr=False)
+    torque_map: FloatArray = dataclass_field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        axes = _floats("reaction_wheels.axes", self.axes, "[[x, y, z], ...], body frame")
+        if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= axes.shape[0] <= 4:
+            raise ValueError(
+                f"reaction_wheels.axes: expected 1 to 4 body-frame axes [x, y, z], got shape "
+                f"{axes.shape}"
+            )
+        axes = checked_floats("reaction_wheels.axes", axes, axes.shape)
+        length = np.linalg.norm(axes, axis=1)
+        if np.any(length == 0.0):
+            raise ValueError(
+                f"reaction_wheels.axes[{int(np.argmin(length))}]: a zero vector has no "
+                "direction; give each wheel's spin axis"
+            )
+        k = axes.shape[0]
+        object.__setattr__(self, "axes", axes / length[:, None])
+        for name, unit, positive in (
+            ("inertia", "kg m^2", True), ("max_torque", "N m", False),
+            ("max_speed", "rad/s", True), ("viscous", "N m s/rad", False),
+            ("coulomb", "N m", False),
+        ):  # fmt: skip
+            value = _floats(f"reaction_wheels.{name}", getattr(self, name), unit)
+            if value.shape not in ((), (k,)):
+                raise ValueError(
+                    f"reaction_wheels.{name}: one value or one per wheel ({k}), got shape "
+                    f"{value.shape}"
+                )
+            value = np.broadcast_to(value, (k,)).astype(np.float64)
+            bad = ~np.isfinite(value) | ((value <= 0.0) if positive else (value < 0.0))
+            if bad.any():
+                what = "> 0" if positive else ">= 0"
+                raise ValueError(
+                    f"reaction_wheels.{name}[{int(np.argmax(bad))}]: must be finite and {what} "
+                    f"[{unit}], got {value[bad][0]}"
+                )
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "force_map", np.zeros((k, 3)))
+        object.__setattr__(self, "torque_map", np.zeros((k, 3)))
+
+    def rows(self, first: int) -> FloatArray:
+        """(K, WHEEL_WIDTH) the wheels' rows of the parameters, their command components
+        ``first``, ``first + 1``, ..."""
+        out = np.column_stack([
+            self.axes, self.inertia, self.max_torque, self.max_speed, self.viscous, self.coulomb,
+            first + np.arange(self.axes.shape[0], dtype=np.float64),
+        ])  # fmt: skip
+        assert out.shape[1] == WHEEL_WIDTH
+        return out
+
+    def parameters(self) -> dict[str, float]:
+        """The count of wheels; their rows go last in the parameters (:func:`pack`)."""
+        return {"wheels": float(self.axes.shape[0])}
+
+
 def _floats(where: str, value: object, what: str) -> FloatArray:
     """``value`` as a float array, or a one-line ``ValueError`` naming ``where``."""
     try:
@@ -562,6 +644,18 @@ def pack(
         raise ValueError("magnetorquers: listed twice; give every coil in one list of axes")
     if magnetic:  # each component's dipole at |u| = 1 after the maps and hardware rows
         tail.extend(getattr(a, "dipole_map", np.zeros((a.action_dim, 3))) for a in actuators)
+    wheels = [a for a in actuators if isinstance(a, ReactionWheels)]
+    if len(wheels) > 1:
+        raise ValueError("reaction_wheels: listed twice; give every wheel in one list of axes")
+    if wheels and hardware:
+        raise ValueError(
+            "reaction_wheels: thrusters with a hardware model (lag, min_impulse, on_off, noise) "
+            "do not step with wheels; make the thrusters ideal or leave the wheels out"
+        )
+    if wheels:  # the wheels' rows last, after the maps and every other tail
+        first = sum(a.action_dim for a in actuators[: actuators.index(wheels[0])])
+        named["wheel_rows"] = float(MAPS + maps.size + sum(t.size for t in tail))
+        tail.append(wheels[0].rows(first))
     named["actions"] = float(maps.shape[0])
     named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
     named["any_force"] = 1.0 if forces else 0.0

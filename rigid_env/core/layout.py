@@ -87,6 +87,8 @@ _TAIL = (
     ("residual_dipole_x", "the body's own dipole where magnetorquers act, body frame [A m^2]"),
     ("residual_dipole_y", "its y component"),
     ("residual_dipole_z", "its z component"),
+    ("wheels", "number K of reaction wheels (0: none; rigid_env.core.wheels)"),
+    ("wheel_rows", "offset of the wheels' rows (WHEEL_WIDTH each) in the parameter array"),
 )
 EFFECTS = load_effects()
 """The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""
@@ -142,6 +144,10 @@ class Thruster(NamedTuple):
 
 
 THRUSTER_WIDTH = len(Thruster._fields)
+WHEEL_WIDTH = 9
+"""Numbers of a reaction wheel's row in the parameter array (from ``Params.wheel_rows``):
+its axis (3, body frame), axial inertia [kg m^2], max torque [N m], max speed [rad/s], viscous
+[N m s/rad] and Coulomb [N m] friction, and its command component (:mod:`rigid_env.core.wheels`)."""
 _PARAMS0 = Params(*([0.0] * MAPS))
 _BODY0 = Body(*([0.0] * MODEL_WIDTH))
 _THRUSTER0 = Thruster(*([0.0] * THRUSTER_WIDTH))

@@ -19,7 +19,14 @@ from typing import Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.effects import ForceEffect, Magnetorquers, StepMap, Thrusters, pack
+from rigid_env.core.effects import (
+    ForceEffect,
+    Magnetorquers,
+    ReactionWheels,
+    StepMap,
+    Thrusters,
+    pack,
+)
 from rigid_env.core.integrators import get_integrator
 from rigid_env.core.layout import (
     FAILED,
@@ -47,6 +54,7 @@ from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
+from rigid_env.core.wheels import wheel_derivatives, with_wheels
 
 __all__ = [
     "DEFAULT_ATOL",
@@ -194,8 +202,13 @@ class World:
         if not 1 <= self._n <= MAX_BODIES:
             raise ValueError(f"n: must be an integer from 1 to {MAX_BODIES} (bodies), got {n}")
         hw = self.parameters
-        # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed).
-        width = STATE_WIDTH + (self.action_dim if hw.lagged != 0.0 else 0)
+        # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed),
+        # then the wheels' momenta (rigid_env.core.wheels), each body's own.
+        self._wheels = next((e for e in plan.effects if isinstance(e, ReactionWheels)), None)
+        if self._wheels is not None:
+            self._integrator = with_wheels(self._integrator)
+        lagged = self.action_dim if hw.lagged != 0.0 else 0
+        width = STATE_WIDTH + lagged + int(hw.wheels)
         self._cols = cols = np.zeros((width, self._n))
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
@@ -303,7 +316,8 @@ class World:
         merged = kept | settings
         world = World(self.model, merged.pop("effects"), merged.pop("integrator"),
                       state=self._state.copy(), **merged)  # fmt: skip
-        world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]  # the thrust levels, if they lag
+        if world._cols.shape == self._cols.shape:  # the thrust levels, if they lag; wheels
+            world._cols[STATE_WIDTH:] = self._cols[STATE_WIDTH:]
         for name in ("magnetic_field", "orbit_time"):  # the coils' field and orbit clocks
             mine, theirs = getattr(self, name), getattr(world, name)
             if mine is not None and theirs is not None:
@@ -343,7 +357,33 @@ class World:
     def thrust_levels(self) -> FloatArray | None:
         """(N, A) each command component's thrust now, in units of its ``max_force`` (signed),
         where the thrusters lag (a view: editable, part of the state); else None."""
-        return self._cols[THRUST:].T if self._cols.shape[0] > STATE_WIDTH else None
+        return self._cols[THRUST : THRUST + self.action_dim].T if self._lagged else None
+
+    @property
+    def wheel_momentum(self) -> FloatArray | None:
+        """(N, K) each reaction wheel's axial angular momentum ``h_k = J_k (a_k . w + Omega_k)``
+        [N m s] (a view: editable, part of the state); None without wheels."""
+        return None if self._wheels is None else self._cols[-self._wheels.axes.shape[0] :].T
+
+    @property
+    def wheel_speed(self) -> FloatArray | None:
+        """(N, K) each wheel's speed relative to the body ``Omega_k = h_k / J_k - a_k . w``
+        [rad/s] (a copy; set speeds with :meth:`set_wheel_speed`); None without wheels."""
+        e = self._wheels
+        return None if e is None else self.wheel_momentum / e.inertia - self.state.w @ e.axes.T
+
+    def set_wheel_speed(self, speed: ArrayLike, bodies: Any = slice(None)) -> None:
+        """Set the ``bodies``' wheels to the relative speeds ``speed`` [rad/s] ((K,) or (n, K)),
+        at their present body rates (``h_k = J_k (a_k . w + Omega_k)``)."""
+        e = self._wheels
+        if e is None:
+            raise ValueError("wheel speeds: this world has no reaction_wheels")
+        k = e.axes.shape[0]
+        omega = np.asarray(speed, dtype=np.float64)
+        if omega.shape[-1:] != (k,) or not np.all(np.isfinite(omega)):
+            raise ValueError(f"wheel speeds: expected {k} finite speeds per body [rad/s]")
+        momentum = e.inertia * (self.state.w[bodies] @ e.axes.T + omega)
+        self.wheel_momentum[bodies] = momentum
 
     @property
     def thrust_noise(self) -> FloatArray:
@@ -489,6 +529,8 @@ class World:
                 f"(indices 0 to {self._n - 1})"
             ) from None
         self._cols[STATE_WIDTH:, bodies] = 0.0
+        if self._wheels is not None:  # wheels at rest relative to the body
+            self.set_wheel_speed(np.zeros(self._wheels.axes.shape[0]), bodies)
         self._counts[1, bodies] = 0.0
         if self.orbit_time is not None:
             self.orbit_time[bodies] = 0.0
@@ -503,6 +545,8 @@ class World:
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._integrator = get_integrator(state["_integrator"])
+        if self._wheels is not None:
+            self._integrator = with_wheels(self._integrator)
         self._plan = replace(self._plan, integrator=self._integrator)
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
@@ -769,7 +813,13 @@ class World:
                 )
             u = self._carried(u)
         out = np.empty((cols.shape[1], 6))
-        derivatives(self.params, model, cols, u, out)
+        if self._wheels is not None:  # at the wheels' momenta now
+            if n != self._n:
+                raise ValueError(f"x, v, q, w: each body has its wheels, give {self._n} rows")
+            cols = np.vstack([cols, self._cols[STATE_WIDTH:]])
+            wheel_derivatives(self.params, model, cols, u, out)
+        else:
+            derivatives(self.params, model, cols, u, out)
         return out[:, 0:3], out[:, 3:6]
 
     # ---------------------------------------------------------------------------------------
@@ -780,6 +830,8 @@ class World:
     def energy(self) -> FloatArray:
         """(N,) total mechanical energy [J]: kinetic plus the potential of conservative effects."""
         e = self.kinetic_energy()
+        if self._wheels is not None:  # each wheel's h_k^2 / (2 J_k)
+            e = e + 0.5 * np.sum(self.wheel_momentum**2 / self._wheels.inertia, axis=1)
         for eff in self.force_effects:
             u = eff.potential_energy(self.model, self.state)
             if u is not None:
@@ -787,8 +839,12 @@ class World:
         return e
 
     def angular_momentum_world(self) -> FloatArray:
-        """(N, 3) spin angular momentum about the COM, world frame, ``R (I w)`` [kg m^2/s]."""
-        return quat_rotate(self.state.q, self.model.inertia * self.state.w)
+        """(N, 3) spin angular momentum about the COM, world frame, ``R (I w + sum_k a_k h_k)``
+        [kg m^2/s] (the wheels' momenta ``h_k`` where the body has wheels)."""
+        body = self.model.inertia * self.state.w
+        if self._wheels is not None:
+            body = body + self.wheel_momentum @ self._wheels.axes
+        return quat_rotate(self.state.q, body)
 
 
 def kinetic_energy(model: BodyModel, s: State) -> FloatArray:
