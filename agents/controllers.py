@@ -36,18 +36,13 @@ from rigid_env.envs.detumble import DetumbleTask
 from rigid_env.envs.reorient import ReorientTask
 from rigid_env.envs.spin_stabilize import SpinStabilizeTask
 from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE, TumblingFallTask
+from rigid_env.envs.wheel_pointing import WheelPointingTask
 
 from .bdot import avanzini_gain, bdot_rate
+from .observing import observed, task_of
+from .wheel_pd import WheelPDController
 
 FloatArray = NDArray[np.float64]
-
-
-def task_of(env: Any) -> Any:
-    """The :class:`~rigid_env.envs.batch.TaskBatch` behind a (wrapped) single or vector env."""
-    inner = getattr(env, "unwrapped", env)
-    if not hasattr(inner, "task"):
-        raise TypeError(f"env: {type(inner).__name__} is not a rigid_env environment")
-    return inner.task
 
 
 def orientation_from_obs(obs: FloatArray, rot_dim: int) -> FloatArray:
@@ -85,18 +80,6 @@ class BoundedAllocator:
             residual = u @ self.t.T - tau
             u = np.clip(u - self.step * residual @ self.t, -1.0, 1.0)
         return u
-
-
-def observed(task: Any, obs: FloatArray, first: str, last: str | None = None) -> FloatArray:
-    """(N, k) the columns of ``obs`` that the task names ``first`` to ``last`` (inclusive; the
-    task's :attr:`~rigid_env.envs.batch.TaskBatch.obs_slices`), as float64."""
-    slices = task.obs_slices
-    for name in (first, last or first):
-        if name not in slices:
-            raise KeyError(
-                f"{type(task).__name__} observes no {name!r}; it observes {', '.join(slices)}"
-            )
-    return obs[:, slices[first].start : slices[last or first].stop].astype(np.float64)
 
 
 def _damping(pd: PDController, obs: FloatArray, w: FloatArray, inertia: FloatArray) -> FloatArray:
@@ -327,15 +310,19 @@ class RandomController:
         return self.rng.uniform(-1.0, 1.0, size=shape).astype(np.float32)
 
 
-def analytic_controller(env: Any) -> PDController | BdotController:
+def analytic_controller(env: Any) -> PDController | BdotController | WheelPDController:
     """The task's analytic baseline: B-dot for a task on magnetorquers alone (:data:`ANALYTIC`),
     else its PD law (:data:`PD_LAWS`)."""
     return ANALYTIC.get(type(task_of(env)), PDController)(env)
 
 
-ANALYTIC: dict[type[TaskBatch], type] = {BdotDetumbleTask: BdotController}
+ANALYTIC: dict[type[TaskBatch], type] = {
+    BdotDetumbleTask: BdotController,
+    WheelPointingTask: WheelPDController,
+}
 """The tasks whose analytic baseline is not a PD law, by task class."""
 
 CONTROLLERS = {"pd": analytic_controller, "zero": ZeroController, "random": RandomController}
 """The baselines a policy is compared with, by the name of their rows: ``pd`` is the task's
-analytic baseline (:func:`analytic_controller`: B-dot on BdotDetumble)."""
+analytic baseline (:func:`analytic_controller`: B-dot on BdotDetumble, the wheels' PD with
+desaturation on WheelPointing)."""

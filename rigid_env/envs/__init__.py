@@ -115,6 +115,9 @@ TASKS: dict[str, Task] = _by_name(
             newest=1,
         ),
         Task("BdotDetumble", module="bdot_detumble", scene="bdot_detumble", max_episode_steps=480),
+        Task(
+            "WheelPointing", module="wheel_pointing", scene="wheel_pointing", max_episode_steps=120
+        ),
     )
 )
 """Every registered task by name."""

@@ -792,6 +792,6 @@ class TaskBatch:
             angular_speed=float(self.angular_speed()[i]),
             fuel=float(self.fuel[i]),
             success=bool(self.success[i]),
-            target=self.target[i].copy() if self.target_dim else None,
+            target=self.target[i, :4].copy() if self.target_dim else None,
             readouts=self.readouts(i),
         )

@@ -54,9 +54,10 @@ W_OBS_BOUND = 5.0
 observation space says so)."""
 FINE_SPIN = 0.1
 """[rad/s] the scale of the fine-resolution observation ``tanh(w / FINE_SPIN)`` near rest."""
-TARGET_WIDTH = 4
-"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, or unused zeros):
-a task declares how many it uses (:attr:`rigid_env.envs.batch.TaskBatch.target_dim`)."""
+TARGET_WIDTH = 10
+"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, what else of
+the world the task reads, or unused zeros): a task declares how many it uses
+(:attr:`rigid_env.envs.batch.TaskBatch.target_dim`)."""
 MEMORY_WIDTH = 1
 """The most numbers of an env's task memory, ``evaluate``'s ``memory`` and ``Outcome.memory``
 (one float): a task declares how many it uses
@@ -208,7 +209,10 @@ def _env(evaluate, c, a, stepped, i):
         rec.fuel = rec.fuel + thrust * c.dt
     j = 0 if a.noise.shape[0] == 1 else i
     start = observe_body(c, body, (a.noise[j, 0], a.noise[j, 1], a.noise[j, 2]), a.obs, i)
-    goal = (a.target[i, 0], a.target[i, 1], a.target[i, 2], a.target[i, 3])
+    t = a.target
+    goal = (
+        t[i, 0], t[i, 1], t[i, 2], t[i, 3], t[i, 4], t[i, 5], t[i, 6], t[i, 7], t[i, 8], t[i, 9],
+    )  # fmt: skip
     out = evaluate(body, effort, goal, rec.memory, c, stepped)
     if stepped:
         rec.memory = out.memory

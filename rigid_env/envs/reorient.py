@@ -46,7 +46,8 @@ def evaluate(body, effort, goal, memory, task, stepped):
     """Reorient's reward and success of one env (see :class:`ReorientEnv`); its extra
     observation is the error quaternion ``canonical(conj(q) (x) goal)``."""
     q = body.q
-    err = canonical(quat_mul((q[0], -q[1], -q[2], -q[3]), goal))
+    target = (goal[0], goal[1], goal[2], goal[3])
+    err = canonical(quat_mul((q[0], -q[1], -q[2], -q[3]), target))
     angle = 2.0 * math.atan2(
         math.sqrt(err[1] * err[1] + err[2] * err[2] + err[3] * err[3]), abs(err[0])
     )
@@ -107,7 +108,7 @@ class ReorientTask(TaskBatch):
         return replace(super().view(), target_orientation=True, readouts=("target_angle",))
 
     def readouts(self, i: int) -> tuple[float, ...]:
-        angle = quat_angle_between(self.world.state.q[i], self.target[i])
+        angle = quat_angle_between(self.world.state.q[i], self.target[i, :4])
         return (float(np.rad2deg(angle)),)
 
 

@@ -16,6 +16,7 @@ import pytest
 
 import rigid_env
 from rigid_env.core.rotation import quat_conj, quat_mul, quat_to_rotvec
+from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.bdot_detumble import FIELD_SCALE
 from rigid_env.envs.kernels import FINE_SPIN
 
@@ -29,12 +30,14 @@ GYRO = {"arw": 2.0e-3, "rrw": 1.0e-3, "bias0": 1.0e-2}
 
 
 def all_sensors(env_id: str, delay: int = 3) -> dict:
-    """Every sensor the task takes, each with noise: a gyro, a star tracker (not Reorient's,
-    which observes its true attitude error), a magnetometer (BdotDetumble's field), a delay."""
+    """Every sensor the task takes, each with noise: a gyro, a star tracker (not where the task
+    refuses it: Reorient and WheelPointing observe their true attitude error), a magnetometer
+    (where the task observes a field: BdotDetumble, WheelPointing), a delay."""
+    task = gym.make(env_id).unwrapped.task
     sensors: dict = {"gyro": GYRO, "delay": delay}
-    if env_id != REORIENT:
+    if "star_tracker" not in task.refused_sensors:
         sensors["star_tracker"] = {"sigma": 1.0e-2}
-    if env_id == BDOT:
+    if type(task).observed_field is not TaskBatch.observed_field:
         sensors["magnetometer"] = {"sigma": 2.0e-7}
     return sensors
 

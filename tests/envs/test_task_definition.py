@@ -75,7 +75,7 @@ def test_an_extra_observation_named_but_not_given_is_refused_when_made() -> None
 
 @pytest.mark.parametrize(
     ("field", "size", "width"),
-    [("target_dim", 5, "TARGET_WIDTH"), ("memory_dim", 2, "MEMORY_WIDTH")],
+    [("target_dim", 11, "TARGET_WIDTH"), ("memory_dim", 2, "MEMORY_WIDTH")],
 )
 def test_a_task_declaring_more_target_or_memory_than_the_pass_holds_is_refused(
     field: str, size: int, width: str

@@ -50,7 +50,7 @@ def reorient_reward(version: int, angle: float) -> float:
     env = make(f"RigidEnv/Reorient-v{version}")
     env.reset(seed=3)
     task = env.unwrapped.task
-    target = task.target[0]
+    target = task.target[0, :4]
     q = quat_mul(target, quat_from_axis_angle(np.array([0.6, 0.0, 0.8]), angle))
     task.world.state.q[0] = q
     task.world.state.w[0] = 0.0

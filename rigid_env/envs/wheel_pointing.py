@@ -1,0 +1,240 @@
+"""WheelPointing: slew a CubeSat to an inertial target and hold it with reaction wheels,
+desaturating them with magnetorquers."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rigid_env.core.effects import Magnetorquers, ReactionWheels
+from rigid_env.core.geomagnetic import OrbitField
+from rigid_env.core.maths import quat_mul, rotate_inv
+from rigid_env.core.rotation import canonical as canonical_quat
+from rigid_env.core.rotation import quat_angle_between, quat_rotate_inv
+from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
+from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
+from rigid_env.envs.maths import canonical, safe_norm
+from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight
+from rigid_env.envs.sampling import random_quaternion, random_tumble
+from rigid_env.render import TaskView
+
+FIELD_SCALE = 5.0e-5
+"""[T] the observed field is divided by this (the Earth's is 2e-5 to 6e-5 in low orbit)."""
+SLEW_RATE = 0.2
+"""[rad/s] the observed ``w`` is divided by this (the wheels' momentum turns the 3U body at up
+to 0.7 rad/s)."""
+
+
+class WheelPointingParams(TaskParams):
+    """WheelPointing's keyword arguments."""
+
+    max_initial_spin: Rate = float(np.radians(1.0))
+    """Initial |w| is uniform in [0, max_initial_spin] [rad/s], > 0 (what detumbling leaves:
+    BdotDetumble ends below 1 deg/s)."""
+    success_angle: Angle = float(np.radians(1.0))
+    """Pointing error allowed for success [rad], in (0, pi]: 1 deg, the coarse end of the
+    pointing accuracy CubeSat 3-axis ADCS units are sold for (NASA, "State-of-the-Art of Small
+    Spacecraft Technology", 2024, Sec. 5: 0.002 to 1 deg); LeLaR reports 0.1 deg in orbit."""
+    success_rate: Rate = float(np.radians(0.1))
+    """|w| allowed for success [rad/s], > 0: 0.1 deg/s, a rate at which a 1 deg pointing holds
+    for 10 s (a star tracker's tracking limit is about 1 deg/s)."""
+    effort_weight: Weight = 0.01
+    """Weight of the effort (mean |u| per step over coils and wheel motors) in the reward."""
+    momentum_weight: Weight = 0.1
+    """Weight of the wheels' stored momentum ``|h| / capacity`` in the reward (what the coils
+    dump), >= 0."""
+    success_bonus: Bonus = 1.0
+    """Reward on each step that counts as success, >= 0."""
+    initial_wheel_speed: Fraction = 0.3
+    """Each wheel starts at a speed uniform in +-this fraction of its limit (momentum stored by
+    earlier manoeuvres), in [0, 1)."""
+
+
+@kernel
+def evaluate(body, effort, goal, memory, task, stepped):
+    """WheelPointing's reward and success of one env (see :class:`WheelPointingEnv`); its
+    extra observations: the error quaternion ``canonical(conj(q) (x) target)``, the wheels'
+    momentum (body frame, over their capacity) and the field (body frame, over FIELD_SCALE)."""
+    q = body.q
+    target = (goal[0], goal[1], goal[2], goal[3])
+    err = canonical(quat_mul((q[0], -q[1], -q[2], -q[3]), target))
+    vector = math.sqrt(err[1] * err[1] + err[2] * err[2] + err[3] * err[3])
+    angle = 2.0 * math.atan2(vector, abs(err[0]))
+    speed = safe_norm(body.w)
+    success = angle < task.success_angle and speed < task.success_rate
+    r_angle = 1.0 - angle / math.pi
+    r_spin = max(0.0, 1.0 - speed / task.w_scale)
+    ratio = angle / task.success_angle
+    precise = 1.0 / (1.0 + ratio * ratio)
+    momentum = math.sqrt(goal[4] * goal[4] + goal[5] * goal[5] + goal[6] * goal[6])
+    reward = (
+        r_angle * (0.5 + 0.5 * r_spin) + 0.5 * precise + (task.success_bonus if success else 0.0)
+        - task.effort_weight * effort - task.momentum_weight * momentum
+    )  # fmt: skip
+    field = rotate_inv(q, (goal[7], goal[8], goal[9]))
+    extra = (
+        err[0], err[1], err[2], err[3], goal[4], goal[5], goal[6], field[0], field[1], field[2],
+    )  # fmt: skip
+    return Outcome(reward, terminated=False, success=success, memory=memory, extra=extra)
+
+
+@task_kernel
+def wheel_pointing_pass(job, threads): return env_pass(evaluate, job, threads)  # fmt: skip
+
+
+class WheelPointingTask(TaskBatch):
+    """Task definition of :class:`WheelPointingEnv` (see there); its keyword arguments are
+    :class:`WheelPointingParams`.
+
+    Target: the orientation to hold (rows 0-3, drawn by :meth:`sample`), the wheels' momentum
+    ``sum_k a_k h_k`` (body frame, over their capacity ``J max_speed``; rows 4-6) and the field
+    (world frame, over :data:`FIELD_SCALE`; rows 7-9), both written before every pass. At a
+    reset rows 4-6 carry the drawn wheel speeds (over their limit) and row 7 the time along the
+    orbit the episode starts at, which :meth:`before_pass` puts in the world."""
+
+    params_model = WheelPointingParams
+    scene_name = "wheel_pointing"
+    task_pass = wheel_pointing_pass
+    extra_observations = (
+        "error_w", "error_x", "error_y", "error_z",
+        "momentum_x", "momentum_y", "momentum_z",
+        "field_x", "field_y", "field_z",
+    )  # fmt: skip
+    extra_bound = 2.0
+    target_dim = 8
+    refused_sensors: ClassVar[dict[str, str]] = {
+        "star_tracker": "observes its error quaternion (error_w..error_z) from the true "
+        "attitude, which gives away the attitude a star tracker's noise would hide"
+    }
+
+    def angular_velocity_scale(self) -> float:
+        return SLEW_RATE
+
+    def sample(self, rng: np.random.Generator):
+        q, w = random_tumble(rng, self.params.max_initial_spin)
+        target = canonical_quat(random_quaternion(rng))
+        k = self.wheels.axes.shape[0]
+        speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
+        start = rng.uniform(0.0, self.orbit.orbit.period)
+        drawn = np.concatenate([target, speeds[:k], [start]])
+        return self.position.copy(), np.zeros(3), q, w, drawn
+
+    def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
+        """The wheels' momentum and the field into the target; at a reset first the drawn
+        wheel speeds and the orbit's start time into the world."""
+        world, wheels = self.world, self.wheels
+        if reset:
+            world.set_wheel_speed(self.target[rows, 4:7] * wheels.max_speed, rows)
+            world.orbit_time[rows] = self.target[rows, 7]
+        self.target[rows, 4:7] = world.wheel_momentum[rows] @ wheels.axes / self.capacity
+        self.target[rows, 7:10] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
+
+    def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
+        """Each env's field in the body frame [T] (its magnetometer's truth), observed over
+        :data:`FIELD_SCALE`."""
+        field_world = self.target[rows, 7:10] * FIELD_SCALE
+        return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
+
+    def view(self) -> TaskView:
+        """The body with the target orientation as an outline and its angle to it."""
+        return replace(super().view(), target_orientation=True, readouts=("target_angle",))
+
+    def readouts(self, i: int) -> tuple[float, ...]:
+        angle = quat_angle_between(self.world.state.q[i], self.target[i, :4])
+        return (float(np.rad2deg(angle)),)
+
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        super().__init__(num_envs, **kwargs)
+        effects = self.world.force_effects
+        wheels = [e for e in effects if isinstance(e, ReactionWheels)]
+        coils = [e for e in effects if isinstance(e, Magnetorquers)]
+        if len(wheels) != 1 or wheels[0].axes.shape[0] != 3 or not coils or not coils[0].orbit:
+            raise ValueError(
+                "scene: WheelPointing needs three reaction wheels (actuators.reaction_wheels "
+                "with three axes) and magnetorquers on an orbit (actuators.magnetorquers: "
+                "{max_dipole: A m^2, orbit: {altitude: m, inclination: deg}})"
+            )
+        self.wheels: ReactionWheels = wheels[0]
+        """The scene's wheels."""
+        self.capacity = float(np.max(self.wheels.inertia * self.wheels.max_speed))
+        """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
+        self.orbit: OrbitField = coils[0].orbit
+        """The orbit the coils' field follows (the scene's)."""
+        self.position = self.scene.initial_state(1).x[0]
+        """Where the body stays [m] (the scene's: the gravity gradient's distance)."""
+
+
+class WheelPointingEnv(RigidBodyEnv):
+    """## Description
+
+    A 3U CubeSat (10 x 10 x 34 cm, 4 kg) in a 500 km sun-synchronous orbit turns to an
+    inertial target orientation (uniform on SO(3), up to a 180 deg slew) and holds it with
+    three reaction wheels along its axes (2 mN m, 30 mN m s each), while three magnetorquers
+    (0.35 A m^2) can dump the wheels' stored momentum into the Earth's field, as on InnoCube,
+    the first satellite flown with a deep-RL attitude controller (LeLaR). The gravity-gradient
+    torque and a residual dipole disturb it. Success is a pointing error below
+    ``success_angle`` (1 deg) at a rate below ``success_rate`` (0.1 deg/s). The analytic
+    baseline (``agents/wheel_pd.py``) is a quaternion-feedback PD on the wheels with the
+    cross-product desaturation law on the coils.
+
+    ## Action Space
+
+    ``Box(-1, 1, (6,), float32)``: the coils' dipoles over 0.35 A m^2 (0-2), then the wheels'
+    motor torques over 2 mN m (3-5), body x, y, z, held over the 1 s control step. A wheel at
+    its speed limit takes no torque that would spin it faster.
+
+    ## Observation Space
+
+    ``Box(float32)`` of 20 numbers (22 with ``rotation_repr="sixd"``): orientation (4), body
+    ``w`` / 0.2 rad/s (3), ``tanh(w / 0.1)`` (3), the error quaternion ``canonical(q^-1 (x)
+    q_target)`` (4), the wheels' momentum in the body frame over 30 mN m s (3), the field in
+    the body frame over 5e-5 T (3).
+
+    ## Rewards
+
+    ``r_angle (0.5 + 0.5 r_spin) + 0.5 / (1 + (angle / success_angle)^2) + [success] -
+    effort_weight mean |u| - momentum_weight |h| / 30 mN m s`` with ``r_angle = 1 - angle /
+    pi``, ``r_spin = max(0, 1 - |w| / 0.2)``, ``[success]`` ``success_bonus`` on a step that
+    counts as success.
+
+    ## Starting State
+
+    Orientation and target uniform on SO(3); |w| uniform on [0, ``max_initial_spin``] (1
+    deg/s); each wheel's speed uniform in +-``initial_wheel_speed`` (0.3) of its limit; a
+    time along the orbit uniform over its period.
+
+    ## Episode End
+
+    No termination (hold the target); truncates after 120 steps (2 min) or on a non-finite
+    state. ``info["success"]``: error < ``success_angle`` and ``|w|`` < ``success_rate`` now.
+
+    ## Arguments
+
+    ``max_initial_spin=1 deg/s, success_angle=1 deg, success_rate=0.1 deg/s,
+    effort_weight=0.01, momentum_weight=0.1, success_bonus=1, initial_wheel_speed=0.3``, plus
+    the common ``integrator`` (one that steps wheels: rk4, midpoint, leapfrog,
+    symplectic_euler, explicit_euler), ``dt, substeps, scene, rotation_repr, randomization,
+    observe_control_period, sensors`` (no star tracker: the error quaternion comes from the
+    true attitude) ``, render_mode``.
+
+    ## Info
+
+    ``angular_speed`` [rad/s], ``energy`` [J], ``fuel`` (the coils' dipole-time [A m^2 s]),
+    ``success``, ``numerical_error``, ``angular_velocity_world``.
+
+    ## Version History
+
+    * v0: initial version.
+    """
+
+    task_cls = WheelPointingTask
+
+
+class WheelPointingVectorEnv(RigidBodyVectorEnv):
+    """Native vector version of :class:`WheelPointingEnv`: all bodies in one NumPy call."""
+
+    task_cls = WheelPointingTask
