@@ -245,9 +245,8 @@ def markdown_report(rows: list[Row], seed: int) -> str:
         "evaluations). Success "
         "rate, final |w|, fuel and return are means over the episodes; time to success is the "
         "mean over the successful episodes only. Fuel is the impulse the thrusters delivered "
-        "[N s]; on magnetorquers (BdotDetumble) the coils' dipole-time [A m^2 s].\n\n"
-        + markdown_table(rows)
-        + "\n"
+        "[N s]; on magnetorquers (BdotDetumble, WheelPointing) the coils' dipole-time "
+        "[A m^2 s].\n\n" + markdown_table(rows) + "\n"
     )
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 from rigid_env.envs import TASKS as REGISTERED
 from rigid_env.envs import Task
 
-SHIPPED = ("Detumble", "SpinStabilize", "Reorient", "TumblingFall", "BdotDetumble")
+SHIPPED = ("Detumble", "SpinStabilize", "Reorient", "TumblingFall", "BdotDetumble", "WheelPointing")
 """Names of the registered tasks (:data:`rigid_env.envs.TASKS`) with configs and a pretrained
 policy."""
 

@@ -374,16 +374,19 @@ def cli_reference() -> str:
 def integrator_table() -> str:
     """The integrator registry (``rigid_env.core.integrators.INTEGRATORS``) as a table."""
     from rigid_env.core.integrators import INTEGRATORS
+    from rigid_env.core.wheels import WHEEL_STEPS
 
     lines = [
-        "| name | order | error control | warns beyond h\\|w\\| [rad] | note |",
-        "|---|---|---|---|---|",
+        "| name | order | error control | warns beyond h\\|w\\| [rad] | reaction wheels | note |",
+        "|---|---|---|---|---|---|",
     ]
     for info in INTEGRATORS.values():
         stable = "-" if info.stability is None else _num(info.stability)
         control = "yes (`rtol`, `atol`)" if info.error_control else "no"
+        wheels = "yes" if info.name in WHEEL_STEPS else "refused"
         lines.append(
-            f"| `{info.name}` | {info.order} | {control} | {stable} | {_cell(info.note)} |"
+            f"| `{info.name}` | {info.order} | {control} | {stable} | {wheels} | "
+            f"{_cell(info.note)} |"
         )
     return "\n".join(lines) + "\n"
 

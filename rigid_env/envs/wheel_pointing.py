@@ -68,7 +68,7 @@ def evaluate(body, effort, goal, memory, task, stepped):
     success = angle < task.success_angle and speed < task.success_rate
     r_angle = 1.0 - angle / math.pi
     r_spin = max(0.0, 1.0 - speed / task.w_scale)
-    ratio = angle / task.success_angle
+    ratio = angle / (4.0 * task.success_angle)
     precise = 1.0 / (1.0 + ratio * ratio)
     momentum = math.sqrt(goal[4] * goal[4] + goal[5] * goal[5] + goal[6] * goal[6])
     reward = (
@@ -76,8 +76,13 @@ def evaluate(body, effort, goal, memory, task, stepped):
         - task.effort_weight * effort - task.momentum_weight * momentum
     )  # fmt: skip
     field = rotate_inv(q, (goal[7], goal[8], goal[9]))
+    # The error's vector part at fine resolution: 2 sin(angle / 2) axis over success_angle,
+    # 1 at the edge of success, where the plain error quaternion is 0.009.
+    fine = 2.0 / task.success_angle
     extra = (
-        err[0], err[1], err[2], err[3], goal[4], goal[5], goal[6], field[0], field[1], field[2],
+        err[0], err[1], err[2], err[3],
+        math.tanh(fine * err[1]), math.tanh(fine * err[2]), math.tanh(fine * err[3]),
+        goal[4], goal[5], goal[6], field[0], field[1], field[2],
     )  # fmt: skip
     return Outcome(reward, terminated=False, success=success, memory=memory, extra=extra)
 
@@ -101,6 +106,7 @@ class WheelPointingTask(TaskBatch):
     task_pass = wheel_pointing_pass
     extra_observations = (
         "error_w", "error_x", "error_y", "error_z",
+        "fine_error_x", "fine_error_y", "fine_error_z",
         "momentum_x", "momentum_y", "momentum_z",
         "field_x", "field_y", "field_z",
     )  # fmt: skip
@@ -140,8 +146,12 @@ class WheelPointingTask(TaskBatch):
         return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
 
     def view(self) -> TaskView:
-        """The body with the target orientation as an outline and its angle to it."""
-        return replace(super().view(), target_orientation=True, readouts=("target_angle",))
+        """The body with the target orientation as an outline and its angle to it; the fuel as
+        the coils' dipole-time."""
+        return replace(
+            super().view(), target_orientation=True, readouts=("target_angle",),
+            fuel_unit="A m^2 s",
+        )  # fmt: skip
 
     def readouts(self, i: int) -> tuple[float, ...]:
         angle = quat_angle_between(self.world.state.q[i], self.target[i, :4])
@@ -189,14 +199,15 @@ class WheelPointingEnv(RigidBodyEnv):
 
     ## Observation Space
 
-    ``Box(float32)`` of 20 numbers (22 with ``rotation_repr="sixd"``): orientation (4), body
-    ``w`` / 0.2 rad/s (3), ``tanh(w / 0.1)`` (3), the error quaternion ``canonical(q^-1 (x)
-    q_target)`` (4), the wheels' momentum in the body frame over 30 mN m s (3), the field in
-    the body frame over 5e-5 T (3).
+    ``Box(float32)`` of 23 numbers (25 with ``rotation_repr="sixd"``): orientation (4), body
+    ``w`` / 0.2 rad/s (3), ``tanh(w / 0.1)`` (3), the error quaternion ``e = canonical(q^-1
+    (x) q_target)`` (4), its vector part at fine resolution ``tanh(2 e_xyz /
+    success_angle)`` (3: 0.76 at the edge of success), the wheels' momentum in the body frame
+    over 30 mN m s (3), the field in the body frame over 5e-5 T (3).
 
     ## Rewards
 
-    ``r_angle (0.5 + 0.5 r_spin) + 0.5 / (1 + (angle / success_angle)^2) + [success] -
+    ``r_angle (0.5 + 0.5 r_spin) + 0.5 / (1 + (angle / (4 success_angle))^2) + [success] -
     effort_weight mean |u| - momentum_weight |h| / 30 mN m s`` with ``r_angle = 1 - angle /
     pi``, ``r_spin = max(0, 1 - |w| / 0.2)``, ``[success]`` ``success_bonus`` on a step that
     counts as success.
