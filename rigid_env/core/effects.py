@@ -12,6 +12,7 @@ the world torque ``(R r) x (R f_b) = R (r x f_b)``, kept in the body frame: ``r 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from dataclasses import field as dataclass_field
@@ -446,32 +447,10 @@ class Magnetorquers(LinearActuator):
     dipole_map: FloatArray = dataclass_field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        axes = _floats("magnetorquers.axes", self.axes, "[[x, y, z], ...], body frame")
-        moment = _floats("magnetorquers.max_dipole", self.max_dipole, "A m^2, one or one per coil")
-        if axes.ndim != 2 or axes.shape[1] != 3 or axes.shape[0] == 0:
-            raise ValueError(
-                f"magnetorquers.axes: expected a list of K >= 1 body-frame axes [x, y, z], got "
-                f"shape {axes.shape}"
-            )
-        axes = checked_floats("magnetorquers.axes", axes, axes.shape)
-        length = np.linalg.norm(axes, axis=1)
-        if np.any(length == 0.0):
-            raise ValueError(
-                f"magnetorquers.axes[{int(np.argmin(length))}]: a zero vector has no direction; "
-                "give each coil's axis"
-            )
+        axes = _unit_axes("magnetorquers.axes", self.axes, "a list of K >= 1", "coil's axis")
         k = axes.shape[0]
-        if moment.shape not in ((), (k,)):
-            raise ValueError(
-                f"magnetorquers.max_dipole: one dipole or one per coil ({k}), got shape "
-                f"{moment.shape}"
-            )
-        moment = np.broadcast_to(moment, (k,)).copy()
-        bad = np.flatnonzero(~(np.isfinite(moment) & (moment >= 0.0)))
-        if bad.size:
-            raise ValueError(
-                f"magnetorquers.max_dipole: must be finite and >= 0 [A m^2], got {moment[bad[0]]}"
-            )
+        moment = _per_unit("magnetorquers.max_dipole", self.max_dipole, k, "dipole", "coil",
+                           ("A m^2", False))  # fmt: skip
         if self.orbit is not None and not isinstance(self.orbit, OrbitField):
             raise TypeError(
                 f"magnetorquers.orbit: expected an OrbitField (rigid_env.core.geomagnetic), got "
@@ -482,7 +461,7 @@ class Magnetorquers(LinearActuator):
         for name in ("residual", "field"):
             value = checked_floats(f"magnetorquers.{name}", getattr(self, name), (3,))
             object.__setattr__(self, name, value)
-        object.__setattr__(self, "axes", axes / length[:, None])
+        object.__setattr__(self, "axes", axes)
         object.__setattr__(self, "max_dipole", moment)
         object.__setattr__(self, "force_map", np.zeros((k, 3)))
         object.__setattr__(self, "torque_map", np.zeros((k, 3)))
@@ -523,40 +502,16 @@ class ReactionWheels(LinearActuator):
     torque_map: FloatArray = dataclass_field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        axes = _floats("reaction_wheels.axes", self.axes, "[[x, y, z], ...], body frame")
-        if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= axes.shape[0] <= 4:
-            raise ValueError(
-                f"reaction_wheels.axes: expected 1 to 4 body-frame axes [x, y, z], got shape "
-                f"{axes.shape}"
-            )
-        axes = checked_floats("reaction_wheels.axes", axes, axes.shape)
-        length = np.linalg.norm(axes, axis=1)
-        if np.any(length == 0.0):
-            raise ValueError(
-                f"reaction_wheels.axes[{int(np.argmin(length))}]: a zero vector has no "
-                "direction; give each wheel's spin axis"
-            )
+        axes = _unit_axes("reaction_wheels.axes", self.axes, "1 to 4", "wheel's spin axis", 4)
         k = axes.shape[0]
-        object.__setattr__(self, "axes", axes / length[:, None])
+        object.__setattr__(self, "axes", axes)
         for name, unit, positive in (
             ("inertia", "kg m^2", True), ("max_torque", "N m", False),
             ("max_speed", "rad/s", True), ("viscous", "N m s/rad", False),
             ("coulomb", "N m", False),
         ):  # fmt: skip
-            value = _floats(f"reaction_wheels.{name}", getattr(self, name), unit)
-            if value.shape not in ((), (k,)):
-                raise ValueError(
-                    f"reaction_wheels.{name}: one value or one per wheel ({k}), got shape "
-                    f"{value.shape}"
-                )
-            value = np.broadcast_to(value, (k,)).astype(np.float64)
-            bad = ~np.isfinite(value) | ((value <= 0.0) if positive else (value < 0.0))
-            if bad.any():
-                what = "> 0" if positive else ">= 0"
-                raise ValueError(
-                    f"reaction_wheels.{name}[{int(np.argmax(bad))}]: must be finite and {what} "
-                    f"[{unit}], got {value[bad][0]}"
-                )
+            value = _per_unit(f"reaction_wheels.{name}", getattr(self, name), k, "value", "wheel",
+                              (unit, positive))  # fmt: skip
             object.__setattr__(self, name, value)
         object.__setattr__(self, "force_map", np.zeros((k, 3)))
         object.__setattr__(self, "torque_map", np.zeros((k, 3)))
@@ -574,6 +529,44 @@ class ReactionWheels(LinearActuator):
     def parameters(self) -> dict[str, float]:
         """The count of wheels; their rows go last in the parameters (:func:`pack`)."""
         return {"wheels": float(self.axes.shape[0])}
+
+
+def _unit_axes(where: str, value: object, count: str, item: str, most: float = math.inf):
+    """(K, 3) unit axes from ``value`` (body frame, normalised here), ``1 <= K <= most``, or a
+    one-line ``ValueError`` naming ``where`` (``count``: how many it takes, ``item``: what each
+    axis is, for the messages)."""
+    axes = _floats(where, value, "[[x, y, z], ...], body frame")
+    if axes.ndim != 2 or axes.shape[1] != 3 or not 1 <= axes.shape[0] <= most:
+        raise ValueError(
+            f"{where}: expected {count} body-frame axes [x, y, z], got shape {axes.shape}"
+        )
+    axes = checked_floats(where, axes, axes.shape)
+    length = np.linalg.norm(axes, axis=1)
+    if np.any(length == 0.0):
+        raise ValueError(
+            f"{where}[{int(np.argmin(length))}]: a zero vector has no direction; give each {item}"
+        )
+    return axes / length[:, None]
+
+
+def _per_unit(where: str, value: object, k: int, one: str, each: str,
+              rule: tuple[str, bool]) -> FloatArray:  # fmt: skip
+    """(k,) one number per unit from one or ``k`` of them (``rule = (unit, positive)``: each
+    finite and > 0, or >= 0), or a one-line ``ValueError`` naming ``where`` and the unit
+    (``one``, ``each``: what a number and a unit are called, for the messages)."""
+    unit, positive = rule
+    numbers = _floats(where, value, f"{unit}, one or one per {each}")
+    if numbers.shape not in ((), (k,)):
+        raise ValueError(f"{where}: one {one} or one per {each} ({k}), got shape {numbers.shape}")
+    numbers = np.broadcast_to(numbers, (k,)).astype(np.float64)
+    bad = ~np.isfinite(numbers) | ((numbers <= 0.0) if positive else (numbers < 0.0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise ValueError(
+            f"{where}[{i}]: must be finite and {'> 0' if positive else '>= 0'} [{unit}], got "
+            f"{numbers[i]}"
+        )
+    return numbers
 
 
 def _floats(where: str, value: object, what: str) -> FloatArray:

@@ -140,7 +140,9 @@ def test_the_drive_gives_no_torque_beyond_the_speed_limit():
 
 def test_viscous_friction_decays_the_wheel_as_the_closed_form():
     # No motor: J (Omega' + w') = -b Omega, I_z w' = b Omega, so Omega' = -b (1/J + 1/I_z)
-    # Omega: Omega0 exp(-k t). rk4's relative error at h k = 0.02: ~(hk)^4 / 120 a step.
+    # Omega: Omega0 exp(-k t), k = 0.1 /s. rk4's relative error at h k = 1e-3 is (hk)^5 / 120
+    # = 8e-18 a step; over 500 steps the rounding of each step (~1e-16) dominates: 1e-9 leaves
+    # a wide margin.
     j, iz, b = 1e-5, INERTIA[2], 1e-6
     world = spin_axis_world(inertia=j, viscous=b)
     world.set_wheel_speed([500.0])
