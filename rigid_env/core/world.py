@@ -360,6 +360,11 @@ class World:
         return self._cols[THRUST : THRUST + self.action_dim].T if self._lagged else None
 
     @property
+    def wheels(self) -> ReactionWheels | None:
+        """The bodies' reaction wheels (their spec: axes, inertia, limits), or None."""
+        return self._wheels
+
+    @property
     def wheel_momentum(self) -> FloatArray | None:
         """(N, K) each reaction wheel's axial angular momentum ``h_k = J_k (a_k . w + Omega_k)``
         [N m s] (a view: editable, part of the state); None without wheels."""
