@@ -147,7 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Integrate one body of a scene with a constant command and write the "
         "trajectory: t (N+1,), position, velocity, orientation (w, x, y, z), "
         "angular_velocity_body, angular_velocity_world (N+1, 3|4), energy (N+1,), "
-        "angular_momentum_world (N+1, 3).",
+        "angular_momentum_world (N+1, 3); with reaction wheels also wheel_momentum and "
+        "wheel_speed (N+1, K) (energy and angular momentum then count the wheels').",
     )
     sim.add_argument("scene", metavar="SCENE.yaml", help="scene file (see configs/scenes/)")
     sim.add_argument(
