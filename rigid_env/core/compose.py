@@ -23,13 +23,14 @@ from rigid_env.core.layout import EFFECTS, Params
 inline = njit(inline="always", error_model="numpy")
 """A link of a chain: inlined into the compiled function that calls it."""
 
-RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers")
+RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers", "wheels")
 """The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
 rare effects', the thrusters' hardware (its switch times split a substep per body) and the
 magnetorquers (the actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`). The
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
-of a branch inside a vectorised loop)."""
+of a branch inside a vectorised loop). ``wheels``: a world with reaction wheels has a step of its
+own (:mod:`rigid_env.core.wheels`); the vectorised passes' integrators see none."""
 
 
 def _chain(links: list[tuple[int, Callable]], step: Callable) -> Callable:

@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from rigid_env.core.dop853 import dop853
 from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
 from rigid_env.core.exact_step import exact_free
-from rigid_env.core.jit import kernel, threads_kernel, world_kernel
+from rigid_env.core.jit import kernel, pass_kernel, threads_kernel, world_kernel
 from rigid_env.core.maths import axpy, normalize, qdot, sincos, solve3, spin
 from rigid_env.core.stepping import advance, over_threads
 
@@ -35,26 +35,72 @@ FloatArray = NDArray[np.float64]
 
 
 # ---- textbook methods ------------------------------------------------------------------------
-@kernel
-def explicit_euler(x, v, q, w, act, m, c, h):
-    """Forward Euler, every derivative at the start of the step:
+# Each explicit method is written once as a flow of ``(x, v, q, w)`` and the momenta ``hw`` of a
+# body's reaction wheels (a 4-tuple, rigid_env.core.wheels), under the rates ``f(x, v, q, w, hw,
+# act, m, c, wheels) -> (a, alpha, hw')``: the rigid body's own (:func:`rigid_rates`, no wheels:
+# ``hw`` stays the constant zeros, whose arithmetic the compiler drops as unused) or a
+# gyrostat's (:func:`rigid_env.core.wheels.gyrostat`). The registry's per-body step is the flow
+# of the rigid rates.
+ZERO4 = (0.0, 0.0, 0.0, 0.0)
+"""No wheels' momenta: a constant the compiler folds."""
 
-        x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0)
+
+@kernel
+def rigid_rates(x, v, q, w, hw, act, m, c, wheels):
+    """``(v', w', hw')`` of a body without wheels: its accelerations (Euler's gyroscopic term
+    included) and no wheel rates."""
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
+    return a, alpha, ZERO4
+
+
+@kernel
+def axpy4(y, h, d):
+    """``y + h d`` of 4-tuples."""
+    return (y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2], y[3] + h * d[3])
+
+
+@pass_kernel
+def explicit_euler_flow(f, body, act, m, c, wheels, h):
+    """Forward Euler, every derivative at the start of the step (``body = (x, v, q, w, hw)``):
+
+        x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0),
+        hw1 = hw + h hw'(y0)
 
     Torque-free it inflates the energy by ``O(h^2)`` a step (along the tangent of the orbit)."""
-    a, alpha = accelerations(x, v, q, w, act, m, c, True)
-    return axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha)
+    x, v, q, w, hw = body
+    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    return (
+        axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha),
+        axpy4(hw, h, rates),
+    )  # fmt: skip
+
+
+@kernel
+def explicit_euler(x, v, q, w, act, m, c, h):
+    """:func:`explicit_euler_flow` of the rigid body."""
+    x1, v1, q1, w1, _ = explicit_euler_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    return x1, v1, q1, w1
+
+
+@pass_kernel
+def symplectic_euler_flow(f, body, act, m, c, wheels, h):
+    """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
+
+    v1 = v + h a(y0),  w1 = w + h alpha(y0),  hw1 = hw + h hw'(y0),
+    x1 = x + h v1,  q1 = q exp(h w1 / 2)"""
+    x, v, q, w, hw = body
+    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    v1 = axpy(v, h, a)
+    w1 = axpy(w, h, alpha)
+    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpy4(hw, h, rates)
 
 
 @kernel
 def symplectic_euler(x, v, q, w, act, m, c, h):
-    """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
-
-    v1 = v + h a(y0),  w1 = w + h alpha(y0),  x1 = x + h v1,  q1 = q exp(h w1 / 2)"""
-    a, alpha = accelerations(x, v, q, w, act, m, c, True)
-    v1 = axpy(v, h, a)
-    w1 = axpy(w, h, alpha)
-    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1
+    """:func:`symplectic_euler_flow` of the rigid body."""
+    body = (x, v, q, w, ZERO4)
+    x1, v1, q1, w1, _ = symplectic_euler_flow(rigid_rates, body, act, m, c, 0, h)
+    return x1, v1, q1, w1
 
 
 @kernel
@@ -106,8 +152,8 @@ def implicit_euler(x, v, q, w, act, m, c, h):
     return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1
 
 
-@kernel
-def leapfrog(x, v, q, w, act, m, c, h):
+@pass_kernel
+def leapfrog_flow(f, body, act, m, c, wheels, h):
     """Leapfrog, drift-kick-drift (Strang splitting of drift and kick):
 
         x_h = x + h/2 v,                    q_h = q exp(h/4 w)
@@ -115,28 +161,51 @@ def leapfrog(x, v, q, w, act, m, c, h):
         x1  = x_h + h/2 v1,                 q1 = q_h exp(h/4 w1)
 
     The kick uses the mid-point velocities ``(v_m, w_m) = (v, w) + h/2 (a, alpha)(x_h, v, q_h,
-    w)``, which keeps it second order when the accelerations depend on velocity (the
-    gyroscopic term, drag)."""
+    w)`` (and wheels' momenta ``hw_m``, kicked with them), which keeps it second order when the
+    accelerations depend on velocity (the gyroscopic term, drag, the wheels)."""
+    x, v, q, w, hw = body
     x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
-    a, alpha = accelerations(x_h, v, q_h, w, act, m, c, True)
-    if c.velocity_dependent != 0.0 or m.isotropic == 0.0:
+    a, alpha, rates = f(x_h, v, q_h, w, hw, act, m, c, wheels)
+    hw1 = axpy4(hw, h, rates)
+    if c.velocity_dependent != 0.0 or m.isotropic == 0.0 or c.wheels != 0.0:
         v_m, w_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha)
-        a, alpha = accelerations(x_h, v_m, q_h, w_m, act, m, c, True)
+        a, alpha, rates = f(x_h, v_m, q_h, w_m, axpy4(hw, 0.5 * h, rates), act, m, c, wheels)
+        hw1 = axpy4(hw, h, rates)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
-    return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1
+    return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1, hw1
+
+
+@kernel
+def leapfrog(x, v, q, w, act, m, c, h):
+    """:func:`leapfrog_flow` of the rigid body."""
+    x1, v1, q1, w1, _ = leapfrog_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    return x1, v1, q1, w1
+
+
+@pass_kernel
+def midpoint_flow(f, body, act, m, c, wheels, h):
+    """Explicit midpoint rule, the orientation moved on the group:
+
+    y_m = y0 + h/2 f(y0)  (q_m = q exp(h/4 w)),   y1 = y0 + h f(y_m)  (q1 = q exp(h/2 w_m))"""
+    x, v, q, w, hw = body
+    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    v_m = axpy(v, 0.5 * h, a)
+    w_m = axpy(w, 0.5 * h, alpha)
+    hw_m = axpy4(hw, 0.5 * h, rates)
+    x_m, q_m = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
+    a, alpha, rates = f(x_m, v_m, q_m, w_m, hw_m, act, m, c, wheels)
+    return (
+        axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha),
+        axpy4(hw, h, rates),
+    )  # fmt: skip
 
 
 @kernel
 def midpoint(x, v, q, w, act, m, c, h):
-    """Explicit midpoint rule, the orientation moved on the group:
-
-    y_m = y0 + h/2 f(y0)  (q_m = q exp(h/4 w)),   y1 = y0 + h f(y_m)  (q1 = q exp(h/2 w_m))"""
-    a, alpha = accelerations(x, v, q, w, act, m, c, True)
-    v_m = axpy(v, 0.5 * h, a)
-    w_m = axpy(w, 0.5 * h, alpha)
-    a, alpha = accelerations(axpy(x, 0.5 * h, v), v_m, spin(q, w, 0.5 * h), w_m, act, m, c, True)
-    return axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha)
+    """:func:`midpoint_flow` of the rigid body."""
+    x1, v1, q1, w1, _ = midpoint_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    return x1, v1, q1, w1
 
 
 @kernel
@@ -155,31 +224,53 @@ def _rk4_sum(y, c, k1, k2, k3, k4):
 
 
 @kernel
-def rk4(x, v, q, w, act, m, c, h):
-    """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w)`` with ``q' = 1/2 q (x) (0, w)``:
+def _rk4_sum4(y, c, k1, k2, k3, k4):
+    """:func:`_rk4_sum` of 4-tuples."""
+    return (
+        y[0] + c * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
+        y[1] + c * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
+        y[2] + c * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
+        y[3] + c * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
+    )
+
+
+@pass_kernel
+def rk4_flow(f, body, act, m, c, wheels, h):
+    """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w, hw)`` with ``q' = 1/2 q (x) (0,
+    w)``:
 
     k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
     y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|"""
-    a1, b1 = accelerations(x, v, q, w, act, m, c, True)
+    x, v, q, w, hw = body
+    a1, b1, r1 = f(x, v, q, w, hw, act, m, c, wheels)
     d1 = qdot(q, w)
     v2, q2, w2 = axpy(v, 0.5 * h, a1), _q_axpy(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    a2, b2 = accelerations(axpy(x, 0.5 * h, v), v2, q2, w2, act, m, c, True)
+    a2, b2, r2 = f(axpy(x, 0.5 * h, v), v2, q2, w2, axpy4(hw, 0.5 * h, r1), act, m, c, wheels)
     d2 = qdot(q2, w2)
     v3, q3, w3 = axpy(v, 0.5 * h, a2), _q_axpy(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    a3, b3 = accelerations(axpy(x, 0.5 * h, v2), v3, q3, w3, act, m, c, True)
+    a3, b3, r3 = f(axpy(x, 0.5 * h, v2), v3, q3, w3, axpy4(hw, 0.5 * h, r2), act, m, c, wheels)
     d3 = qdot(q3, w3)
     v4, q4, w4 = axpy(v, h, a3), _q_axpy(q, h, d3), axpy(w, h, b3)
-    a4, b4 = accelerations(axpy(x, h, v3), v4, q4, w4, act, m, c, True)
+    a4, b4, r4 = f(axpy(x, h, v3), v4, q4, w4, axpy4(hw, h, r3), act, m, c, wheels)
     d4 = qdot(q4, w4)
     sixth = h / 6.0
     qv = _rk4_sum((q[1], q[2], q[3]), sixth, d1[1:], d2[1:], d3[1:], d4[1:])
     q1 = (q[0] + sixth * (d1[0] + 2.0 * (d2[0] + d3[0]) + d4[0]), qv[0], qv[1], qv[2])
+    hw1 = _rk4_sum4(hw, sixth, r1, r2, r3, r4)
     return (
         _rk4_sum(x, sixth, v, v2, v3, v4),
         _rk4_sum(v, sixth, a1, a2, a3, a4),
         normalize(q1),
         _rk4_sum(w, sixth, b1, b2, b3, b4),
+        hw1,
     )
+
+
+@kernel
+def rk4(x, v, q, w, act, m, c, h):
+    """:func:`rk4_flow` of the rigid body."""
+    x1, v1, q1, w1, _ = rk4_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    return x1, v1, q1, w1
 
 
 # ---- methods for fast spin -------------------------------------------------------------------

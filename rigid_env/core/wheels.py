@@ -16,9 +16,11 @@ coulomb_k sign(Omega_k)``. Without external torque the total ``R (I w + h)`` is 
 friction moves momentum, never creates it.
 
 An integrator with wheels advances ``(x, v, q, w, h_1 .. h_K)`` together, each stage reading the
-wheels' momenta and rates, so it keeps its order (the integrators' ``*_wheels`` functions below,
-:data:`WHEEL_STEPS`); the methods built on the free rigid body's exact flows refuse wheels
-(:data:`NO_WHEELS`). A wheel world steps body by body (:func:`wheel_advance`).
+wheels' momenta and rates, so it keeps its order: the explicit methods are each written once as a
+flow of the body and its wheels (:mod:`rigid_env.core.integrators`), stepped here with the
+gyrostat's rates (:func:`gyrostat`, :data:`WHEEL_STEPS`); the methods built on the free rigid
+body's exact flows refuse wheels (:data:`NO_WHEELS`). A wheel world steps body by body
+(:func:`wheel_advance`).
 """
 
 from __future__ import annotations
@@ -27,7 +29,14 @@ import math
 from dataclasses import replace
 
 from rigid_env.core.dynamics import accelerations, wrench
-from rigid_env.core.integrators import IntegratorInfo
+from rigid_env.core.integrators import (
+    IntegratorInfo,
+    explicit_euler_flow,
+    leapfrog_flow,
+    midpoint_flow,
+    rk4_flow,
+    symplectic_euler_flow,
+)
 from rigid_env.core.jit import kernel, pass_kernel, world_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
@@ -39,7 +48,7 @@ from rigid_env.core.layout import (
     step_code,
     unpack,
 )
-from rigid_env.core.maths import axpy, cross, normalize, qdot, spin
+from rigid_env.core.maths import axpy, cross
 from rigid_env.core.stepping import end_substep, force_reach, held_reach, limit_speed, start_energy
 
 MAX_WHEELS = 4
@@ -117,109 +126,6 @@ def gyrostat(x, v, q, w, hw, act, m, c, wheels):
     return a, alpha, rates
 
 
-@kernel
-def axpy4(y, h, d):
-    """``y + h d`` of 4-tuples."""
-    return (y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2], y[3] + h * d[3])
-
-
-# ---- the integrators with wheels: each its method with hw beside w -----------------------------
-@kernel
-def explicit_euler_wheels(x, v, q, w, hw, act, m, c, wheels, h):
-    """:func:`rigid_env.core.integrators.explicit_euler` with the wheels' momenta: every
-    derivative at the start of the step, ``hw1 = hw + h hw'(y0)``."""
-    a, alpha, rates = gyrostat(x, v, q, w, hw, act, m, c, wheels)
-    return (
-        axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha),
-        axpy4(hw, h, rates),
-    )  # fmt: skip
-
-
-@kernel
-def symplectic_euler_wheels(x, v, q, w, hw, act, m, c, wheels, h):
-    """:func:`rigid_env.core.integrators.symplectic_euler` with the wheels' momenta updated
-    with the velocities: ``v1, w1, hw1`` from ``y0``, then ``x1 = x + h v1``, ``q1 = q exp(h
-    w1 / 2)``."""
-    a, alpha, rates = gyrostat(x, v, q, w, hw, act, m, c, wheels)
-    v1, w1 = axpy(v, h, a), axpy(w, h, alpha)
-    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpy4(hw, h, rates)
-
-
-@kernel
-def leapfrog_wheels(x, v, q, w, hw, act, m, c, wheels, h):
-    """:func:`rigid_env.core.integrators.leapfrog` with the wheels' momenta kicked with the
-    velocities at the mid-point state (second order)."""
-    x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
-    a, alpha, rates = gyrostat(x_h, v, q_h, w, hw, act, m, c, wheels)
-    v_m, w_m, hw_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha), axpy4(hw, 0.5 * h, rates)
-    a, alpha, rates = gyrostat(x_h, v_m, q_h, w_m, hw_m, act, m, c, wheels)
-    v1, w1 = axpy(v, h, a), axpy(w, h, alpha)
-    return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1, axpy4(hw, h, rates)
-
-
-@kernel
-def midpoint_wheels(x, v, q, w, hw, act, m, c, wheels, h):
-    """:func:`rigid_env.core.integrators.midpoint` with the wheels' momenta: ``y_m = y0 + h/2
-    f(y0)``, ``y1 = y0 + h f(y_m)``."""
-    a, alpha, rates = gyrostat(x, v, q, w, hw, act, m, c, wheels)
-    v_m, w_m, hw_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha), axpy4(hw, 0.5 * h, rates)
-    q_m = spin(q, w, 0.5 * h)
-    a, alpha, rates = gyrostat(axpy(x, 0.5 * h, v), v_m, q_m, w_m, hw_m, act, m, c, wheels)
-    return (
-        axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha),
-        axpy4(hw, h, rates),
-    )  # fmt: skip
-
-
-@kernel
-def _sum4(y, s, k1, k2, k3, k4):
-    """``y + s (k1 + 2 (k2 + k3) + k4)`` of 4-tuples (RK4's weights)."""
-    return (
-        y[0] + s * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
-        y[1] + s * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
-        y[2] + s * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
-        y[3] + s * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
-    )
-
-
-@kernel
-def _sum3(y, s, k1, k2, k3, k4):
-    """The same of 3-tuples."""
-    return (
-        y[0] + s * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
-        y[1] + s * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
-        y[2] + s * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
-    )
-
-
-@kernel
-def rk4_wheels(x, v, q, w, hw, act, m, c, wheels, h):
-    """:func:`rigid_env.core.integrators.rk4` on ``y = (x, v, q, w, hw)``, ``q`` in R^4 and
-    renormalised at the end."""
-    a1, b1, r1 = gyrostat(x, v, q, w, hw, act, m, c, wheels)
-    d1 = qdot(q, w)
-    v2, q2, w2 = axpy(v, 0.5 * h, a1), axpy4(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    hw2 = axpy4(hw, 0.5 * h, r1)
-    a2, b2, r2 = gyrostat(axpy(x, 0.5 * h, v), v2, q2, w2, hw2, act, m, c, wheels)
-    d2 = qdot(q2, w2)
-    v3, q3, w3 = axpy(v, 0.5 * h, a2), axpy4(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    hw3 = axpy4(hw, 0.5 * h, r2)
-    a3, b3, r3 = gyrostat(axpy(x, 0.5 * h, v2), v3, q3, w3, hw3, act, m, c, wheels)
-    d3 = qdot(q3, w3)
-    v4, q4, w4 = axpy(v, h, a3), axpy4(q, h, d3), axpy(w, h, b3)
-    hw4 = axpy4(hw, h, r3)
-    a4, b4, r4 = gyrostat(axpy(x, h, v3), v4, q4, w4, hw4, act, m, c, wheels)
-    d4 = qdot(q4, w4)
-    s = h / 6.0
-    return (
-        _sum3(x, s, v, v2, v3, v4),
-        _sum3(v, s, a1, a2, a3, a4),
-        normalize(_sum4(q, s, d1, d2, d3, d4)),
-        _sum3(w, s, b1, b2, b3, b4),
-        _sum4(hw, s, r1, r2, r3, r4),
-    )
-
-
 NO_WHEELS = {
     "implicit_euler": "its Newton iteration solves the rigid body's I w' = tau - w x I w, "
     "without the wheels' momentum",
@@ -275,9 +181,10 @@ def wheel_reach(w, hw, p, c, m):
 
 
 @pass_kernel
-def wheel_advance(step, p, model, state, status, command):
-    """One world step of every body with its wheels, body by body: ``substeps`` calls of the
-    per-body ``step`` (one of :data:`WHEEL_STEPS`), each after the speed limit and followed by
+def wheel_advance(flow, p, model, state, status, command):
+    """One world step of every body with its wheels, body by body: ``substeps`` steps of the
+    method's ``flow`` of the gyrostat's rates (:data:`WHEEL_STEPS`), each after the speed limit
+    and followed by
     the guard (:func:`rigid_env.core.stepping.end_substep`, the wheels' torques in its reach);
     a body that fails keeps its state and its wheels' momenta. Returns the step's code."""
     for r in range(command.shape[0]):
@@ -301,7 +208,8 @@ def wheel_advance(step, p, model, state, status, command):
             hw = load_wheels(state, i, c)
             span = held_reach(c.h, push + wheel_reach(w, hw, p, c, m))
             reach = (start_energy(x, v, w, m, c), span)
-            x1, v1, q1, w1, hw1 = step(x, v, q, w, hw, act, m, c, (p, command, r), c.h)
+            body = (x, v, q, w, hw)
+            x1, v1, q1, w1, hw1 = flow(gyrostat, body, act, m, c, (p, command, r), c.h)
             if not math.isfinite(hw1[0] + hw1[1] + hw1[2] + hw1[3]):
                 x1 = (math.nan, math.nan, math.nan)
             failed, past = end_substep(state, status, i, ((x1, v1, q1, w1), old), m, reach, c, last)
@@ -314,38 +222,39 @@ def wheel_advance(step, p, model, state, status, command):
 
 @world_kernel
 def _explicit_euler(p, model, state, status, wrenches, command):
-    return wheel_advance(explicit_euler_wheels, p, model, state, status, command)
+    return wheel_advance(explicit_euler_flow, p, model, state, status, command)
 
 
 @world_kernel
 def _symplectic_euler(p, model, state, status, wrenches, command):
-    return wheel_advance(symplectic_euler_wheels, p, model, state, status, command)
+    return wheel_advance(symplectic_euler_flow, p, model, state, status, command)
 
 
 @world_kernel
 def _leapfrog(p, model, state, status, wrenches, command):
-    return wheel_advance(leapfrog_wheels, p, model, state, status, command)
+    return wheel_advance(leapfrog_flow, p, model, state, status, command)
 
 
 @world_kernel
 def _midpoint(p, model, state, status, wrenches, command):
-    return wheel_advance(midpoint_wheels, p, model, state, status, command)
+    return wheel_advance(midpoint_flow, p, model, state, status, command)
 
 
 @world_kernel
 def _rk4(p, model, state, status, wrenches, command):
-    return wheel_advance(rk4_wheels, p, model, state, status, command)
+    return wheel_advance(rk4_flow, p, model, state, status, command)
 
 
 WHEEL_STEPS = {
-    "explicit_euler": (explicit_euler_wheels, _explicit_euler),
-    "symplectic_euler": (symplectic_euler_wheels, _symplectic_euler),
-    "leapfrog": (leapfrog_wheels, _leapfrog),
-    "midpoint": (midpoint_wheels, _midpoint),
-    "rk4": (rk4_wheels, _rk4),
+    "explicit_euler": (explicit_euler_flow, _explicit_euler),
+    "symplectic_euler": (symplectic_euler_flow, _symplectic_euler),
+    "leapfrog": (leapfrog_flow, _leapfrog),
+    "midpoint": (midpoint_flow, _midpoint),
+    "rk4": (rk4_flow, _rk4),
 }
-"""The integrators that take wheels: the per-body step with the wheels' momenta and its world
-step ``(p, model, state, status, wrenches, command) -> code`` (as the registry's, serial)."""
+"""The integrators that take wheels: the method's flow (its registry step is that flow of the
+rigid body's rates, :mod:`rigid_env.core.integrators`) and its world step of bodies with wheels
+``(p, model, state, status, wrenches, command) -> code`` (as the registry's, serial)."""
 
 
 def with_wheels(info: IntegratorInfo) -> IntegratorInfo:
