@@ -12,7 +12,10 @@ the one NumPy array integrator (:mod:`rigid_env.core.exact`).
 Orientation moves by ``q <- q (x) exp(h w / 2)`` (exact for constant ``w``) except in ``rk4``,
 which integrates ``q' = 1/2 q (x) (0, w)`` in R^4; every result is renormalised. Choose by name
 from :data:`INTEGRATORS` (:func:`get_integrator`). A new method is its per-body function, its
-three entries (below) and one row of :data:`INTEGRATORS`.
+three entries (below) and one row of :data:`INTEGRATORS`. The explicit methods are each written
+once as a flow of the body and its reaction wheels' momenta under given rates (``*_flow``):
+their per-body step is the flow of the rigid body's rates, and :mod:`rigid_env.core.wheels`
+steps a gyrostat with the same flow.
 """
 
 from __future__ import annotations
