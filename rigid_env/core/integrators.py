@@ -212,11 +212,6 @@ def midpoint(x, v, q, w, act, m, c, h):
 
 
 @kernel
-def _q_axpy(q, h, d):
-    return (q[0] + h * d[0], q[1] + h * d[1], q[2] + h * d[2], q[3] + h * d[3])
-
-
-@kernel
 def _rk4_sum(y, c, k1, k2, k3, k4):
     """``y + c (k1 + 2 (k2 + k3) + k4)`` by components (3 or 4 of them)."""
     return (
@@ -247,13 +242,13 @@ def rk4_flow(f, body, act, m, c, wheels, h):
     x, v, q, w, hw = body
     a1, b1, r1 = f(x, v, q, w, hw, act, m, c, wheels)
     d1 = qdot(q, w)
-    v2, q2, w2 = axpy(v, 0.5 * h, a1), _q_axpy(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
+    v2, q2, w2 = axpy(v, 0.5 * h, a1), axpy4(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
     a2, b2, r2 = f(axpy(x, 0.5 * h, v), v2, q2, w2, axpy4(hw, 0.5 * h, r1), act, m, c, wheels)
     d2 = qdot(q2, w2)
-    v3, q3, w3 = axpy(v, 0.5 * h, a2), _q_axpy(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
+    v3, q3, w3 = axpy(v, 0.5 * h, a2), axpy4(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
     a3, b3, r3 = f(axpy(x, 0.5 * h, v2), v3, q3, w3, axpy4(hw, 0.5 * h, r2), act, m, c, wheels)
     d3 = qdot(q3, w3)
-    v4, q4, w4 = axpy(v, h, a3), _q_axpy(q, h, d3), axpy(w, h, b3)
+    v4, q4, w4 = axpy(v, h, a3), axpy4(q, h, d3), axpy(w, h, b3)
     a4, b4, r4 = f(axpy(x, h, v3), v4, q4, w4, axpy4(hw, h, r3), act, m, c, wheels)
     d4 = qdot(q4, w4)
     sixth = h / 6.0
