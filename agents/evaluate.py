@@ -383,14 +383,18 @@ def evaluate(
         else:
             policy = CONTROLLERS[name](probe)
         results[name] = rollout(env_id, policy, episodes, seed, kwargs)
+    unit = probe.unwrapped.task.view().fuel_unit  # a coil's dipole-time, or thrust's impulse
     probe.close()
-    return results
+    return {name: {**r, "fuel_unit": unit} for name, r in results.items()}
 
 
 def markdown_table(results: dict[str, dict[str, Any]]) -> str:
-    """Results as a Markdown table."""
+    """Results as a Markdown table (fuel in the task's unit: the coils' dipole-time on
+    magnetorquers)."""
+    unit = next(iter(results.values()), {}).get("fuel_unit", "N s")
     lines = [
-        "| policy | success rate | final |w| [rad/s] | fuel [N s] | return | time to success [s] |",
+        f"| policy | success rate | final |w| [rad/s] | fuel [{unit}] | return | time to success "
+        "[s] |",
         "|---|---|---|---|---|---|",
     ]
     for name, r in results.items():

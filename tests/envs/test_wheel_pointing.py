@@ -92,3 +92,14 @@ def test_the_pd_law_cancels_the_gyroscopic_terms_and_desaturates_across_the_fiel
 def test_the_pd_refuses_a_task_without_wheels() -> None:
     with pytest.raises(KeyError, match="WheelPDController: task DetumbleTask has no wheels"):
         WheelPDController(gym.make("RigidEnv/Detumble-v0"))
+
+
+def test_the_evaluation_table_names_the_coils_fuel_unit() -> None:
+    """A coil task's fuel is dipole-time [A m^2 s], and the evaluation's table says so (a
+    thruster task's stays the impulse [N s])."""
+    from agents.evaluate import evaluate, markdown_table
+
+    table = markdown_table(evaluate(None, ENV_ID, episodes=2, seed=3, only=["pd"]))
+    assert "| fuel [A m^2 s] |" in table
+    table = markdown_table(evaluate(None, "RigidEnv/Detumble-v0", episodes=2, seed=3, only=["pd"]))
+    assert "| fuel [N s] |" in table
