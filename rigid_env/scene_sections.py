@@ -17,6 +17,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from numpy.typing import NDArray
 from pydantic import (
+    AfterValidator,
     BaseModel,
     BeforeValidator,
     ConfigDict,
@@ -116,6 +117,21 @@ PointRow = Annotated[
     tuple[Meters, Meters, Meters, PointMass],
     vector(4, "", "[x, y, z, m] (position in m, mass in kg)"),
 ]
+
+
+def _axes(item: str, most: int) -> Any:
+    """A list of 1 to ``most`` body axes, shape frame, none zero (each is normalised): the
+    error names the zero one and asks for each ``item``'s axis."""
+
+    def non_zero(axes: tuple[tuple[float, float, float], ...]) -> Any:
+        for k, a in enumerate(axes):
+            if not any(a):
+                raise ValueError(f"[{k}] is zero; give each {item}'s axis (it is normalised)")
+        return axes
+
+    return Annotated[
+        tuple[Direction, ...], Field(min_length=1, max_length=most), AfterValidator(non_zero)
+    ]
 
 
 def _present(what: str) -> BeforeValidator:
@@ -539,7 +555,7 @@ class MagnetorquersSpec(Spec):
     component each (after the thrusters and point forces); the torque ``m x B`` in a constant
     ``field`` or the Earth's along an ``orbit`` (give one of them)."""
 
-    axes: Annotated[tuple[Direction, ...], Field(min_length=1, max_length=12)] = (
+    axes: _axes("coil", 12) = (
         (1.0, 0.0, 0.0),
         (0.0, 1.0, 0.0),
         (0.0, 0.0, 1.0),
@@ -553,14 +569,6 @@ class MagnetorquersSpec(Spec):
     """A constant field, world frame [T] (Earth's: 2.5e-5 to 6.5e-5)."""
     orbit: Annotated[OrbitSpec | None, _present("{altitude: m, inclination: deg}")] = None
     """Or the Earth's field along this orbit, turning as the world steps."""
-
-    @field_validator("axes")
-    @classmethod
-    def _non_zero(cls, axes: tuple[tuple[float, float, float], ...]) -> Any:
-        for k, a in enumerate(axes):
-            if not any(a):
-                raise ValueError(f"[{k}] is zero; give each coil's axis (it is normalised)")
-        return axes
 
     @model_validator(mode="after")
     def _one_field(self) -> MagnetorquersSpec:
@@ -582,7 +590,7 @@ class ReactionWheelsSpec(Spec):
     wheels (one number each); step them with explicit_euler, symplectic_euler, leapfrog,
     midpoint or rk4."""
 
-    axes: Annotated[tuple[Direction, ...], Field(min_length=1, max_length=4)] = (
+    axes: _axes("wheel", 4) = (
         (1.0, 0.0, 0.0),
         (0.0, 1.0, 0.0),
         (0.0, 0.0, 1.0),
@@ -601,14 +609,6 @@ class ReactionWheelsSpec(Spec):
     """Coulomb bearing friction ``-coulomb sign(Omega)`` [N m]."""
     speeds: tuple[Rate, ...] = ()
     """Each wheel's speed relative to the body at the start [rad/s]; none: at rest."""
-
-    @field_validator("axes")
-    @classmethod
-    def _non_zero(cls, axes: tuple[tuple[float, float, float], ...]) -> Any:
-        for k, a in enumerate(axes):
-            if not any(a):
-                raise ValueError(f"[{k}] is zero; give each wheel's axis (it is normalised)")
-        return axes
 
     @model_validator(mode="after")
     def _speeds(self) -> ReactionWheelsSpec:
