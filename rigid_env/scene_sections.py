@@ -42,6 +42,7 @@ from rigid_env.core.effects import (
 )
 from rigid_env.core.geomagnetic import CircularOrbit, OrbitField
 from rigid_env.core.inertia import MassProperties
+from rigid_env.core.layout import MAX_WHEELS
 
 # |q| of initial.orientation may differ from 1 by this much (rounding of hand-typed decimals
 # such as 0.7071) and is then normalised; a larger difference is a typo, reported as an error.
@@ -590,7 +591,7 @@ class ReactionWheelsSpec(Spec):
     wheels (one number each); step them with explicit_euler, symplectic_euler, leapfrog,
     midpoint or rk4."""
 
-    axes: _axes("wheel", 4) = (
+    axes: _axes("wheel", MAX_WHEELS) = (
         (1.0, 0.0, 0.0),
         (0.0, 1.0, 0.0),
         (0.0, 0.0, 1.0),

@@ -23,7 +23,15 @@ from numpy.typing import NDArray
 
 from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.inertia import checked_floats
-from rigid_env.core.layout import EFFECTS, MAPS, THRUSTER_WIDTH, WHEEL_WIDTH, Params, Thruster
+from rigid_env.core.layout import (
+    EFFECTS,
+    MAPS,
+    MAX_WHEELS,
+    THRUSTER_WIDTH,
+    WHEEL_WIDTH,
+    Params,
+    Thruster,
+)
 from rigid_env.core.rotation import cross, quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
@@ -502,7 +510,10 @@ class ReactionWheels(LinearActuator):
     torque_map: FloatArray = dataclass_field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        axes = _unit_axes("reaction_wheels.axes", self.axes, "1 to 4", "wheel's spin axis", 4)
+        most = MAX_WHEELS
+        axes = _unit_axes(
+            "reaction_wheels.axes", self.axes, f"1 to {most}", "wheel's spin axis", most
+        )
         k = axes.shape[0]
         object.__setattr__(self, "axes", axes)
         for name, unit, positive in (

@@ -144,6 +144,9 @@ class Thruster(NamedTuple):
 
 
 THRUSTER_WIDTH = len(Thruster._fields)
+MAX_WHEELS = 4
+"""The most reaction wheels a body carries (a pyramid of four is the usual most): their momenta
+ride through the integrators as one 4-tuple, zeros past the last (:mod:`rigid_env.core.wheels`)."""
 WHEEL_WIDTH = 9
 """Numbers of a reaction wheel's row in the parameter array (from ``Params.wheel_rows``):
 its axis (3, body frame), axial inertia [kg m^2], max torque [N m], max speed [rad/s], viscous

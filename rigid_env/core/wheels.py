@@ -51,11 +51,6 @@ from rigid_env.core.layout import (
 from rigid_env.core.maths import axpy, cross
 from rigid_env.core.stepping import end_substep, force_reach, held_reach, limit_speed, start_energy
 
-MAX_WHEELS = 4
-"""The most wheels a body carries (a pyramid of four is the usual most); their momenta ride as
-one 4-tuple, zeros past the last."""
-ZERO4 = (0.0, 0.0, 0.0, 0.0)
-
 
 @kernel
 def wheel(p, c, k):
