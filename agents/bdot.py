@@ -54,6 +54,25 @@ def bdot_rate(
     return _commands(gain * np.cross(w, b), b, max_dipole, normalise)
 
 
+def bdot_torque(w_body: ArrayLike, field_body: ArrayLike, gain: float, unit: float) -> FloatArray:
+    """(N, 3) torque commands in [-1, 1] for a task whose actions are wanted torques over
+    ``unit |B_b|`` (BdotDetumble's ``command="torque"``): B-dot's torque ``-k w_perp`` (the
+    normalised law's ``m x B_b`` for ``m = k (w x B_b) / |B_b|^2``) as ``-k w / (unit
+    |B_b|)``, whose part along the field the cross-product law removes; a command past 1
+    scales the whole vector down, keeping its direction.
+
+    Args:
+        w_body: (N, 3) angular velocity, body frame [rad/s].
+        field_body: (N, 3) the field, body frame [T].
+        gain: ``k`` [kg m^2/s].
+        unit: the dipole of a unit torque command [A m^2].
+    """
+    w, b = np.atleast_2d(w_body), np.atleast_2d(field_body)
+    size = np.maximum(np.linalg.norm(b, axis=1, keepdims=True), np.finfo(float).tiny)
+    u = -gain * w / (unit * size)
+    return u / np.maximum(1.0, np.abs(u).max(axis=1, keepdims=True))
+
+
 def bdot_measured(
     field_body: ArrayLike,
     previous: ArrayLike,

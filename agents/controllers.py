@@ -38,7 +38,7 @@ from rigid_env.envs.spin_stabilize import SpinStabilizeTask
 from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE, TumblingFallTask
 from rigid_env.envs.wheel_pointing import WheelPointingTask
 
-from .bdot import avanzini_gain, bdot_rate
+from .bdot import avanzini_gain, bdot_rate, bdot_torque
 from .observing import observed, task_of
 from .wheel_pd import WheelPDController
 
@@ -247,7 +247,10 @@ class BdotController:
     """The B-dot law (:func:`agents.bdot.bdot_rate`) from the observed gyro ``w`` and
     magnetometer field, for a task on magnetorquers along an orbit (BdotDetumble): the gain of
     Avanzini and Giulietti for the orbit's rate and its inclination to the geomagnetic
-    equator, the coils' dipoles read from the scene.
+    equator, the coils' dipoles read from the scene. On a task whose actions are wanted
+    torques (BdotDetumble's ``command="torque"``) it asks for B-dot's torque instead
+    (:func:`agents.bdot.bdot_torque`), which the task's cross-product law turns back into
+    B-dot's dipole.
 
     Args:
         env: the (single or vector, possibly wrapped) environment it will control.
@@ -281,7 +284,11 @@ class BdotController:
         obs = np.atleast_2d(obs)
         w = observed(self.task, obs, "w") * self.task.w_scale
         field = observed(self.task, obs, "field_x", "field_z") * FIELD_SCALE
-        u = bdot_rate(w, field, self.gain, self.max_dipole).astype(np.float32)
+        if getattr(self.task.params, "command", "dipole") == "torque":
+            u = bdot_torque(w, field, self.gain, float(np.min(self.max_dipole)))
+        else:
+            u = bdot_rate(w, field, self.gain, self.max_dipole)
+        u = u.astype(np.float32)
         return u[0] if single else u
 
 

@@ -252,6 +252,12 @@ class TaskBatch:
         None (the default): the task observes none."""
         return None
 
+    def demand(self, action: FloatArray) -> FloatArray:
+        """The actuators' commands (N, A) in [-1, 1] for the clipped actions (N, A) (what the
+        flight software makes of a command before thrust randomisation and faults act on it):
+        the actions themselves by default, the same array."""
+        return action
+
     def derived_numbers(self) -> dict[str, float]:
         """Numbers ``evaluate`` reads beside the parameters, derived from them and the scene
         (none by default)."""
@@ -370,13 +376,15 @@ class TaskBatch:
                 )
         if K.clip_commands(np.ascontiguousarray(act), self.last_action) < 0:
             raise ValueError(_NON_FINITE_ACTION)
+        demand = self.demand(self.last_action)
         if self.thrust_scale is not None:
-            np.multiply(self.last_action, self.thrust_scale, out=self.command)
-        if self.randomization.thruster_faults is not None:
+            np.multiply(demand, self.thrust_scale, out=self.command)
+        elif self.randomization.thruster_faults is not None or demand is not self.last_action:
             if self.command is self.last_action:  # a command apart from the action from now on
-                self.command = self.last_action.copy()
-            elif self.thrust_scale is None:
-                self.command[:] = self.last_action
+                self.command = demand.copy()
+            else:
+                self.command[:] = demand
+        if self.randomization.thruster_faults is not None:
             for i, fault in enumerate(self.faults):
                 if fault is not None:
                     fault.apply(self.command[i], int(self.steps[i]))

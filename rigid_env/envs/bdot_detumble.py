@@ -4,7 +4,7 @@ field along its orbit."""
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -39,6 +39,33 @@ class BdotDetumbleParams(TaskParams):
     reward, >= 0."""
     success_bonus: Bonus = 1.0
     """Reward on the step that reaches the threshold (the episode ends there), >= 0."""
+    command: Literal["dipole", "torque"] = "dipole"
+    """What an action asks for: ``"dipole"``, each coil's dipole over its limit;
+    ``"torque"``, the torque wanted (body frame) over ``max_dipole |B|``, which the flight
+    software's cross-product law turns into the dipole ``m = B x tau / |B|^2`` from the
+    magnetometer's reading the action was chosen on (:func:`torque_dipoles`)."""
+
+
+def torque_dipoles(
+    action: np.ndarray, field: np.ndarray, to_commands: np.ndarray, unit: float
+) -> np.ndarray:
+    """The coils' commands (N, K) in [-1, 1] that make the torque ``action * unit * |B|``
+    (N, 3; body frame) as nearly as a dipole can: the cross-product law ``m = B x tau /
+    |B|^2`` (Lovera and Astolfi, "Spacecraft attitude control using magnetic actuators",
+    Automatica 40(8), 2004), whose torque ``m x B`` is the wanted one less its part along
+    ``B`` (no dipole makes that). A command past a coil's limit scales the whole dipole down,
+    keeping its direction; a zero field asks for no dipole.
+
+    Args:
+        action: (N, 3) wanted torques over ``unit |B|``.
+        field: (N, 3) the field measured in the body frame (any scale: its direction counts).
+        to_commands: (3, K) the coils' commands per body-frame dipole [1 / (A m^2)].
+        unit: the dipole [A m^2] of a wanted torque of ``|B|`` (one coil's limit).
+    """
+    size = np.linalg.norm(field, axis=1, keepdims=True)
+    across = np.divide(field, size, out=np.zeros_like(field), where=size > 0.0)
+    commands = (np.cross(across, action) * unit) @ to_commands
+    return commands / np.maximum(1.0, np.abs(commands).max(axis=1, keepdims=True))
 
 
 @kernel
@@ -98,6 +125,17 @@ class BdotDetumbleTask(TaskBatch):
         field_world = self.target[rows, :3] * FIELD_SCALE
         return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
 
+    def demand(self, action: np.ndarray) -> np.ndarray:
+        """The coils' commands: the actions themselves (``command="dipole"``), or the dipoles
+        of the wanted torques (``"torque"``; :func:`torque_dipoles`) from the field in the
+        observation the actions answer (the magnetometer's reading, noise and delay
+        included)."""
+        if self.params.command == "dipole":
+            return action
+        start = self.obs_slices["field_x"].start
+        field = self.obs[:, start : start + 3].astype(np.float64)
+        return torque_dipoles(action, field, self._to_commands, self._unit_dipole)
+
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
         coils = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
@@ -109,6 +147,31 @@ class BdotDetumbleTask(TaskBatch):
             )
         self.orbit: OrbitField = coils[0].orbit
         """The orbit the coils' field follows (the scene's)."""
+        if self.params.command == "torque":
+            self._to_commands, self._unit_dipole = torque_command_map(coils, self.action_dim)
+
+
+def torque_command_map(coils: list[Magnetorquers], action_dim: int) -> tuple[np.ndarray, float]:
+    """For ``command="torque"``: the (3, 3) map from a body-frame dipole to the coils'
+    commands, and the smallest coil's limit [A m^2] (the dipole of a unit wanted torque).
+
+    Raises:
+        ValueError: the actions are not three coils' alone, or the coils' axes do not span
+            space (no dipole map to invert).
+    """
+    coil_map = coils[0].dipole_map  # (K, 3): each coil's dipole at |u| = 1
+    if len(coils) != 1 or coil_map.shape[0] != 3 or action_dim != 3:
+        raise ValueError(
+            f"command: 'torque' needs the actions to be three coils' alone (this scene has "
+            f"{action_dim} action components); give actuators.magnetorquers three axes and no "
+            "other actuator, or use command='dipole'"
+        )
+    if np.linalg.cond(coil_map) > 1.0e8:
+        raise ValueError(
+            "command: 'torque' needs coil axes that span space (these lie in a plane); give "
+            "actuators.magnetorquers three independent axes, or use command='dipole'"
+        )
+    return np.linalg.inv(coil_map), float(np.min(coils[0].max_dipole))
 
 
 class BdotDetumbleEnv(RigidBodyEnv):
@@ -128,7 +191,11 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ``Box(-1, 1, (3,), float32)``: the coils' dipoles over 0.2 A m^2, body x, y, z
     (``configs/scenes/bdot_detumble.yaml``), held over the 5 s control step. Commands outside
-    [-1, 1] are clipped; NaN or inf raises ``ValueError``.
+    [-1, 1] are clipped; NaN or inf raises ``ValueError``. With ``command="torque"`` an action
+    is instead the torque wanted, body x, y, z, over ``0.2 A m^2 |B|``: the cross-product law
+    ``m = B x tau / |B|^2`` turns it into the coils' dipole from the magnetometer's reading in
+    the observation it answers (as flight software does), so the torque made is the wanted
+    one less its part along ``B``, scaled down as a whole where a coil would pass its limit.
 
     ## Observation Space
 
@@ -162,12 +229,12 @@ class BdotDetumbleEnv(RigidBodyEnv):
     ## Arguments
 
     ``gym.make("RigidEnv/BdotDetumble-v0", max_initial_spin=0.1745, success_threshold=0.01745,
-    effort_weight=0.05, success_bonus=1.0, integrator=None, dt=None, substeps=None, scene=None,
-    rotation_repr="quaternion", randomization=None, observe_control_period=False, sensors=None,
-    render_mode=None)``; ``randomization`` as for the other tasks (``"sensor_noise"``: a
-    gyro's white noise on the observed ``w`` [rad/s]); ``sensors`` takes a gyro, a
-    magnetometer (noise on the observed field), a star tracker and a delay
-    (:class:`rigid_env.envs.params.Sensors`).
+    effort_weight=0.05, success_bonus=1.0, command="dipole", integrator=None, dt=None,
+    substeps=None, scene=None, rotation_repr="quaternion", randomization=None,
+    observe_control_period=False, sensors=None, render_mode=None)``; ``randomization`` as for
+    the other tasks (``"sensor_noise"``: a gyro's white noise on the observed ``w`` [rad/s]);
+    ``sensors`` takes a gyro, a magnetometer (noise on the observed field), a star tracker and
+    a delay (:class:`rigid_env.envs.params.Sensors`).
 
     ## Info
 
@@ -176,7 +243,8 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ## Version History
 
-    * v0: initial version.
+    * v0: initial version; the keyword ``command`` came later (its default, ``"dipole"``,
+      is v0 as first published, bit for bit).
     """
 
     task_cls = BdotDetumbleTask

@@ -321,9 +321,10 @@ def numbers(params: TaskParams, common: dict[str, float], **derived: float) -> N
     """The numbers of a task's compiled pass: a structured array of one element with the
     ``common`` numbers (:data:`~rigid_env.envs.kernels.COMMON_NUMBERS`), each parameter of
     ``params`` by its name (a float, an integer, or a tuple of floats) and the task's
-    ``derived`` numbers (e.g. a duration in control steps)."""
+    ``derived`` numbers (e.g. a duration in control steps); a parameter that is a word (a
+    mode the task's Python reads) is no number of the pass and is left out."""
     values: dict[str, Any] = {name: common[name] for name in COMMON_NUMBERS}
-    values.update(params.model_dump())
+    values.update({k: v for k, v in params.model_dump().items() if not isinstance(v, str)})
     values.update(derived)
     fields: list[tuple[Any, ...]] = []
     for name, value in values.items():

@@ -89,3 +89,120 @@ def test_a_scene_without_an_orbit_is_refused_by_name(tmp_path) -> None:
     path.write_text(yaml.safe_dump(scene))
     with pytest.raises(ValueError, match="no magnetorquers"):
         gym.make(ENV_ID, scene=str(path))
+
+
+def _field_seen(task, obs: np.ndarray) -> np.ndarray:
+    """The field the observations carry, body frame [T]."""
+    start = task.obs_slices["field_x"].start
+    return obs[:, start : start + 3].astype(np.float64) * FIELD_SCALE
+
+
+def test_a_torque_command_makes_its_part_across_the_field() -> None:
+    """``command="torque"``: the coils' dipole ``m`` for a wanted torque ``u`` (over 0.2 A m^2
+    |B|) lies across the measured field, and its torque ``m x B`` is ``s u_perp 0.2 |B|``, the
+    wanted torque less its part along ``B``, scaled by one ``s <= 1`` (1 unless a coil would pass
+    its limit, where the largest command is then exactly 1). Against the cross product of the
+    env's own commands: a few roundings of numbers near 1, so 1e-12 of the torque unit."""
+    n = 64
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point",
+                        command="torque")  # fmt: skip
+    task = venv.unwrapped.task
+    obs, _ = venv.reset(seed=7)
+    rng = np.random.default_rng(0)
+    ended = np.zeros(n, bool)
+    for size in (0.05, 1.0):  # commands within the coils' limits, then past them
+        u = (size * rng.uniform(-1, 1, (n, 3))).astype(np.float32)[~ended]
+        field = _field_seen(task, obs)[~ended]
+        obs, _, term, trunc, _ = venv.step(u if not ended.any() else _padded(u, ended))
+        dipole = task.command[~ended] * 0.2  # [A m^2]: coils along the body axes
+        ended = term | trunc  # such an env starts anew at the next step, its action unused
+        unit = 0.2 * np.linalg.norm(field, axis=1, keepdims=True)
+        across = field / np.linalg.norm(field, axis=1, keepdims=True)
+        wanted = u - np.sum(u * across, axis=1, keepdims=True) * across
+        made = np.cross(dipole, field) / unit
+        scale = np.linalg.norm(made, axis=1) / np.linalg.norm(wanted, axis=1)
+        np.testing.assert_allclose(np.sum(dipole * across, axis=1) / 0.2, 0.0, atol=1e-12)
+        np.testing.assert_allclose(made, scale[:, None] * wanted, atol=1e-12)
+        largest = np.abs(dipole / 0.2).max(axis=1)
+        assert np.all(scale <= 1.0 + 1e-12) and np.all(largest <= 1.0)
+        np.testing.assert_allclose(largest[scale < 1.0 - 1e-9], 1.0, rtol=0, atol=1e-12)
+        if size < 0.1:
+            np.testing.assert_allclose(scale, 1.0, rtol=0, atol=1e-12)
+        else:
+            assert (scale < 1.0 - 1e-9).sum() >= 5  # both branches are exercised
+
+
+def _padded(rows: np.ndarray, skipped: np.ndarray) -> np.ndarray:
+    """Actions for every env: ``rows`` for those not ``skipped``, zeros for the others."""
+    out = np.zeros((skipped.size, rows.shape[1]), np.float32)
+    out[~skipped] = rows
+    return out
+
+
+def test_bdot_as_a_torque_command_is_bdot() -> None:
+    """B-dot's controller on ``command="torque"`` asks for its torque ``-k w_perp``; the
+    cross-product law turns that back into B-dot's dipole ``k (w x B) / |B|^2``. Unsaturated
+    (B-dot's commands stay below 0.3 here), the two runs are one trajectory up to rounding: the
+    float32 observations differ by 2^-24 relatively, which the stable closed loop keeps below
+    1e-6 of the dipole-time over 40 steps (a few 1e-8 where measured)."""
+    fuel = {}
+    for command in ("dipole", "torque"):
+        venv = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point",
+                            command=command)  # fmt: skip
+        controller = BdotController(venv)
+        obs, _ = venv.reset(seed=11)
+        for _ in range(40):
+            u = controller(obs)
+            assert np.abs(venv.unwrapped.task.command).max() < 0.3
+            obs, _, _, _, info = venv.step(u)
+        fuel[command] = info["fuel"]
+    np.testing.assert_allclose(fuel["torque"], fuel["dipole"], rtol=1e-6)
+
+
+def test_a_torque_command_reads_the_magnetometer_as_measured() -> None:
+    """With magnetometer noise the law uses the field the observation carried (what the flight
+    software knows), not the truth: the dipole lies across the noisy reading, not across the
+    true field."""
+    sigma = 5e-6  # [T], a tenth of the field: the two directions differ by about 0.1 rad
+    venv = gym.make_vec(ENV_ID, num_envs=8, vectorization_mode="vector_entry_point",
+                        command="torque", sensors={"magnetometer": {"sigma": sigma}})  # fmt: skip
+    task = venv.unwrapped.task
+    obs, _ = venv.reset(seed=2)
+    measured = _field_seen(task, obs)
+    truth = quat_rotate_inv(task.world.state.q, task.orbit.at(task.world.orbit_time))
+    venv.step(np.full((8, 3), 0.3, np.float32))
+    m = task.command
+    along = np.sum(m * measured, axis=1) / np.linalg.norm(measured, axis=1)
+    along_truth = np.sum(m * truth, axis=1) / np.linalg.norm(truth, axis=1)
+    np.testing.assert_allclose(along, 0.0, atol=1e-6)  # float32 reading: 2^-24 of 1, times a few
+    assert np.abs(along_truth).max() > 1e-3
+
+
+@pytest.mark.parametrize(
+    ("scene_edit", "message"),
+    [
+        ({"axes": [[1, 0, 0], [0, 1, 0]]}, "command: 'torque' needs the actions to be three"),
+        ({"axes": [[1, 0, 0], [0, 1, 0], [1, 1, 0]]}, "command: 'torque' needs coil axes that"),
+    ],
+)
+def test_a_torque_command_needs_three_coils_that_span_space(tmp_path, scene_edit, message) -> None:
+    """Two coils, or three in a plane, have no dipole for every torque across the field: a
+    one-line error naming ``command`` when the env is made."""
+    import yaml
+
+    from rigid_env.resources import scene_path
+
+    scene = yaml.safe_load(scene_path("bdot_detumble").read_text())
+    scene["actuators"]["magnetorquers"].update(scene_edit)
+    path = tmp_path / "coils.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    with pytest.raises(ValueError, match=message):
+        gym.make(ENV_ID, scene=str(path), command="torque")
+    gym.make(ENV_ID, scene=str(path))  # the dipole commands take any coils
+
+
+@pytest.mark.parametrize("value", ["Torque", "force", 1, None])
+def test_an_unknown_command_is_one_line_naming_it(value) -> None:
+    with pytest.raises(ValueError, match=r"^command: .*'dipole'.*'torque'") as err:
+        gym.make(ENV_ID, command=value)
+    assert "\n" not in str(err.value)

@@ -134,6 +134,7 @@ VECTOR_CASES = [(env_id, {}) for env_id in ENV_IDS] + [
     (D, {"rotation_repr": "sixd"}),
     (D, {"randomization": {"action_repeat": [1, 2, 3]}}),
     (BDOT, {"rotation_repr": "sixd", "randomization": {"action_repeat": [2]}}),
+    (BDOT, {"command": "torque", "randomization": {"thrust": 0.3}}),
 ]
 
 
