@@ -30,6 +30,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
@@ -37,7 +38,7 @@ import numpy as np
 from rigid_env.envs import TASKS as REGISTERED
 
 from .controllers import CONTROLLERS
-from .evaluate import Policy, load_policy, rollout
+from .evaluate import Policy, load_policy, read_sidecar, rollout
 from .shipped import TASKS
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
@@ -135,6 +136,14 @@ def pretrained_model(task: str) -> Path:
     return PRETRAINED / f"ppo_{TASKS[task].module}.zip"
 
 
+def sidecar_kwargs(model: Path) -> dict[str, Any]:
+    """The env kwargs the model plays on, from its sidecar (what it was trained on, less the
+    training randomisation: BdotDetumble's ``command``, say); the analytic controller plays on
+    the same, so the two face one task."""
+    meta = read_sidecar(model)
+    return dict((meta or {}).get("env_kwargs") or {})
+
+
 def policy_label(model: Path) -> str:
     """The model's algorithm in capitals (``PPO``), from its ``.json`` beside it."""
     meta = model.with_suffix(".json")
@@ -148,15 +157,16 @@ def run_episodes(
     episodes: int,
     seed: int,
     progress: Callable[[int], None] | None = None,
+    env_kwargs: dict[str, Any] | None = None,
 ) -> list[Episode]:
     """Episodes ``seed + k`` one at a time, each by :func:`agents.evaluate.rollout` (which
-    returns means; one episode at a time keeps each episode's outcome); ``progress(k)`` is
-    called after each."""
+    returns means; one episode at a time keeps each episode's outcome), on the task made with
+    ``env_kwargs``; ``progress(k)`` is called after each."""
     out = []
     for k in range(episodes):
         if progress is not None and k:
             progress(k)
-        r = rollout(env_id(task), policy, 1, seed + k)
+        r = rollout(env_id(task), policy, 1, seed + k, env_kwargs)
         out.append(
             Episode(
                 seed + k,
@@ -170,8 +180,11 @@ def run_episodes(
     return out
 
 
-def pd_policy(task: str) -> Policy:
-    probe = gym.make_vec(env_id(task), num_envs=1, vectorization_mode="vector_entry_point")
+def pd_policy(task: str, env_kwargs: dict[str, Any] | None = None) -> Policy:
+    """The task's analytic controller, for the task made with ``env_kwargs``."""
+    probe = gym.make_vec(
+        env_id(task), num_envs=1, vectorization_mode="vector_entry_point", **(env_kwargs or {})
+    )
     policy = CONTROLLERS["pd"](probe)
     probe.close()
     return policy
@@ -387,15 +400,17 @@ def run(
         t0 = time.perf_counter()
         model = pretrained_model(name)
         label = policy_label(model)
-        learned = load_policy(model, env_id(name))
-        pd = pd_policy(name)
+        kwargs = sidecar_kwargs(model)
+        learned = load_policy(model, env_id(name), kwargs)
+        pd = pd_policy(name, kwargs)
         analytic = getattr(pd, "label", "PD")  # the task's analytic baseline: PD, or B-dot
         for policy_name, policy in ((label, learned), (analytic, pd)):
             ticker = _Progress(f"{name} {policy_name}", episodes, log)
-            rows.append(Row(name, policy_name, run_episodes(name, policy, episodes, seed, ticker)))
+            played = run_episodes(name, policy, episodes, seed, ticker, kwargs)
+            rows.append(Row(name, policy_name, played))
         gif = animation_path(out, name)
         pair = [(f"{label} (pretrained)", learned), (f"{analytic} controller", pd)]
-        record_side_by_side(env_id(name), pair, seed, gif)
+        record_side_by_side(env_id(name), pair, seed, gif, env_kwargs=kwargs)
         written.append(gif)
         log(
             f"{name}: {rows[-2].success_rate:.2f} / {rows[-1].success_rate:.2f} success "

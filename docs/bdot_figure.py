@@ -18,7 +18,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from rigid_env.agents.controllers import BdotController
-from rigid_env.agents.evaluate import load_policy
+from rigid_env.agents.evaluate import load_policy, read_sidecar
 
 import rigid_env.envs  # noqa: F401  (registers the ids)
 
@@ -27,22 +27,22 @@ ROOT = Path(__file__).resolve().parents[1]
 EPISODES, SEED, STEPS = 100, 12345, 480
 
 
-def run(policy, n: int) -> dict[str, np.ndarray]:
-    """Each env's first episode: |w| [deg/s] and |m| [A m^2] per step (NaN after its end),
-    success, steps to success and fuel [A m^2 s]."""
-    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+def run(policy, n: int, kwargs: dict) -> dict[str, np.ndarray]:
+    """Each env's first episode on the task made with ``kwargs``: |w| [deg/s] and the coils'
+    |m| [A m^2] per step (NaN after its end), success, steps to success and fuel [A m^2 s]."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    task = env.unwrapped.task
     if policy is None:
         policy = BdotController(env)
     obs, _ = env.reset(seed=SEED)
     speed = np.full((STEPS + 1, n), np.nan)
     dipole = np.full((STEPS, n), np.nan)
-    speed[0] = np.degrees(np.linalg.norm(env.unwrapped.task.world.state.w, axis=1))
+    speed[0] = np.degrees(np.linalg.norm(task.world.state.w, axis=1))
     done, success = np.zeros(n, bool), np.zeros(n, bool)
     steps, fuel = np.full(n, np.nan), np.zeros(n)
     for t in range(STEPS):
-        u = np.clip(policy(obs), -1.0, 1.0)
-        dipole[t, ~done] = 0.2 * np.linalg.norm(u, axis=1)[~done]
-        obs, _, term, trunc, info = env.step(u)
+        obs, _, term, trunc, info = env.step(policy(obs))
+        dipole[t, ~done] = 0.2 * np.linalg.norm(task.command, axis=1)[~done]  # as the coils got it
         speed[t + 1, ~done] = np.degrees(info["angular_speed"][~done])
         new = (term | trunc) & ~done
         success[new], fuel[new] = info["success"][new], info["fuel"][new]
@@ -56,9 +56,11 @@ def run(policy, n: int) -> dict[str, np.ndarray]:
 def main() -> None:
     default = ROOT / "agents" / "pretrained" / "ppo_bdot_detumble.zip"
     model = Path(sys.argv[1]) if len(sys.argv) > 1 else default
-    runs = {"B-dot": run(None, EPISODES)}
+    # Both play the task the policy was trained on (its sidecar's env kwargs: the command).
+    kwargs = dict((read_sidecar(model) or {}).get("env_kwargs") or {}) if model.exists() else {}
+    runs = {"B-dot": run(None, EPISODES, kwargs)}
     if model.exists():
-        runs["PPO"] = run(load_policy(model, ENV_ID), EPISODES)
+        runs["PPO"] = run(load_policy(model, ENV_ID, kwargs), EPISODES, kwargs)
     dt = 5.0
     lines = ["policy   success  median time to success [s]  mean fuel [A m^2 s]"]
     for name, r in runs.items():

@@ -50,20 +50,23 @@ try:
     out["top_level_agents"] = agents.__file__
 except ModuleNotFoundError:
     out["top_level_agents"] = None
-pretrained = {json.loads(p.read_text())["env_id"]: p.with_suffix(".zip")
-              for p in sorted(data_path("agents/pretrained").glob("*.json"))}
-out["pretrained"] = sorted(str(p) for p in pretrained.values())
+sidecars = {p.with_suffix(".zip"): json.loads(p.read_text())
+            for p in sorted(data_path("agents/pretrained").glob("*.json"))}
+pretrained = {meta["env_id"]: (path, meta.get("env_kwargs") or {})
+              for path, meta in sidecars.items()}
+out["pretrained"] = sorted(str(p) for p, _ in pretrained.values())
 steps = {}
 for env_id in POLICIES:
-    env = gym.make(env_id)
+    model, kwargs = pretrained[env_id]
+    env = gym.make(env_id, **kwargs)
     obs, _ = env.reset(seed=0)
-    policy = load_policy(pretrained[env_id], env_id)
+    policy = load_policy(model, env_id, kwargs)
     for _ in range(3):
         obs, *_ = env.step(policy(obs[None])[0])
-    venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", **kwargs)
     vobs, _ = venv.reset(seed=0)
     vobs, *_ = venv.step(policy(vobs))
-    sb3 = RigidBodySB3VecEnv(env_id, num_envs=2)
+    sb3 = RigidBodySB3VecEnv(env_id, num_envs=2, **kwargs)
     sb3.reset()
     sb3.step(np.zeros((2, *env.action_space.shape), np.float32))
     steps[env_id] = bool(np.isfinite(obs).all() and np.isfinite(vobs).all())
