@@ -14,8 +14,9 @@ seeds) under each of :data:`CONDITIONS`:
 * ``randomised``: mass, inertia (each principal moment) and thrust drawn within +-30 % per
   episode, and gaussian noise of 0.01 rad/s on the observed angular velocity;
 * ``inertia +-90 %``: each principal moment drawn within +-90 % per episode;
-* ``dt 0.1`` and ``dt 0.2``: the control step doubled and quadrupled (the tasks' is 0.05 s),
-  so each action holds that much longer.
+* ``control step x2`` and ``x4``: the task's control step ``dt`` doubled and quadrupled (0.1
+  and 0.2 s on the thruster tasks, whose step is 0.05 s; 10 and 20 s on BdotDetumble), so each
+  action holds that much longer.
 
 A model is run with the env kwargs its sidecar records, the condition's merged over them; a
 registered variant merges them into its own defaults key by key
@@ -44,6 +45,27 @@ from rigid_env.config_files import read_yaml
 from ._cli import OneLineParser, folder_problem, integer, path
 from .evaluate import EvaluationError, evaluate
 
+
+@dataclass(frozen=True)
+class Steps:
+    """A condition's control step: ``factor`` times the task's registered ``dt``."""
+
+    factor: float
+
+
+def condition_kwargs(condition: str, env_id: str) -> dict[str, Any]:
+    """The env kwargs of ``condition`` on the task ``env_id`` (a :class:`Steps` made a
+    ``dt`` in seconds from the task's registered one)."""
+    over = dict(CONDITIONS[condition])
+    if isinstance(over.get("dt"), Steps):
+        import gymnasium as gym
+
+        env = gym.make(env_id)
+        over["dt"] = over["dt"].factor * env.unwrapped.task.dt
+        env.close()
+    return over
+
+
 _OFF = {"mass": 0.0, "inertia": 0.0, "thrust": 0.0, "sensor_noise": 0.0}
 #: Name -> env kwargs merged over the model's recorded ones.
 CONDITIONS: dict[str, dict[str, Any]] = {
@@ -52,8 +74,8 @@ CONDITIONS: dict[str, dict[str, Any]] = {
         "randomization": {"mass": 0.3, "inertia": 0.3, "thrust": 0.3, "sensor_noise": 0.01}
     },
     "inertia +-90 %": {"randomization": {**_OFF, "inertia": 0.9}},
-    "dt 0.1": {"randomization": dict(_OFF), "dt": 0.1},
-    "dt 0.2": {"randomization": dict(_OFF), "dt": 0.2},
+    "control step x2": {"randomization": dict(_OFF), "dt": Steps(2)},
+    "control step x4": {"randomization": dict(_OFF), "dt": Steps(4)},
 }
 CONTROLLER_ROWS = ("pd", "zero", "random")
 METRICS = (
@@ -123,8 +145,8 @@ def evaluate_runs(runs: list[Run], episodes: int, seed: int) -> list[dict[str, A
     :func:`agents.evaluate.evaluate` plus ``env_id, policy, seed, condition, timesteps``."""
     records: list[dict[str, Any]] = []
     for env_id in dict.fromkeys(r.env_id for r in runs):  # in the order given
-        for condition, over in CONDITIONS.items():
-            kwargs = over
+        for condition in CONDITIONS:
+            kwargs = condition_kwargs(condition, env_id)
             for run in (r for r in runs if r.env_id == env_id):
                 res = evaluate(run.model, env_id, episodes, seed, ["model"], kwargs)["model"]
                 records.append(_record(env_id, run.label, run.seed, condition, run.timesteps, res))

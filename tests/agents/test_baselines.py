@@ -8,9 +8,20 @@ import gymnasium as gym
 import pytest
 
 import agents.baselines as baselines
-from agents.baselines import CONDITIONS, METRICS, Run, evaluate_runs, find_run, main, summary_table
+from agents.baselines import (
+    CONDITIONS,
+    METRICS,
+    Run,
+    condition_kwargs,
+    evaluate_runs,
+    find_run,
+    main,
+    summary_table,
+)
 from agents.env_kwargs import merge_env_kwargs
 from agents.evaluate import EvaluationError
+
+ENV = "RigidEnv/Detumble-v0"
 
 
 def _rec(policy, seed, condition, success, fuel, t, steps=1_000_000):
@@ -31,7 +42,7 @@ def test_summary_is_mean_worst_and_best_over_seeds_and_fuel_against_pd():
         *(
             _rec("PPO", s, c, 0.5, 1.0, 1.0)
             for s in range(3)
-            for c in ("inertia +-90 %", "dt 0.1", "dt 0.2")
+            for c in ("inertia +-90 %", "control step x2", "control step x4")
         ),
         *(_rec("pd", None, c, 1.0, 0.40, 2.0, None) for c in CONDITIONS),
     ]
@@ -49,7 +60,17 @@ def test_nominal_condition_switches_off_a_training_randomisation():
     trained = {"randomization": {"inertia": 0.5, "thrust": 0.3, "sensor_noise": 0.01}}
     merged = merge_env_kwargs(trained, CONDITIONS["nominal"])
     assert all(v == 0.0 for v in merged["randomization"].values())
-    assert merge_env_kwargs(trained, CONDITIONS["dt 0.2"])["dt"] == 0.2
+    assert merge_env_kwargs(trained, condition_kwargs("control step x4", ENV))["dt"] == 0.2
+
+
+@pytest.mark.parametrize(("env_id", "dt"), [(ENV, 0.05), ("RigidEnv/BdotDetumble-v0", 5.0)])
+def test_the_control_step_conditions_scale_each_tasks_own_step(env_id, dt):
+    """``control step x2`` and ``x4`` hold each action two and four of the task's steps: 0.1 and
+    0.2 s on a thruster task, 10 and 20 s on BdotDetumble (exact: powers of two)."""
+    for factor in (2, 4):
+        kwargs = condition_kwargs(f"control step x{factor}", env_id)
+        assert kwargs["dt"] == factor * dt
+        assert gym.make(env_id, **kwargs).unwrapped.task.dt == factor * dt
 
 
 def test_unfinished_run_and_existing_results_are_refused(tmp_path, capsys):
