@@ -17,7 +17,9 @@ elsewhere) gets its statistics from ``<model>_vecnormalize.pkl``,
 ``model_vecnormalize_<N>_steps.pkl`` (checkpoint ``model_<N>_steps.zip``) or
 ``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
 A sidecar that names statistics which are missing, corrupted or for another observation shape
-is an error, never a silent evaluation on raw observations. A save that a kill interrupted
+is an error, never a silent evaluation on raw observations; so is an ``--env-kwargs`` that
+changes what an action means (:data:`ACTION_MEANING`: BdotDetumble's ``command``) from what
+the model trained with. A save that a kill interrupted
 after its commit (sidecar with ``staged``) is evaluated from its staging folder.
 
 SB3 model files are pickles: load only files you trust.
@@ -293,6 +295,7 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             f"{probe.observation_space.shape} and {probe.action_space.shape}; use the env and "
             f"env_kwargs it was trained with{recorded}"
         )
+    _check_action_meaning(model_path, meta, probe)
     probe.close()
     norm_path = find_normalization(model_path, meta)
     norm = (
@@ -310,6 +313,29 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
         return action
 
     return policy
+
+
+ACTION_MEANING = ("command",)
+"""Env kwargs that change what an action means but not its shape (BdotDetumble's ``command``:
+coil dipoles or wanted torques): a model runs only with the value it was trained with."""
+
+
+def _check_action_meaning(model_path: Path, meta: dict[str, Any] | None, probe: gym.Env) -> None:
+    """Refuse an evaluation env whose actions mean other things than the model's training env's
+    (:data:`ACTION_MEANING`; the shapes are checked apart)."""
+    task = getattr(probe.unwrapped, "task", None)
+    if meta is None or task is None:
+        return
+    trained = meta.get("trained_env_kwargs", meta.get("env_kwargs")) or {}
+    fields = type(task.params).model_fields
+    for key in (k for k in ACTION_MEANING if k in fields):
+        want, got = trained.get(key, fields[key].default), getattr(task.params, key)
+        if want != got:
+            raise EvaluationError(
+                f"{model_path}: trained with {key}={want!r}, but the env_kwargs give "
+                f"{key}={got!r}, where its actions mean something else; leave {key} out "
+                f"(the sidecar's {want!r} then applies)"
+            )
 
 
 def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:

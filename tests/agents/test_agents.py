@@ -272,6 +272,32 @@ def test_model_for_another_env_is_refused(capsys):
     assert "Detumble" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("trained", "asked"), [("torque", "dipole"), (None, "torque")])
+def test_a_model_is_not_run_where_its_actions_mean_something_else(tmp_path, capsys, trained, asked):
+    """BdotDetumble's ``command`` changes what an action means, not its shape: a model trained on
+    wanted torques, evaluated on dipoles (or one whose sidecar names no command, so trained on
+    the default dipoles, evaluated on torques) is refused in one line naming the key, not run
+    to a silent failure."""
+    import shutil
+
+    stem = PRETRAINED / "ppo_bdot_detumble"
+    for suffix in (".zip", "_vecnormalize.pkl"):
+        shutil.copy(f"{stem}{suffix}", tmp_path / f"m{suffix}")
+    meta = json.loads(stem.with_suffix(".json").read_text())
+    meta["vecnormalize"] = "m_vecnormalize.pkl"
+    for key in ("env_kwargs", "trained_env_kwargs"):
+        meta[key] = {} if trained is None else {"command": trained}
+    (tmp_path / "m.json").write_text(json.dumps(meta))
+    model = str(tmp_path / "m.zip")
+    env = "RigidEnv/BdotDetumble-v0"
+    assert evaluate_main([model, "--env", env, "--episodes", "2", "--env-kwargs",
+                          f"command={asked}"]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert f"trained with command={trained or 'dipole'!r}" in err and "leave command out" in err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert evaluate_main([model, "--env", env, "--episodes", "2", "--only", "model"]) == 0
+
+
 def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
     """A kill between SB3's write of a model and of its VecNormalize statistics leaves a newer
     model alone: --resume must take the newest checkpoint that has all its files."""
