@@ -38,7 +38,7 @@ import numpy as np
 from rigid_env.envs import TASKS as REGISTERED
 
 from .controllers import CONTROLLERS
-from .evaluate import Policy, load_policy, read_sidecar, rollout
+from .evaluate import Policy, load_policy, resolve_env_kwargs, rollout
 from .shipped import TASKS
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
@@ -134,14 +134,6 @@ def resolve_tasks(text: str | None) -> list[str]:
 def pretrained_model(task: str) -> Path:
     """``agents/pretrained/ppo_<task>.zip`` (module name of the task, e.g. spin_stabilize)."""
     return PRETRAINED / f"ppo_{TASKS[task].module}.zip"
-
-
-def sidecar_kwargs(model: Path) -> dict[str, Any]:
-    """The env kwargs the model plays on, from its sidecar (what it was trained on, less the
-    training randomisation: BdotDetumble's ``command``, say); the analytic controller plays on
-    the same, so the two face one task."""
-    meta = read_sidecar(model)
-    return dict((meta or {}).get("env_kwargs") or {})
 
 
 def policy_label(model: Path) -> str:
@@ -400,7 +392,7 @@ def run(
         t0 = time.perf_counter()
         model = pretrained_model(name)
         label = policy_label(model)
-        kwargs = sidecar_kwargs(model)
+        kwargs = resolve_env_kwargs(model)  # both play the task as the sidecar records it
         learned = load_policy(model, env_id(name), kwargs)
         pd = pd_policy(name, kwargs)
         analytic = getattr(pd, "label", "PD")  # the task's analytic baseline: PD, or B-dot

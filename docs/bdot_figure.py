@@ -18,7 +18,7 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 from rigid_env.agents.controllers import BdotController
-from rigid_env.agents.evaluate import load_policy, read_sidecar
+from rigid_env.agents.evaluate import load_policy, resolve_env_kwargs
 
 import rigid_env.envs  # noqa: F401  (registers the ids)
 
@@ -57,7 +57,7 @@ def main() -> None:
     default = ROOT / "agents" / "pretrained" / "ppo_bdot_detumble.zip"
     model = Path(sys.argv[1]) if len(sys.argv) > 1 else default
     # Both play the task the policy was trained on (its sidecar's env kwargs: the command).
-    kwargs = dict((read_sidecar(model) or {}).get("env_kwargs") or {}) if model.exists() else {}
+    kwargs = resolve_env_kwargs(model)
     runs = {"B-dot": run(None, EPISODES, kwargs)}
     if model.exists():
         runs["PPO"] = run(load_policy(model, ENV_ID, kwargs), EPISODES, kwargs)

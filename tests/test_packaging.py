@@ -39,7 +39,7 @@ import numpy as np
 
 import rigid_env
 from rigid_env.agents.config import load_config
-from rigid_env.agents.evaluate import load_policy
+from rigid_env.agents.evaluate import load_policy, resolve_env_kwargs
 from rigid_env.agents.shipped import POLICIES
 from rigid_env.agents.vec_adapter import RigidBodySB3VecEnv
 from rigid_env.resources import SCENE_DIR, data_path
@@ -50,14 +50,13 @@ try:
     out["top_level_agents"] = agents.__file__
 except ModuleNotFoundError:
     out["top_level_agents"] = None
-sidecars = {p.with_suffix(".zip"): json.loads(p.read_text())
-            for p in sorted(data_path("agents/pretrained").glob("*.json"))}
-pretrained = {meta["env_id"]: (path, meta.get("env_kwargs") or {})
-              for path, meta in sidecars.items()}
-out["pretrained"] = sorted(str(p) for p, _ in pretrained.values())
+pretrained = {json.loads(p.read_text())["env_id"]: p.with_suffix(".zip")
+              for p in sorted(data_path("agents/pretrained").glob("*.json"))}
+out["pretrained"] = sorted(str(p) for p in pretrained.values())
 steps = {}
 for env_id in POLICIES:
-    model, kwargs = pretrained[env_id]
+    model = pretrained[env_id]
+    kwargs = resolve_env_kwargs(model)  # the task as its sidecar records it
     env = gym.make(env_id, **kwargs)
     obs, _ = env.reset(seed=0)
     policy = load_policy(model, env_id, kwargs)
