@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from agents.bdot import avanzini_gain, bdot_measured, bdot_rate
+from agents.bdot import avanzini_gain, bdot_measured, bdot_rate, bdot_torque
 from rigid_env.core import BodyModel, Magnetorquers, World
 from rigid_env.core.rotation import quat_from_rotvec, quat_rotate, quat_rotate_inv
+from rigid_env.envs.bdot_detumble import torque_dipoles
 from rigid_env.resources import scene_path
 from rigid_env.scene import load_scene
 
@@ -106,3 +107,22 @@ def test_bdot_detumbles_the_cubesat_to_twice_the_orbit_rate() -> None:
         world.step(bdot_rate(s.w, quat_rotate_inv(s.q, world.magnetic_field), gain, 0.35))
     assert start > 30 * 2 * n
     assert np.linalg.norm(world.state.w) < 3 * 2 * n
+
+
+def test_the_torque_form_through_the_cross_product_law_is_the_dipole_form() -> None:
+    """:func:`bdot_torque` asks for B-dot's torque; the cross-product law
+    (:func:`rigid_env.envs.bdot_detumble.torque_dipoles`) makes of it the dipole of
+    :func:`bdot_rate`, for coils of unequal limits along the body axes, wherever neither
+    saturates (numbers near 1 and a few roundings each: 1e-13)."""
+    rng = np.random.default_rng(4)
+    n = 200
+    w = rng.normal(0.0, 0.05, (n, 3))
+    b = rng.normal(0.0, 3e-5, (n, 3))
+    k = 5e-6
+    unit = float(MAX_DIPOLE.min())
+    dipole = bdot_rate(w, b, k, MAX_DIPOLE)  # coil commands in [-1, 1]
+    torque = bdot_torque(w, b, k, unit)
+    made = torque_dipoles(torque, b, np.diag(1.0 / MAX_DIPOLE), unit)
+    free = (np.abs(dipole).max(axis=1) < 1.0) & (np.abs(torque).max(axis=1) < 1.0)
+    assert free.sum() > n // 2
+    np.testing.assert_allclose(made[free], dipole[free], rtol=0, atol=1e-13)
