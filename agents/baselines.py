@@ -38,6 +38,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 
 from rigid_env.config_files import read_yaml
@@ -58,8 +59,6 @@ def condition_kwargs(condition: str, env_id: str) -> dict[str, Any]:
     ``dt`` in seconds from the task's registered one)."""
     over = dict(CONDITIONS[condition])
     if isinstance(over.get("dt"), Steps):
-        import gymnasium as gym
-
         env = gym.make(env_id)
         over["dt"] = over["dt"].factor * env.unwrapped.task.dt
         env.close()

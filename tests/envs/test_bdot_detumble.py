@@ -175,7 +175,9 @@ def test_a_torque_command_reads_the_magnetometer_as_measured() -> None:
     m = task.command
     along = np.sum(m * measured, axis=1) / np.linalg.norm(measured, axis=1)
     along_truth = np.sum(m * truth, axis=1) / np.linalg.norm(truth, axis=1)
-    np.testing.assert_allclose(along, 0.0, atol=1e-6)  # float32 reading: 2^-24 of 1, times a few
+    # The law read these same float32 numbers: what remains is rounding of products near 1
+    # (1e-15); 1e-6 is loose for that yet a thousandth of the truth's part below.
+    np.testing.assert_allclose(along, 0.0, atol=1e-6)
     assert np.abs(along_truth).max() > 1e-3
 
 
