@@ -6,6 +6,7 @@
     rigid-env bench accuracy [...]      work-precision benchmark (rigid_env.bench.accuracy)
     rigid-env bench speed [...]         throughput benchmark (rigid_env.bench.speed)
     rigid-env bench stability [...]     hard cases against their bounds (rigid_env.bench.stability)
+    rigid-env bench peers [...]         the same models in Basilisk (rigid_env.bench.peers)
     rigid-env scenes [--dir DIR]        the example scenes with a one-line summary each
     rigid-env integrators               the integrator registry
     rigid-env demo [--task T] [--episodes K] [--out DIR] [--force]
@@ -49,6 +50,7 @@ BENCHMARKS = {
     "speed": "throughput: body-steps per second against batch size, peers in the same run",
     "stability": "hard cases at full length (flips, fast spin, thin bodies, separatrix)",
     "learn": "time to the bar: the shipped PPO configs beside the previous ones, per task and seed",
+    "peers": "the same models here and in Basilisk, side by side (needs the [peers] extra)",
 }
 
 

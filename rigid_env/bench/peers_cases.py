@@ -1,0 +1,451 @@
+"""The comparisons of ``rigid-env bench peers`` (:mod:`rigid_env.bench.peers`): each draws the
+same states for this package's public functions and for Basilisk's module of the same model, and
+returns the largest relative difference and its cause. Imports Basilisk (the ``[peers]`` extra).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from Basilisk.architecture import messaging
+from Basilisk.simulation import (
+    GravityGradientEffector,
+    facetDragDynamicEffector,
+    facetSRPDynamicEffector,
+    reactionWheelStateEffector,
+    spacecraft,
+)
+from Basilisk.utilities import (
+    RigidBodyKinematics,
+    SimulationBaseClass,
+    macros,
+    simIncludeGravBody,
+    simIncludeRW,
+)
+
+from rigid_env.bench.timing import Case as Timed
+from rigid_env.bench.timing import measure
+from rigid_env.core.atmosphere import air_velocity
+from rigid_env.core.facets import drag_wrench, facets, srp_wrench
+from rigid_env.core.geomagnetic import EARTH_MU
+from rigid_env.core.sun import ASTRONOMICAL_UNIT, SOLAR_PRESSURE
+from rigid_env.resources import scene_path
+from rigid_env.scene import load_scene
+
+ROUNDING = 1.0e-12
+"""A difference below this, relative to the quantity's size, is rounding: both sides are a few
+dozen double operations (1e-15 each) on the same numbers, with margin."""
+
+
+@dataclass
+class Agreement:
+    """One row of the table: the largest relative difference over the cases, and why."""
+
+    quantity: str
+    cases: int
+    difference: float
+    matched: float
+    cause: str
+
+
+@dataclass
+class Case:
+    """A spacecraft state drawn for a comparison: ECI position [m], velocity [m/s], the MRP of
+    the body in ECI (Basilisk's attitude) and the same attitude as our quaternion (w, x, y, z)."""
+
+    r: np.ndarray
+    v: np.ndarray
+    sigma: np.ndarray
+    q: np.ndarray
+
+
+def draw_cases(count: int, seed: int = 20261205) -> list[Case]:
+    """``count`` LEO states at random attitudes (300-800 km, any direction, circular speed)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        r = u * (6378137.0 + rng.uniform(300e3, 800e3))
+        along = np.cross(u, rng.normal(size=3))
+        v = along / np.linalg.norm(along) * np.sqrt(EARTH_MU / np.linalg.norm(r))
+        sigma = rng.uniform(-0.6, 0.6, 3)
+        # Basilisk's Euler parameters of sigma are those of the DCM [BN]; its transpose turns body
+        # vectors into ECI, which is our quaternion's rotation: the same four numbers.
+        q = np.asarray(RigidBodyKinematics.MRP2EP(sigma), dtype=np.float64)
+        out.append(Case(r, v, sigma, q))
+    return out
+
+
+def _spacecraft(case: Case, inertia: Sequence[float], mass: float):
+    """A Basilisk simulation holding one spacecraft at ``case``'s state (not yet initialised)."""
+    sim = SimulationBaseClass.SimBaseClass()
+    process = sim.CreateNewProcess("peers")
+    process.addTask(sim.CreateNewTask("step", macros.sec2nano(1.0)))
+    craft = spacecraft.Spacecraft()
+    craft.hub.mHub = mass
+    craft.hub.IHubPntBc_B = np.diag(inertia).tolist()
+    craft.hub.r_CN_NInit = case.r.tolist()
+    craft.hub.v_CN_NInit = case.v.tolist()
+    craft.hub.sigma_BNInit = [[x] for x in case.sigma]
+    craft.hub.omega_BN_BInit = [[0.0], [0.0], [0.0]]
+    sim.AddModelToTask("step", craft)
+    return sim, craft
+
+
+def _column(x) -> np.ndarray:
+    return np.asarray(x, dtype=np.float64).reshape(-1)
+
+
+def _relative(ours: np.ndarray, theirs: np.ndarray) -> float:
+    """max |ours - theirs| over the components, relative to the larger side's largest one (0 when
+    both are zero: a plate set with no lit or wetted face)."""
+    scale = max(np.max(np.abs(theirs)), np.max(np.abs(ours)))
+    return 0.0 if scale == 0.0 else float(np.max(np.abs(ours - theirs)) / scale)
+
+
+def gravity_gradient(cases: Sequence[Case]) -> Agreement:
+    """The torque on WheelPointing's CubeSat at rest: ours is ``I w'`` of the scene's world with
+    only its gravity-gradient effect (``World.accelerations``), Basilisk's its effector's."""
+    scene = load_scene(scene_path("wheel_pointing"))
+    inertia = [float(x) for x in scene.inertia]
+    only = {
+        "name": "gravity_gradient_peer",
+        "dt": 1.0,
+        "integrator": "rk4",
+        "body": {"mass": float(scene.body.mass), "inertia": inertia},
+        "initial": {"position": [6.878e6, 0.0, 0.0]},
+        "effects": {"gravity_gradient": {"mu": EARTH_MU, "center": [0.0, 0.0, 0.0]}},
+    }
+    world = load_scene(only).build_world()
+    worst = matched = 0.0
+    for case in cases:
+        _, alpha = world.accelerations(case.r, case.v, case.q, np.zeros(3))
+        ours = np.asarray(inertia) * alpha[0]
+        sim, craft = _spacecraft(case, inertia, float(scene.body.mass))
+        gravity = simIncludeGravBody.gravBodyFactory()
+        earth = gravity.createEarth()
+        earth.isCentralBody = True
+        gravity.addBodiesTo(craft)
+        effector = GravityGradientEffector.GravityGradientEffector()
+        effector.addPlanetName(earth.planetName)
+        craft.addDynamicEffector(effector)
+        sim.AddModelToTask("step", effector)
+        sim.InitializeSimulation()
+        effector.computeForceTorque(0.0, 0.0)
+        theirs = _column(effector.torqueExternalPntB_B)
+        worst = max(worst, _relative(ours, theirs))
+        matched = max(matched, _relative(ours * (earth.mu / EARTH_MU), theirs))
+    cause = (
+        f"the Earth's mu: WGS 84's {EARTH_MU:.10g} here, {earth.mu:.10g} m^3/s^2 in Basilisk "
+        f"({EARTH_MU / earth.mu - 1:.2g} relative)"
+    )
+    return Agreement("gravity-gradient torque", len(cases), worst, matched, cause)
+
+
+PLATES = {
+    "area": [0.06, 0.03, 0.02],
+    "normal": [[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [-0.5, -0.5, 0.7071067811865476]],
+    "centre": [[0.05, 0.0, 0.02], [0.0, 0.05, 0.17], [-0.03, -0.03, -0.1]],
+    "specular": [0.0, 0.6, 0.1],
+    "diffuse": [0.0, 0.3, 0.5],
+    "drag_coefficient": [2.2, 2.0, 2.4],
+}
+"""Three plates of different optical and drag coefficients (a CubeSat's face, a panel, a
+slanted radiator)."""
+
+
+def srp(cases: Sequence[Case]) -> Agreement:
+    """Solar radiation pressure on :data:`PLATES`, the Sun in a random direction 0.98-1.02 AU
+    away (lit: no eclipse model on either side)."""
+    plates = facets(**PLATES)
+    rng = np.random.default_rng(7)
+    worst = matched = 0.0
+    basilisk_pressure = float("nan")
+    for case in cases:
+        u = rng.normal(size=3)
+        sun = u / np.linalg.norm(u) * ASTRONOMICAL_UNIT * rng.uniform(0.98, 1.02)
+        force, torque = srp_wrench(plates, tuple(case.q), tuple(sun - case.r), 1.0)
+        ours = np.concatenate([force, torque])
+        sim, craft = _spacecraft(case, [1.0, 1.0, 1.0], 4.0)
+        effector = facetSRPDynamicEffector.FacetSRPDynamicEffector()
+        effector.setNumFacets(len(PLATES["area"]))
+        effector.setNumArticulatedFacets(0)
+        for k in range(len(PLATES["area"])):
+            normal = np.asarray(plates.normal[k])
+            spin = np.cross(normal, [0.3, 0.5, 0.7])  # a hinge axis: unused without articulation
+            effector.addFacet(
+                float(plates.area[k]),
+                np.eye(3).tolist(),
+                normal.tolist(),
+                (spin / np.linalg.norm(spin)).tolist(),
+                list(PLATES["centre"][k]),
+                float(plates.diffuse[k]),
+                float(plates.specular[k]),
+            )
+        payload = messaging.SpicePlanetStateMsgPayload()
+        payload.PositionVector = sun.tolist()
+        message = messaging.SpicePlanetStateMsg().write(payload)
+        effector.sunInMsg.subscribeTo(message)
+        craft.addDynamicEffector(effector)
+        sim.AddModelToTask("step", effector)
+        sim.InitializeSimulation()
+        effector.ReadMessages()
+        effector.computeForceTorque(0.0, 0.0)
+        theirs = np.concatenate(
+            [_column(effector.forceExternal_B), _column(effector.torqueExternalPntB_B)]
+        )
+        worst = max(worst, _relative(ours, theirs))
+        if not np.any(theirs):
+            continue  # no plate faces the Sun: both zero (checked above)
+        # Basilisk's pressure at 1 AU, from the ratio of the largest components.
+        largest = int(np.argmax(np.abs(theirs)))
+        ratio = float(theirs[largest] / ours[largest])
+        basilisk_pressure = SOLAR_PRESSURE * ratio
+        matched = max(matched, _relative(ours * ratio, theirs))
+    cause = (
+        f"the solar pressure at 1 AU: {SOLAR_PRESSURE:.6g} N/m^2 here (1361 W/m^2, IAU 2015), "
+        f"{basilisk_pressure:.6g} in Basilisk ({basilisk_pressure / SOLAR_PRESSURE - 1:+.2%})"
+    )
+    return Agreement("solar radiation pressure on 3 plates", len(cases), worst, matched, cause)
+
+
+def drag(cases: Sequence[Case]) -> tuple[Agreement, Agreement]:
+    """Drag on :data:`PLATES` at a density of 3.725e-12 kg/m^3 (400 km). Basilisk's effector,
+    given no wind message, meets the air at the inertial velocity: the first row compares that
+    model (ours given ``v``), the second ours with the air turning with the Earth."""
+    plates = facets(**PLATES)
+    density = 3.725e-12
+    same = turning = 0.0
+    for case in cases:
+        sim, craft = _spacecraft(case, [1.0, 1.0, 1.0], 4.0)
+        effector = facetDragDynamicEffector.FacetDragDynamicEffector()
+        for k in range(len(PLATES["area"])):
+            effector.addFacet(
+                float(plates.area[k]),
+                float(plates.drag_coefficient[k]),
+                np.asarray(plates.normal[k]).tolist(),
+                list(PLATES["centre"][k]),
+            )
+        payload = messaging.AtmoPropsMsgPayload()
+        payload.neutralDensity = density
+        message = messaging.AtmoPropsMsg().write(payload)
+        effector.atmoDensInMsg.subscribeTo(message)
+        craft.addDynamicEffector(effector)
+        sim.AddModelToTask("step", effector)
+        sim.InitializeSimulation()
+        effector.ReadInputs()
+        effector.computeForceTorque(0.0, 0.0)
+        theirs = np.concatenate(
+            [_column(effector.forceExternal_B), _column(effector.torqueExternalPntB_B)]
+        )
+        force, torque = drag_wrench(plates, tuple(case.q), tuple(case.v), density)
+        same = max(same, _relative(np.concatenate([force, torque]), theirs))
+        air = air_velocity(tuple(case.r), tuple(case.v))
+        force, torque = drag_wrench(plates, tuple(case.q), air, density)
+        turning = max(turning, _relative(np.concatenate([force, torque]), theirs))
+    return (
+        Agreement("drag on 3 plates, air at rest", len(cases), same, same, "rounding"),
+        Agreement(
+            "drag on 3 plates, air turning with the Earth",
+            len(cases),
+            turning,
+            same,
+            "model: the air's velocity v - w_E x r here (up to 0.5 km/s of 7.6); Basilisk meets "
+            "the air at v unless given a wind message",
+        ),
+    )
+
+
+# WheelPointing's CubeSat with its three wheels (configs/scenes/wheel_pointing.yaml), the wheels
+# alone: no friction, no outside torque, rk4 at its 20 substeps of a 1 s control step.
+WHEEL_INERTIA = 4.8e-5  # [kg m^2]
+WHEEL_MAX_TORQUE = 2.0e-3  # [N m]
+WHEEL_SPEEDS = (10.0, -20.0, 30.0)  # [rad/s] at the start, relative to the body
+CONTROL_STEP = 1.0  # [s]
+SUBSTEP = 0.05  # [s]
+
+
+def torque_profile(step: int) -> np.ndarray:
+    """The wheels' commands at control step ``step``: sines 120 deg apart, a 20 s period, 0.8 of
+    the motor's torque (in [-1, 1], our action; times :data:`WHEEL_MAX_TORQUE` for Basilisk)."""
+    return 0.8 * np.sin(2.0 * np.pi * step / 20.0 + np.array([0.0, 2.0, 4.0]))
+
+
+def wheel_world(n: int = 1):
+    """Our world of ``n`` such CubeSats at rest, through the public Scene API."""
+    scene = load_scene(scene_path("wheel_pointing"))
+    spec = {
+        "name": "wheels_peer",
+        "dt": CONTROL_STEP,
+        "substeps": round(CONTROL_STEP / SUBSTEP),
+        "integrator": "rk4",
+        "body": {"mass": float(scene.body.mass), "inertia": [float(x) for x in scene.inertia]},
+        "initial": {"position": [6.878e6, 0.0, 0.0]},
+        "actuators": {
+            "reaction_wheels": {
+                "inertia": WHEEL_INERTIA,
+                "max_torque": WHEEL_MAX_TORQUE,
+                "max_speed": 628.0,
+                "speeds": list(WHEEL_SPEEDS),
+            }
+        },
+    }
+    return load_scene(spec).build_world(n)
+
+
+class BasiliskWheels:
+    """The same CubeSat in Basilisk: a spacecraft hub and a reactionWheelStateEffector of three
+    balanced wheels, rk4 at :data:`SUBSTEP`, the motor torques a message written each control
+    step.
+
+    Two settings make it the same model: Basilisk's hub inertia includes the wheels' axial
+    inertia (its balanced wheels add only their spin momentum), so the hub gets ours
+    ``+ J_s a a^T``; and the wheel effector runs before the hub in the task, so that the
+    command written before a control step drives all of its substeps (in the default order the
+    hub integrates each substep with the command read at the substep before: one substep late).
+    The factory's transverse wheel inertia (``J_t = J_g = J_s / 2``) is set to zero, as ours has
+    none.
+    """
+
+    def __init__(self) -> None:
+        scene = load_scene(scene_path("wheel_pointing"))
+        inertia = np.array([float(x) for x in scene.inertia]) + WHEEL_INERTIA
+        self.sim = SimulationBaseClass.SimBaseClass()
+        process = self.sim.CreateNewProcess("wheels")
+        process.addTask(self.sim.CreateNewTask("dynamics", macros.sec2nano(SUBSTEP)))
+        self.craft = spacecraft.Spacecraft()
+        self.craft.hub.mHub = float(scene.body.mass)
+        self.craft.hub.IHubPntBc_B = np.diag(inertia).tolist()
+        self.craft.hub.r_CN_NInit = [6.878e6, 0.0, 0.0]
+        self.craft.hub.v_CN_NInit = [0.0, 0.0, 0.0]
+        factory = simIncludeRW.rwFactory()
+        for k, speed in enumerate(WHEEL_SPEEDS):
+            wheel = factory.create(
+                "custom",
+                np.eye(3)[k].tolist(),
+                Js=WHEEL_INERTIA,
+                u_max=WHEEL_MAX_TORQUE,
+                Omega=speed / macros.RPM,
+                Omega_max=6000.0,
+            )
+            wheel.Jt = 0.0
+            wheel.Jg = 0.0
+        self.wheels = reactionWheelStateEffector.ReactionWheelStateEffector()
+        factory.addToSpacecraft("wheels", self.wheels, self.craft)
+        self.sim.AddModelToTask("dynamics", self.craft, 100)
+        self.sim.AddModelToTask("dynamics", self.wheels, 200)  # before the hub
+        self.command = messaging.ArrayMotorTorqueMsgPayload()
+        self.command.motorTorque = [0.0] * messaging.MAX_EFF_CNT
+        self.message = messaging.ArrayMotorTorqueMsg().write(self.command)
+        self.wheels.rwMotorCmdInMsg.subscribeTo(self.message)
+        self.sim.InitializeSimulation()
+        self.steps = 0
+
+    def step(self, action: np.ndarray) -> None:
+        """One control step under ``action`` (3,) in [-1, 1]."""
+        torque = [0.0] * messaging.MAX_EFF_CNT
+        torque[:3] = (np.asarray(action) * WHEEL_MAX_TORQUE).tolist()
+        self.command.motorTorque = torque
+        self.message.write(self.command)
+        self.steps += 1
+        self.sim.ConfigureStopTime(macros.sec2nano(self.steps * CONTROL_STEP))
+        self.sim.ExecuteSimulation()
+
+    def rate(self) -> np.ndarray:
+        """The body's angular velocity, body frame [rad/s]."""
+        return np.asarray(self.craft.scStateOutMsg.read().omega_BN_B, dtype=np.float64)
+
+    def wheel_speeds(self) -> np.ndarray:
+        """The wheels' speeds relative to the body [rad/s]."""
+        return np.asarray(self.wheels.rwSpeedOutMsg.read().wheelSpeeds[:3], dtype=np.float64)
+
+
+def wheels(_: Sequence[Case], steps: int = 60) -> tuple[Agreement, Agreement]:
+    """Body rate and wheel speeds over ``steps`` control steps of :func:`torque_profile`."""
+    ours, theirs = wheel_world(), BasiliskWheels()
+    rate = speed = 0.0
+    rate_scale = speed_scale = 0.0
+    for k in range(steps):
+        action = torque_profile(k)
+        ours.step(action[None, :])
+        theirs.step(action)
+        rate = max(rate, float(np.max(np.abs(ours.state.w[0] - theirs.rate()))))
+        speed = max(speed, float(np.max(np.abs(ours.wheel_speed[0] - theirs.wheel_speeds()))))
+        rate_scale = max(rate_scale, float(np.max(np.abs(theirs.rate()))))
+        speed_scale = max(speed_scale, float(np.max(np.abs(theirs.wheel_speeds()))))
+    cause = "rounding (Basilisk's hub inertia given as ours + J_s a a^T: see BasiliskWheels)"
+    return (
+        Agreement(
+            f"body rate, 3 wheels under a torque profile, {steps} s",
+            steps,
+            rate / rate_scale,
+            rate / rate_scale,
+            cause,
+        ),
+        Agreement(
+            "wheel speeds, the same run", steps, speed / speed_scale, speed / speed_scale, cause
+        ),
+    )
+
+
+@dataclass
+class Speed:
+    """Control steps per second of the wheel scenario (20 rk4 substeps each)."""
+
+    peer: str
+    bodies: int
+    steps_per_second: float
+    ratio: float
+
+
+def speeds(batches: Sequence[int] = (1, 64, 1024), repeats: int = 5) -> list[Speed]:
+    """Ours at each batch size and Basilisk's one spacecraft, timed interleaved (medians)."""
+    cases = []
+    for n in batches:
+        world = wheel_world(n)
+        count = [0]
+
+        def ours(world=world, n=n, count=count) -> None:
+            world.step(np.broadcast_to(torque_profile(count[0]), (n, 3)))
+            count[0] += 1
+
+        cases.append(Timed(f"rigid_env N={n}", ours, work=n))
+    basilisk = BasiliskWheels()
+    tick = [0]
+
+    def theirs() -> None:
+        basilisk.step(torque_profile(tick[0]))
+        tick[0] += 1
+
+    cases.append(Timed("Basilisk", theirs, work=1))
+    timings = measure(cases, min_time=0.2, repeats=repeats)
+    base = timings["Basilisk"].rate
+    rows = [Speed("Basilisk", 1, base, 1.0)]
+    for n in batches:
+        rate = timings[f"rigid_env N={n}"].rate
+        rows.append(Speed("rigid_env", n, rate, rate / base))
+    return rows
+
+
+COMPARISONS: tuple[Callable[[Sequence[Case]], Agreement | tuple[Agreement, ...]], ...] = (
+    wheels,
+    gravity_gradient,
+    srp,
+    drag,
+)
+
+
+def agreements(count: int) -> list[Agreement]:
+    """Every comparison of :data:`COMPARISONS` over ``count`` drawn cases."""
+    cases = draw_cases(count)
+    rows: list[Agreement] = []
+    for compare in COMPARISONS:
+        got = compare(cases)
+        rows += list(got) if isinstance(got, tuple) else [got]
+    for row in rows:
+        if row.difference <= ROUNDING:
+            row.cause = "rounding"
+    return rows
