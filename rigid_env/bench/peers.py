@@ -13,7 +13,10 @@ control steps per second here at N = 1, 64, 1024 against Basilisk's one spacecra
 turn (:mod:`rigid_env.bench.timing`).
 
 Covered: the body rate and wheel speeds of WheelPointing's CubeSat under a wheel-torque
-profile (``World.step``, Basilisk's ``reactionWheelStateEffector``); the gravity-gradient torque
+profile (``World.step``, Basilisk's ``reactionWheelStateEffector``); the field of the tasks' centred
+dipole and of IGRF-14 (degree 1, and degree 13 as a model difference) against
+``magneticFieldCenteredDipole``; the coils' torque (``World.accelerations``, ``MtbEffector``);
+the gravity-gradient torque
 on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); solar radiation
 pressure on flat plates (:func:`rigid_env.core.facets.srp_wrench`, ``facetSRPDynamicEffector``);
 drag on flat plates (:func:`rigid_env.core.facets.drag_wrench`, ``facetDragDynamicEffector``).
@@ -68,10 +71,10 @@ def markdown(rows: Sequence[Any], speeds: Sequence[Any]) -> str:
         "- command: `rigid-env bench peers`",
     ]
     not_compared = (
-        "Not compared: the IGRF (Basilisk's field models are a centred dipole and the WMM, whose "
-        "coefficient file its support-data fetcher downloads on first use), and the coils in "
-        "the field along an orbit, which waits for the orbit as world state (the actuators "
-        "issue) to run the same trajectory on both sides."
+        "Not compared: Basilisk's WMM (its coefficient file comes from its support-data "
+        "fetcher on first use, offline here); the coils and the field over a trajectory on an "
+        "orbit, and the envs' own env-steps, which wait for the orbit as world state (the "
+        "actuators issue) to run the same scenario on both sides."
     )
     return report.markdown(
         "Agreement with Basilisk",

@@ -12,8 +12,10 @@ import numpy as np
 from Basilisk.architecture import messaging
 from Basilisk.simulation import (
     GravityGradientEffector,
+    MtbEffector,
     facetDragDynamicEffector,
     facetSRPDynamicEffector,
+    magneticFieldCenteredDipole,
     reactionWheelStateEffector,
     spacecraft,
 )
@@ -27,9 +29,18 @@ from Basilisk.utilities import (
 
 from rigid_env.bench.timing import Case as Timed
 from rigid_env.bench.timing import measure
+from rigid_env.core import igrf
 from rigid_env.core.atmosphere import air_velocity
 from rigid_env.core.facets import drag_wrench, facets, srp_wrench
-from rigid_env.core.geomagnetic import EARTH_MU
+from rigid_env.core.geomagnetic import (
+    EARTH_MU,
+    EARTH_RADIUS,
+    EARTH_ROTATION,
+    IGRF2020_G10,
+    IGRF2020_G11,
+    IGRF2020_H11,
+    TiltedDipole,
+)
 from rigid_env.core.sun import ASTRONOMICAL_UNIT, SOLAR_PRESSURE
 from rigid_env.resources import scene_path
 from rigid_env.scene import load_scene
@@ -143,6 +154,120 @@ def gravity_gradient(cases: Sequence[Case]) -> Agreement:
         f"({EARTH_MU / earth.mu - 1:.2g} relative)"
     )
     return Agreement("gravity-gradient torque", len(cases), worst, matched, cause)
+
+
+def _basilisk_dipole(g10: float, g11: float, h11: float, r: np.ndarray, t: float) -> np.ndarray:
+    """Basilisk's centred-dipole field [T, ECI] at ``r`` with the Earth turned by
+    ``EARTH_ROTATION t`` from Greenwich on ECI x (its planet message's DCM [PN])."""
+    sim = SimulationBaseClass.SimBaseClass()
+    process = sim.CreateNewProcess("field")
+    process.addTask(sim.CreateNewTask("step", macros.sec2nano(1.0)))
+    model = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
+    model.g10, model.g11, model.h11 = g10, g11, h11
+    model.planetRadius = EARTH_RADIUS
+    angle = EARTH_ROTATION * t
+    planet = messaging.SpicePlanetStateMsgPayload()
+    planet.J20002Pfix = [
+        [np.cos(angle), np.sin(angle), 0.0],
+        [-np.sin(angle), np.cos(angle), 0.0],
+        [0.0, 0.0, 1.0],
+    ]
+    planet_message = messaging.SpicePlanetStateMsg().write(planet)
+    model.planetPosInMsg.subscribeTo(planet_message)
+    craft = messaging.SCStatesMsgPayload()
+    craft.r_BN_N = r.tolist()
+    craft_message = messaging.SCStatesMsg().write(craft)
+    model.addSpacecraftToModel(craft_message)
+    sim.AddModelToTask("step", model)
+    sim.InitializeSimulation()
+    sim.ConfigureStopTime(0)
+    sim.ExecuteSimulation()
+    return np.asarray(model.envOutMsgs[0].read().magField_N, dtype=np.float64)
+
+
+def field(cases: Sequence[Case]) -> tuple[Agreement, ...]:
+    """The field at the cases' points and random times within a day: the centred dipole of
+    :mod:`rigid_env.core.geomagnetic` (IGRF-13 2020, the satellite tasks' field) and IGRF-14's
+    degree 1 (:mod:`rigid_env.core.igrf`, 2025.0) against Basilisk's centred dipole with the same
+    three coefficients; IGRF-14 to degree 13 against the same dipole, its higher degrees."""
+    rng = np.random.default_rng(11)
+    dipole = TiltedDipole.igrf2020()
+    full = igrf.model(2025.0)
+    first = igrf.model(2025.0, degree=1)
+    g10, g11, h11 = first.g[1, 0], first.g[1, 1], first.h[1, 1]
+    tasks = igrf_one = higher = 0.0
+    for case in cases:
+        t = float(rng.uniform(0.0, 86400.0))
+        theirs = _basilisk_dipole(IGRF2020_G10, IGRF2020_G11, IGRF2020_H11, case.r, t)
+        tasks = max(tasks, _relative(dipole.field(case.r, t), theirs))
+        # The Earth turned as in Basilisk's message, at the model's epoch (no secular change).
+        theirs = _basilisk_dipole(g10, g11, h11, case.r, t)
+        ours = np.array(igrf.field_inertial(first, EARTH_ROTATION * t, 0.0, tuple(case.r)))
+        igrf_one = max(igrf_one, _relative(ours, theirs))
+        ours = np.array(igrf.field_inertial(full, EARTH_ROTATION * t, 0.0, tuple(case.r)))
+        higher = max(higher, _relative(ours, theirs))
+    return (
+        Agreement("centred-dipole field (IGRF-13 2020)", len(cases), tasks, tasks, "rounding"),
+        Agreement("IGRF-14 2025 to degree 1", len(cases), igrf_one, igrf_one, "rounding"),
+        Agreement(
+            "IGRF-14 2025 to degree 13, against the dipole",
+            len(cases),
+            higher,
+            igrf_one,
+            "model: IGRF's degrees 2 to 13 (Basilisk's field models are the centred dipole "
+            "and the WMM)",
+        ),
+    )
+
+
+def coils(cases: Sequence[Case]) -> Agreement:
+    """The coils' torque ``m x B_b`` on WheelPointing's CubeSat (three 0.35 A m^2 coils along
+    its axes, random commands, the dipole's field at the case): ours ``I w'`` through
+    ``World.accelerations`` with the world's ``magnetic_field`` set, Basilisk's MtbEffector."""
+    scene = load_scene(scene_path("wheel_pointing"))
+    inertia = [float(x) for x in scene.inertia]
+    spec = {
+        "name": "coils_peer",
+        "dt": 1.0,
+        "integrator": "rk4",
+        "body": {"mass": float(scene.body.mass), "inertia": inertia},
+        "initial": {"position": [6.878e6, 0.0, 0.0]},
+        "actuators": {"magnetorquers": {"max_dipole": 0.35, "field": [0.0, 0.0, 3.0e-5]}},
+    }
+    world = load_scene(spec).build_world()
+    dipole = TiltedDipole.igrf2020()
+    rng = np.random.default_rng(13)
+    worst = 0.0
+    for case in cases:
+        b = dipole.field(case.r, float(rng.uniform(0.0, 86400.0)))
+        action = rng.uniform(-1.0, 1.0, 3)
+        world.magnetic_field = b[None, :]
+        _, alpha = world.accelerations(case.r, case.v, case.q, np.zeros(3), action[None, :])
+        ours = np.asarray(inertia) * alpha[0]
+        sim, craft = _spacecraft(case, inertia, float(scene.body.mass))
+        effector = MtbEffector.MtbEffector()
+        craft.addDynamicEffector(effector)
+        sim.AddModelToTask("step", effector)
+        params = messaging.MTBArrayConfigMsgPayload()
+        params.numMTB = 3
+        params.GtMatrix_B = np.eye(3).reshape(-1).tolist()
+        params.maxMtbDipoles = [0.35] * 3
+        command = messaging.MTBCmdMsgPayload()
+        command.mtbDipoleCmds = (0.35 * action).tolist()
+        measured = messaging.MagneticFieldMsgPayload()
+        measured.magField_N = b.tolist()
+        messages = (
+            messaging.MTBArrayConfigMsg().write(params),
+            messaging.MTBCmdMsg().write(command),
+            messaging.MagneticFieldMsg().write(measured),
+        )
+        effector.mtbParamsInMsg.subscribeTo(messages[0])
+        effector.mtbCmdInMsg.subscribeTo(messages[1])
+        effector.magInMsg.subscribeTo(messages[2])
+        sim.InitializeSimulation()
+        effector.computeForceTorque(0.0, 0.0)
+        worst = max(worst, _relative(ours, _column(effector.torqueExternalPntB_B)))
+    return Agreement("coils' torque in the dipole field", len(cases), worst, worst, "rounding")
 
 
 PLATES = {
@@ -432,6 +557,8 @@ def speeds(batches: Sequence[int] = (1, 64, 1024), repeats: int = 5) -> list[Spe
 
 COMPARISONS: tuple[Callable[[Sequence[Case]], Agreement | tuple[Agreement, ...]], ...] = (
     wheels,
+    field,
+    coils,
     gravity_gradient,
     srp,
     drag,
