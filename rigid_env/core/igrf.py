@@ -44,6 +44,24 @@ NANOTESLA = 1.0e-9
 """The table's unit [T]."""
 
 
+def _recursion_tables() -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The constant factors of :func:`field_earth_fixed`'s recursions, row n, column m:
+    ``(2n - 1) / sqrt(n^2 - m^2)`` and ``sqrt(((n - 1)^2 - m^2) / (n^2 - m^2))`` for n > m, and
+    ``sqrt(1 - 1 / (2m))`` for the diagonal (m >= 2). Computed once, read as constants."""
+    size = MAX_DEGREE + 1
+    k1, k2, diagonal = np.zeros((size, size)), np.zeros((size, size)), np.zeros(size)
+    for n in range(1, size):
+        for m in range(n):
+            k1[n, m] = (2 * n - 1) / math.sqrt(n * n - m * m)
+            k2[n, m] = math.sqrt(((n - 1) * (n - 1) - m * m) / (n * n - m * m))
+    for m in range(2, size):
+        diagonal[m] = math.sqrt(1.0 - 0.5 / m)
+    return k1, k2, diagonal
+
+
+RECURSION_K1, RECURSION_K2, RECURSION_DIAGONAL = _recursion_tables()
+
+
 class IgrfModel(NamedTuple):
     """The field's coefficients at an epoch, as the compiled functions read them.
 
@@ -195,15 +213,15 @@ def field_earth_fixed(igrf, r, t):
         if m == 1:
             p_mm, dp_mm, q_mm = s, c, 1.0
         elif m >= 2:
-            k = math.sqrt(1.0 - 0.5 / m)
+            k = RECURSION_DIAGONAL[m]
             p_mm, dp_mm, q_mm = k * s * p_mm, k * (c * p_mm + s * dp_mm), k * s * q_mm
         p, dp, q = p_mm, dp_mm, q_mm
         p1, dp1, q1 = 0.0, 0.0, 0.0  # row n - 1
         ratio_n = ratio_m
         for n in range(m, igrf.degree + 1):
             if n > m:
-                k1 = (2 * n - 1) / math.sqrt(n * n - m * m)
-                k2 = math.sqrt(((n - 1) * (n - 1) - m * m) / (n * n - m * m))
+                k1 = RECURSION_K1[n, m]
+                k2 = RECURSION_K2[n, m]
                 p, p1 = k1 * c * p - k2 * p1, p
                 dp, dp1 = k1 * (c * dp - s * p1) - k2 * dp1, dp
                 q, q1 = k1 * c * q - k2 * q1, q
