@@ -1,7 +1,7 @@
 """The density of the upper atmosphere, and the wind a body meets in it.
 
 Density: Vallado's piecewise-exponential model (Vallado, *Fundamentals of Astrodynamics and
-Applications*, 4th ed., 2013, section 8.6.2, Table 8-4; from CIRA-72 at moderate solar
+Applications*, 4th ed., 2013, Table 8-4; from CIRA-72 at moderate solar
 activity): in the band of base height ``h0 <= h`` below the next,
 
     rho(h) = rho0 exp(-(h - h0) / H).
@@ -14,7 +14,7 @@ ellipsoid, approximated as ``|r| - R (1 - f sin^2 lat)`` with the geocentric lat
 geodetic height).
 
 Wind: the atmosphere turns with the Earth, so the air meets a body at ``v - w_E x r``
-(Vallado 2013, eq. 8-25), with ``w_E`` = :data:`rigid_env.core.geomagnetic.EARTH_ROTATION`
+(Vallado 2013, ch. 8), with ``w_E`` = :data:`rigid_env.core.geomagnetic.EARTH_ROTATION`
 about ECI z.
 
 SI: heights and positions [m], densities [kg/m^3], velocities [m/s], ECI.

@@ -7,8 +7,8 @@ coefficient ``C_d``. Only the front face acts (a facet facing away from the Sun 
 nothing); shadowing of one facet by another is left out, as in Basilisk's facet models.
 
 Solar radiation pressure on a facet lit at ``cos t = n . s > 0`` (``s`` the unit vector to the
-Sun, ``P`` the pressure there; Montenbruck and Gill, *Satellite Orbits*, 2000, eq. 3.73; Wertz,
-*Spacecraft Attitude Determination and Control*, 1978, section 17.2):
+Sun, ``P`` the pressure there; Montenbruck and Gill, *Satellite Orbits*, 2000, section 3.4; Wertz,
+*Spacecraft Attitude Determination and Control*, 1978, ch. 17):
 
     F = -P A cos t ((1 - rho_s) s + 2 (rho_s cos t + rho_d / 3) n)
 
@@ -18,7 +18,7 @@ Lambertian diffuse re-emission adds ``2/3`` of it along ``-n``). ``P = SOLAR_PRE
 
 Aerodynamic drag on a facet meeting the air at ``cos t = n . u > 0`` (``u`` the unit air-relative
 velocity ``v_rel / |v_rel|``, free-molecular flow with the momentum exchange folded into ``C_d``;
-Vallado 2013, eq. 8-28 per plate; Basilisk's facetDragDynamicEffector):
+Vallado 2013, ch. 8, per plate; Basilisk's facetDragDynamicEffector):
 
     F = -1/2 rho C_d A cos t |v_rel|^2 u.
 

@@ -173,13 +173,13 @@ def field_earth_fixed(igrf, r, t):
     """The IGRF field at an Earth-fixed point, ``t`` after the model's epoch.
 
     ``B = -grad V`` in spherical components (Langel, "The main field", in Geomagnetism vol. 1,
-    ed. Jacobs, Academic Press 1987, eqs. 4.8-4.10), with ``c = cos theta``, ``s = sin theta``:
+    ed. Jacobs, Academic Press 1987, section 4), with ``c = cos theta``, ``s = sin theta``:
 
         B_r     =  sum (n + 1) (a/r)^(n+2) (g cos m phi + h sin m phi) P_n^m
         B_theta = -sum (a/r)^(n+2) (g cos m phi + h sin m phi) dP_n^m / dtheta
         B_phi   =  sum (a/r)^(n+2) m (g sin m phi - h cos m phi) P_n^m / s.
 
-    Schmidt semi-normalised ``P_n^m`` by the recursions (Langel 1987, eqs. 4.12-4.14)
+    Schmidt semi-normalised ``P_n^m`` by the recursions (Langel 1987)
 
         P_1^1 = s,  P_n^n = sqrt(1 - 1/(2n)) s P_{n-1}^{n-1}   (n >= 2),
         P_n^m = ((2n - 1) c P_{n-1}^m - sqrt((n-1)^2 - m^2) P_{n-2}^m) / sqrt(n^2 - m^2),

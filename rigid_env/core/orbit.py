@@ -5,7 +5,7 @@ inclination ``i``, right ascension of the ascending node ``Omega``, argument of 
 ``omega``, mean anomaly ``M``) and their rates. Without J2 only ``M`` moves, at the mean motion
 ``n = sqrt(mu / a^3)``. With J2, the Earth's oblateness turns the node and the perigee and
 changes the mean motion; to first order in J2, averaged over an orbit (Vallado, *Fundamentals of
-Astrodynamics and Applications*, 4th ed., 2013, eqs. 9-41 and 9-42; Brouwer 1959), with
+Astrodynamics and Applications*, 4th ed., 2013, ch. 9; Brouwer, Astron. J. 64, 1959), with
 ``p = a (1 - e^2)`` and ``k = n J2 (R / p)^2``:
 
     dOmega/dt = -3/2 k cos i,
@@ -46,7 +46,7 @@ KEPLER_TOLERANCE = 4.0 * np.finfo(np.float64).eps
 ``max(1, |E|)``: the step after it would be below the rounding of ``E`` (quadratic convergence)."""
 KEPLER_ITERATIONS = 30
 """Newton's most steps; from Danby's start it converges in under 6 for every e < 1 (Danby,
-*Fundamentals of Celestial Mechanics*, 2nd ed., 1988, section 6.6)."""
+*Fundamentals of Celestial Mechanics*, 2nd ed., 1988)."""
 
 
 class Orbit(NamedTuple):
@@ -207,7 +207,7 @@ def state(orbit, t):
     """Position and velocity on the orbit at ``t`` [s] from the epoch.
 
     In the perifocal frame (x to perigee, z along the angular momentum), with ``b = sqrt(1 - e^2)``
-    (Vallado 2013, algorithm 10, COE2RV; Battin 1999, section 4.4):
+    (Vallado 2013, algorithm COE2RV):
 
         r_pf = a (cos E - e, b sin E, 0),    v_pf = sqrt(mu a) / |r| (-sin E, b cos E, 0),
         |r| = a (1 - e cos E),

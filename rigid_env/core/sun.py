@@ -2,7 +2,7 @@
 
 Position: the Astronomical Almanac's low-precision formula for the Sun (The Astronomical Almanac,
 section C, "Low-precision formulas for the Sun"; the same in Meeus, *Astronomical Algorithms*,
-2nd ed., 1998, ch. 25, and Vallado 2013, algorithm 29), stated accurate to 0.01 deg in direction
+2nd ed., 1998, ch. 25), stated accurate to 0.01 deg in direction
 for 1950 to 2050. With ``n = JD - 2451545.0`` [days]:
 
     L = 280.460 + 0.9856474 n          mean longitude, aberration included [deg]
@@ -114,7 +114,7 @@ def light_conical(r, sun):
 
     Seen from the body, the Sun's disk has angular radius ``a = asin(R_sun / |sun - r|)``, the
     Earth's ``b = asin(R_earth / |r|)``, and their centres are ``c`` apart (Montenbruck and Gill
-    2000, eqs. 3.85-3.87). Full light for ``c >= a + b``; none for ``c <= b - a`` (umbra); an
+    2000, section 3.4.2). Full light for ``c >= a + b``; none for ``c <= b - a`` (umbra); an
     annulus ``1 - b^2 / a^2`` for ``c <= a - b``; between them the two disks overlap in a lens of
     area ``a^2 seg(alpha) + b^2 seg(beta)``, ``seg(t) = t - sin t cos t``, where ``alpha`` and
     ``beta`` are the half-angles of the common chord seen from each centre. The chord's half-length
