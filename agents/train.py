@@ -54,6 +54,7 @@ from .callbacks import (
     zip_timesteps,
 )
 from .config import ConfigError, TrainConfig, algorithm_class, load_config
+from .meaning import stamp
 from .progress import TrainingProgress
 
 #: Keys a resumed run may change: the budget and where it runs (all recorded as they run).
@@ -549,6 +550,7 @@ def _train(
     else:
         env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
         model = _new_model(cfg, env, run_dir, verbose)
+    stamp(model, cfg.env_id, cfg.env_kwargs)  # what its actions mean, saved inside every zip
     # The run starts here, so a start-up failure above leaves no trace that blocks a rerun.
     run_dir.mkdir(parents=True, exist_ok=True)
     config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)

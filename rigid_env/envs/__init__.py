@@ -114,7 +114,13 @@ TASKS: dict[str, Task] = _by_name(
             max_episode_steps=200,
             newest=1,
         ),
-        Task("BdotDetumble", module="bdot_detumble", scene="bdot_detumble", max_episode_steps=480),
+        Task(
+            "BdotDetumble",
+            module="bdot_detumble",
+            scene="bdot_detumble",
+            max_episode_steps=480,
+            newest=1,
+        ),
         Task(
             "WheelPointing", module="wheel_pointing", scene="wheel_pointing", max_episode_steps=120
         ),

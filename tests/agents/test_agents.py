@@ -244,6 +244,13 @@ def test_training_smoke_run(tmp_path):
     assert meta["trained_env_kwargs"] == trained
     assert meta["env_kwargs"] == {k: v for k, v in trained.items() if k != "randomization"}
     assert "steps/s" in out.stdout and "ETA" in out.stdout
+    # Every model it saved (final, best, checkpoints) carries what its actions mean.
+    from agents.meaning import meaning_of, mismatch, recorded_meaning
+
+    saved = list(run.rglob("*.zip"))
+    assert saved and all(recorded_meaning(z) is not None for z in saved)
+    record = meaning_of(gym.make("RigidEnv/Detumble-v0", **trained))
+    assert all(mismatch(recorded_meaning(z), record) is None for z in saved)
 
 
 def test_evaluate_cli_errors(tmp_path, capsys):
@@ -272,30 +279,31 @@ def test_model_for_another_env_is_refused(capsys):
     assert "Detumble" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("trained", "asked"), [("torque", "dipole"), (None, "torque")])
+@pytest.mark.parametrize(("trained", "asked"), [("torque", "dipole"), ("dipole", "torque")])
 def test_a_model_is_not_run_where_its_actions_mean_something_else(tmp_path, capsys, trained, asked):
-    """BdotDetumble's ``command`` changes what an action means, not its shape: a model trained on
-    wanted torques, evaluated on dipoles (or one whose sidecar names no command, so trained on
-    the default dipoles, evaluated on torques) is refused in one line naming the key, not run
-    to a silent failure."""
+    """BdotDetumble's ``command`` changes what an action means, not its shape: a model whose
+    record says wanted torques, evaluated on dipoles (or the other way round), is refused in
+    one line naming the key and the fix, not run to a silent failure (agents.meaning; the
+    record's every carrier in tests/agents/test_meaning.py)."""
     import shutil
+
+    from agents.meaning import meaning_of, stamp_file
 
     stem = PRETRAINED / "ppo_bdot_detumble"
     for suffix in (".zip", "_vecnormalize.pkl"):
         shutil.copy(f"{stem}{suffix}", tmp_path / f"m{suffix}")
-    meta = json.loads(stem.with_suffix(".json").read_text())
-    meta["vecnormalize"] = "m_vecnormalize.pkl"
-    for key in ("env_kwargs", "trained_env_kwargs"):
-        meta[key] = {} if trained is None else {"command": trained}
-    (tmp_path / "m.json").write_text(json.dumps(meta))
+    stamp_file(tmp_path / "m.zip", meaning_of(gym.make("RigidEnv/BdotDetumble-v1",
+                                                       command=trained)))  # fmt: skip
     model = str(tmp_path / "m.zip")
-    env = "RigidEnv/BdotDetumble-v0"
+    env = "RigidEnv/BdotDetumble-v1"
     assert evaluate_main([model, "--env", env, "--episodes", "2", "--env-kwargs",
                           f"command={asked}"]) == 2  # fmt: skip
     err = capsys.readouterr().err
-    assert f"trained with command={trained or 'dipole'!r}" in err and "leave command out" in err
+    assert f"command: the model's actions mean {trained!r}, this env's {asked!r}" in err
+    assert f"pass command={trained}" in err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert evaluate_main([model, "--env", env, "--episodes", "2", "--only", "model"]) == 0
+    assert evaluate_main([model, "--env", env, "--episodes", "2", "--only", "model",
+                          "--env-kwargs", f"command={trained}"]) == 0  # fmt: skip
 
 
 def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):
