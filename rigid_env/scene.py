@@ -507,7 +507,8 @@ def load_scene(
             file, a YAML error, an unknown or missing key, a wrong type or a bad value.
     """
     if isinstance(source, Mapping):
-        label, stem, data = name_for_errors or "<scene dict>", "scene", dict(source)
+        label, stem = name_for_errors or "<scene dict>", "scene"
+        data = knobs.plain_tree(dict(source))  # NumPy scalars as the numbers they hold
     elif isinstance(source, str | os.PathLike):
         label, stem, data = name_for_errors or str(source), Path(source).stem, None
     else:
