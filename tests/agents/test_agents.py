@@ -173,6 +173,21 @@ def test_vec_video_recorder_over_the_adapter_writes_a_video(tmp_path):
     assert video.stat().st_size > 1000
 
 
+@pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/BdotDetumble-v1"])
+def test_adapter_reports_the_envs_render_fps(env_id, tmp_path):
+    """The adapter's render_fps is the env's, never 0 (SB3's VecVideoRecorder divides by it):
+    20 on a 0.05 s step, 1 on BdotDetumble's 5 s one (round(1 / 5) would be 0)."""
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    env = RigidBodySB3VecEnv(env_id, num_envs=1, render_mode="rgb_array")
+    fps = gym.make(env_id).metadata["render_fps"]
+    assert env.metadata["render_fps"] == fps >= 1
+    assert fps == max(1, round(1.0 / env.task.dt))
+    rec = VecVideoRecorder(env, str(tmp_path), record_video_trigger=lambda step: False)
+    assert rec.frames_per_sec == fps
+    rec.close()
+
+
 def test_config_validation_errors(tmp_path):
     good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
     cases = {
