@@ -109,3 +109,21 @@ def test_a_read_only_setting_names_a_with_settings_call_that_works(scene, integr
         else:
             settings[key] = ast.literal_eval(value.strip())
     world.with_settings(**settings)  # the call it names makes a world
+
+
+def test_simulate_with_rtol_on_the_wheel_scene_names_no_refused_integrator(tmp_path, capsys):
+    """``rigid-env simulate wheel_pointing.yaml --rtol 1e-6``: one line, and dop853 (which
+    refuses wheels) is not offered; on a thruster scene it is, and works."""
+    from rigid_env.cli import main
+
+    out = str(tmp_path / "o.npz")
+    wheels = str(SCENES / "wheel_pointing.yaml")
+    assert main(["simulate", wheels, "--steps", "2", "--rtol", "1e-6", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "takes fixed steps" in err
+    assert "choose integrator" not in err and "no error-controlled integrator steps" in err
+    thrusters = str(SCENES / "detumble.yaml")
+    assert main(["simulate", thrusters, "--steps", "2", "--rtol", "1e-6", "--out", out]) == 2
+    assert "choose integrator: dop853" in capsys.readouterr().err
+    args = ["--integrator", "dop853", "--rtol", "1e-6", "--out", out]
+    assert main(["simulate", thrusters, "--steps", "2", *args]) == 0
