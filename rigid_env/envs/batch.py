@@ -293,8 +293,8 @@ class TaskBatch:
         )
         if world.action_dim == 0:
             raise ValueError(
-                "scene: a task needs actuators (thrusters, point_forces or magnetorquers); the "
-                "scene has none"
+                "scene: a task needs actuators (thrusters, point_forces, magnetorquers or "
+                "reaction_wheels); the scene has none"
             )
         return world
 
