@@ -11,10 +11,12 @@ evaluation from 1,000,000 + k, the README's tables and the sweeps from 12345 + k
 Written to ``DIR`` (default ``runs/demo``):
 
 * ``results.md`` and ``results.csv``: per task and policy, the success rate, the mean final
-  ``|w|`` [rad/s], fuel [N s] and return over the ``K`` episodes, and the mean time to success [s]
+  ``|w|`` [rad/s], fuel (in the task's unit: the thrusters' impulse [N s], the coils'
+  dipole-time [A m^2 s]) and return over the ``K`` episodes, and the mean time to success [s]
   over the successful episodes only (the first step at which ``info["success"]`` held);
 * ``episodes.csv``: the same quantities for every episode, with its seed;
-* ``<task>_ppo_vs_pd.gif``: episode 0 of the policy (left) and of the PD controller (right).
+* ``<task>_ppo_vs_<controller>.gif``: episode 0 of the policy (left) and of the task's analytic
+  controller (right): ``..._ppo_vs_pd.gif``, or ``..._ppo_vs_bdot.gif`` on BdotDetumble.
 
 Earlier results in ``DIR`` are never overwritten without ``force``.
 """
@@ -37,7 +39,7 @@ import numpy as np
 
 from rigid_env.envs import TASKS as REGISTERED
 
-from .controllers import CONTROLLERS
+from .controllers import ANALYTIC, CONTROLLERS, PDController
 from .evaluate import Policy, load_policy, resolve_env_kwargs, rollout
 from .shipped import TASKS
 
@@ -71,7 +73,7 @@ class Episode:
     seed: int
     success: bool
     final_angular_speed: float  # [rad/s]
-    fuel: float  # [N s]
+    fuel: float  # [N s], or a coil's dipole-time [A m^2 s] (the task's fuel unit)
     ret: float  # undiscounted return
     time_to_success: float | None  # first step with success [s]; None if never
 
@@ -83,6 +85,8 @@ class Row:
     task: str
     policy: str
     episodes: list[Episode]
+    fuel_unit: str = "N s"
+    """The unit of the episodes' fuel (the task's: ``TaskView.fuel_unit``)."""
 
     @property
     def success_rate(self) -> float:
@@ -182,6 +186,14 @@ def pd_policy(task: str, env_kwargs: dict[str, Any] | None = None) -> Policy:
     return policy
 
 
+def fuel_unit(task: str, env_kwargs: dict[str, Any] | None = None) -> str:
+    """The unit of the task's fuel, as its env says (``N s``; ``A m^2 s`` on coils)."""
+    probe = gym.make(env_id(task), **(env_kwargs or {}))
+    unit = probe.unwrapped.task.view().fuel_unit
+    probe.close()
+    return str(unit)
+
+
 class _Progress:
     """A line every :data:`PROGRESS_EVERY_S` seconds: episodes done and the time left."""
 
@@ -206,7 +218,7 @@ COLUMNS = (
     "episodes",
     "success rate",
     "final |w| [rad/s]",
-    "fuel [N s]",
+    "fuel",
     "return",
     "time to success [s]",
 )
@@ -220,7 +232,7 @@ def _cells(row: Row) -> list[str]:
         str(len(row.episodes)),
         f"{row.success_rate:.2f}",
         f"{row.mean('final_angular_speed'):.3f}",
-        f"{row.mean('fuel'):.3f}",
+        f"{row.mean('fuel'):.3f} {row.fuel_unit}",
         f"{row.mean('ret'):.2f}",
         "-" if t is None else f"{t:.2f}",
     ]
@@ -249,9 +261,10 @@ def markdown_report(rows: list[Row], seed: int) -> str:
         "(episode k resets with the first + k; none is used in training or in the README's "
         "evaluations). Success "
         "rate, final |w|, fuel and return are means over the episodes; time to success is the "
-        "mean over the successful episodes only. Fuel is the impulse the thrusters delivered "
-        "[N s]; on magnetorquers (BdotDetumble, WheelPointing) the coils' dipole-time "
-        "[A m^2 s].\n\n" + markdown_table(rows) + "\n"
+        "mean over the successful episodes only. Fuel is in each task's unit: the impulse the "
+        "thrusters delivered [N s], the coils' dipole-time [A m^2 s] on magnetorquers.\n\n"
+        + markdown_table(rows)
+        + "\n"
     )
 
 
@@ -268,7 +281,7 @@ def _num(x: float | None) -> str:
     return "" if x is None else f"{x:.10g}"
 
 
-_MEASURES = ["final_angular_speed_rad_s", "fuel_N_s", "return", "time_to_success_s"]
+_MEASURES = ["final_angular_speed_rad_s", "fuel", "fuel_unit", "return", "time_to_success_s"]
 
 
 def _csv(header: list[str], lines: list[list[object]]) -> str:
@@ -285,10 +298,12 @@ def results_csv(rows: list[Row]) -> str:
     header = ["task", "policy", "episodes", "first_seed", "success_rate", *_MEASURES]
     lines = []
     for r in rows:
-        means = [r.mean("final_angular_speed"), r.mean("fuel"), r.mean("ret"), r.time_to_success]
         lines.append(
-            [r.task, r.policy, len(r.episodes), r.episodes[0].seed, _num(r.success_rate)]
-            + [_num(x) for x in means]
+            [
+                *(r.task, r.policy, len(r.episodes), r.episodes[0].seed, _num(r.success_rate)),
+                *(_num(r.mean("final_angular_speed")), _num(r.mean("fuel")), r.fuel_unit),
+                *(_num(r.mean("ret")), _num(r.time_to_success)),
+            ]
         )
     return _csv(header, lines)
 
@@ -297,8 +312,10 @@ def episodes_csv(rows: list[Row]) -> str:
     """One line per episode, with its seed."""
     header = ["task", "policy", "seed", "success", *_MEASURES]
     lines = [
-        [r.task, r.policy, e.seed, int(e.success)]
-        + [_num(x) for x in (e.final_angular_speed, e.fuel, e.ret, e.time_to_success)]
+        [
+            *(r.task, r.policy, e.seed, int(e.success), _num(e.final_angular_speed)),
+            *(_num(e.fuel), r.fuel_unit, _num(e.ret), _num(e.time_to_success)),
+        ]
         for r in rows
         for e in r.episodes
     ]
@@ -319,7 +336,10 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def animation_path(out: Path, task: str) -> Path:
-    return out / f"{TASKS[task].module}_ppo_vs_pd.gif"
+    """``<module>_ppo_vs_<controller>.gif``: the task's analytic controller by its label in
+    lower case (``pd``; ``bdot`` on BdotDetumble, the B-dot law)."""
+    controller = ANALYTIC.get(TASKS[task].task_class(), PDController).label
+    return out / f"{TASKS[task].module}_ppo_vs_{controller.lower().replace('-', '')}.gif"
 
 
 def check_out(out: Path, tasks: list[str], force: bool) -> None:
@@ -396,10 +416,11 @@ def run(
         learned = load_policy(model, env_id(name), kwargs)
         pd = pd_policy(name, kwargs)
         analytic = getattr(pd, "label", "PD")  # the task's analytic baseline: PD, or B-dot
+        unit = fuel_unit(name, kwargs)
         for policy_name, policy in ((label, learned), (analytic, pd)):
             ticker = _Progress(f"{name} {policy_name}", episodes, log)
             played = run_episodes(name, policy, episodes, seed, ticker, kwargs)
-            rows.append(Row(name, policy_name, played))
+            rows.append(Row(name, policy_name, played, unit))
         gif = animation_path(out, name)
         pair = [(f"{label} (pretrained)", learned), (f"{analytic} controller", pd)]
         record_side_by_side(env_id(name), pair, seed, gif, env_kwargs=kwargs)

@@ -16,6 +16,7 @@ import gymnasium as gym
 
 import rigid_env  # noqa: F401  (registers the ids)
 from rigid_env.envs import merge_kwargs
+from rigid_env.envs.params import EnvSettings, Randomization
 from rigid_env.scene import SceneError
 
 
@@ -89,11 +90,11 @@ def check_env_kwargs(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
         owner, key = m.groups()
         if owner == "Randomization":
             raise ValueError(
-                f"randomization.{key}: unknown key; use mass, inertia, thrust, sensor_noise"
+                f"randomization.{key}: unknown key; use {', '.join(Randomization.model_fields)}"
             ) from None
         raise ValueError(
-            f"{key}: unknown keyword; {env_id} takes scene, integrator, dt, substeps, "
-            "rotation_repr, randomization"
+            f"{key}: unknown keyword; {env_id} takes {', '.join(EnvSettings.model_fields)} and "
+            "its task's parameters"
         ) from None
     except ValueError as exc:
         text = " ".join(str(exc).split())

@@ -17,9 +17,11 @@ elsewhere) gets its statistics from ``<model>_vecnormalize.pkl``,
 ``model_vecnormalize_<N>_steps.pkl`` (checkpoint ``model_<N>_steps.zip``) or
 ``vecnormalize.pkl`` (``model.zip``), and a warning if none exists.
 A sidecar that names statistics which are missing, corrupted or for another observation shape
-is an error, never a silent evaluation on raw observations; so is an ``--env-kwargs`` that
-changes what an action means (:data:`ACTION_MEANING`: BdotDetumble's ``command``) from what
-the model trained with. A save that a kill interrupted
+is an error, never a silent evaluation on raw observations; so is an env on which an action
+means something else than the model's (:mod:`agents.meaning`: the actuators, their limits,
+BdotDetumble's ``command``), as the record inside the model file says (``agents.train`` writes
+one; a model without it falls back on its sidecar's env, and is played with a warning where
+it has neither). A save that a kill interrupted
 after its commit (sidecar with ``staged``) is evaluated from its staging folder.
 
 SB3 model files are pickles: load only files you trust.
@@ -48,11 +50,13 @@ import gymnasium as gym
 import numpy as np
 
 import rigid_env  # noqa: F401  (registers the ids)
+from rigid_env.envs import ALL_ENV_IDS
 from rigid_env.resources import find_data
 
 from ._cli import OneLineParser, integer, path
 from .controllers import CONTROLLERS
 from .env_kwargs import check_env_kwargs, merge_env_kwargs, parse_env_kwargs
+from .meaning import meaning_of, mismatch, recorded_meaning
 
 Policy = Callable[[np.ndarray], np.ndarray]
 
@@ -295,14 +299,24 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
             f"{probe.observation_space.shape} and {probe.action_space.shape}; use the env and "
             f"env_kwargs it was trained with{recorded}"
         )
-    _check_action_meaning(model_path, meta, probe)
-    probe.close()
+    try:
+        _check_action_meaning(model_path, meta, env_id, probe)
+    finally:
+        probe.close()
     norm_path = find_normalization(model_path, meta)
     norm = (
         None if norm_path is None else _load_normalization(norm_path, model.observation_space.shape)
     )
+    width = int(np.prod(model.observation_space.shape))
 
     def policy(obs: np.ndarray) -> np.ndarray:
+        obs = np.asarray(obs)
+        if obs.ndim not in (1, 2) or obs.shape[-1] != width:
+            raise EvaluationError(
+                f"{model_path.name}: observes {width} numbers per env, got an observation of "
+                f"shape {obs.shape}; give (N, {width}) or ({width},), from the env and "
+                "env_kwargs it was trained with"
+            )
         if norm is not None and norm.norm_obs:
             obs = np.clip(
                 (obs - norm.obs_rms.mean) / np.sqrt(norm.obs_rms.var + norm.epsilon),
@@ -315,27 +329,51 @@ def load_policy(model_path: Path, env_id: str, env_kwargs: dict[str, Any] | None
     return policy
 
 
-ACTION_MEANING = ("command",)
-"""Env kwargs that change what an action means but not its shape (BdotDetumble's ``command``:
-coil dipoles or wanted torques): a model runs only with the value it was trained with."""
-
-
-def _check_action_meaning(model_path: Path, meta: dict[str, Any] | None, probe: gym.Env) -> None:
-    """Refuse an evaluation env whose actions mean other things than the model's training env's
-    (:data:`ACTION_MEANING`; the shapes are checked apart)."""
-    task = getattr(probe.unwrapped, "task", None)
-    if meta is None or task is None:
-        return
-    trained = meta.get("trained_env_kwargs", meta.get("env_kwargs")) or {}
-    fields = type(task.params).model_fields
-    for key in (k for k in ACTION_MEANING if k in fields):
-        want, got = trained.get(key, fields[key].default), getattr(task.params, key)
-        if want != got:
+def _check_action_meaning(
+    model_path: Path, meta: dict[str, Any] | None, env_id: str, probe: gym.Env
+) -> None:
+    """Refuse an env whose actions mean other things than the model's (:mod:`agents.meaning`:
+    its actuators, their limits, BdotDetumble's ``command``; the shapes are checked apart).
+    The record inside the model file rules; a model saved without one falls back on its
+    sidecar's env, and one with neither is played with a warning."""
+    want, source = recorded_meaning(model_path), ""
+    if want is None and meta is not None:
+        trained = meta.get("env_kwargs") or {}
+        try:
+            recorded = check_env_kwargs(str(meta.get("env_id") or env_id), trained)
+        except ValueError as exc:
             raise EvaluationError(
-                f"{model_path}: trained with {key}={want!r}, but the env_kwargs give "
-                f"{key}={got!r}, where its actions mean something else; leave {key} out "
-                f"(the sidecar's {want!r} then applies)"
-            )
+                f"{model_path.with_suffix('.json')}: its env_kwargs do not make an env ({exc})"
+            ) from None
+        want, source = meaning_of(recorded), " (the model's record: its sidecar's env)"
+        recorded.close()
+    if want is None:
+        print(
+            f"agents.evaluate: warning: {model_path}: no record of what its actions mean (no "
+            f"action_meaning inside, no sidecar); played as {env_id} reads them",
+            file=sys.stderr,
+        )
+        return
+    problem = mismatch(want, meaning_of(probe))
+    if problem is None:
+        return
+    siblings = [  # the same task's other ids: one may play the model as registered
+        e
+        for e in ALL_ENV_IDS
+        if e != env_id and gym.spec(e).entry_point == gym.spec(env_id).entry_point
+    ]
+    fits = next((e for e in siblings if _means(want, e)), None)
+    also = f", or use {fits}, whose default it is" if fits is not None else ""
+    raise EvaluationError(f"{model_path}: {problem}{also}{source}")
+
+
+def _means(want: dict[str, Any], env_id: str) -> bool:
+    """Whether ``env_id``, made with its registered defaults, means what ``want`` does."""
+    env = gym.make(env_id)
+    try:
+        return mismatch(want, meaning_of(env)) is None
+    finally:
+        env.close()
 
 
 def _probe(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:

@@ -29,6 +29,7 @@ exist is refused; ``--resume-or-start`` starts it.
 
 from __future__ import annotations
 
+import errno
 import json
 import re
 import sys
@@ -54,6 +55,7 @@ from .callbacks import (
     zip_timesteps,
 )
 from .config import ConfigError, TrainConfig, algorithm_class, load_config
+from .meaning import stamp
 from .progress import TrainingProgress
 
 #: Keys a resumed run may change: the budget and where it runs (all recorded as they run).
@@ -278,6 +280,13 @@ def locked(run_dir: Path) -> Iterator[None]:
     """
     from filelock import Timeout
 
+    path = run_dir / ".lock"
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        kind = "a folder" if path.is_dir() and not path.is_symlink() else "not a plain file"
+        raise ConfigError(
+            str(path), "", f"is {kind}, where the run keeps its lock file",
+            "move it away (or remove it); the run then makes its lock file there",
+        )  # fmt: skip
     lock = run_lock(run_dir)
     try:
         lock.acquire()
@@ -418,23 +427,21 @@ def _load(cfg: TrainConfig, snap: Snapshot) -> tuple[Any, Any]:
     return model, env
 
 
-def _resume_point(cfg: TrainConfig, run_dir: Path) -> tuple[Any, Any, Snapshot] | None:
-    """The newest complete snapshot that loads, with a warning for each one skipped."""
+def _resume_point(cfg: TrainConfig, run_dir: Path) -> tuple[Any, Any, Snapshot, list[str]] | None:
+    """The newest complete snapshot that loads, and why each newer one was skipped (the
+    caller warns "falling back" only where it does resume from the snapshot found)."""
     snaps = _snapshots(run_dir, _norm_required(cfg))
     problems = []
     for snap in snaps:
         if snap.missing is not None:
             problems.append(snap.missing)
-            warn(f"{run_dir}: {snap.missing}; falling back to the previous checkpoint")
             continue
         try:
             model, env = _load(cfg, snap)
         except Exception as exc:  # a file cut short by a kill, or not a model at all
-            problem = f"{snap.model.name} does not load ({type(exc).__name__})"
-            problems.append(problem)
-            warn(f"{run_dir}: {problem}; falling back to the previous checkpoint")
+            problems.append(f"{snap.model.name} does not load ({type(exc).__name__})")
             continue
-        return model, env, snap
+        return model, env, snap, problems
     if snaps:
         raise ConfigError(
             str(run_dir),
@@ -534,21 +541,26 @@ def _train(
     if trained and start is None:
         warn(f"{run_dir}: no checkpoint yet; starting at step 0, keeping eval/ history and best")
     if final is not None and (start is None or start[2].model != run_dir / "model.zip"):
+        why = "does not load or lacks a file its sidecar names"
         if start is not None:
             start[1].close()
+            why = next(iter(start[3]), why)  # the newest snapshot's problem: the final one's
         raise ConfigError(  # never a checkpoint (or a fresh start) in place of the final model
-            str(run_dir / "model.zip"), "", f"the final model ({final} steps) does not load or "
-            "lacks a file its sidecar names; it is never replaced by a checkpoint",
+            str(run_dir / "model.zip"), "", f"the final model ({final} steps): {why}; it is "
+            "never replaced by a checkpoint",
             "restore its files, or move model.zip and model.json out of the run to resume from "
             "its checkpoints",
         )  # fmt: skip
     if start is not None:
-        model, env, snap = start
+        model, env, snap, skipped = start
+        for problem in skipped:
+            warn(f"{run_dir}: {problem}; falling back to the previous checkpoint")
         if verbose:
             print(f"resuming {run_dir} from {snap.model} ({snap.steps} steps)")
     else:
         env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
         model = _new_model(cfg, env, run_dir, verbose)
+    stamp(model, cfg.env_id, cfg.env_kwargs)  # what its actions mean, saved inside every zip
     # The run starts here, so a start-up failure above leaves no trace that blocks a rerun.
     run_dir.mkdir(parents=True, exist_ok=True)
     config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)
@@ -668,9 +680,14 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except OSError as exc:  # the disk filled up, a folder was removed under the run, ...
         where = f"{exc.filename}: " if exc.filename else ""
+        fix = (
+            "a folder (or a file) stands where the run writes the other: move it away"
+            if exc.errno in (errno.EISDIR, errno.ENOTDIR)
+            else "check that the folder can be written and has free space"
+        )
         print(
-            f"agents.train: error: {where}{exc.strerror or exc}; check that the folder can be "
-            "written and has free space, then run again (with --resume if the run had started)",
+            f"agents.train: error: {where}{exc.strerror or exc}; {fix}, then run again (with "
+            "--resume if the run had started)",
             file=sys.stderr,
         )
         return 1

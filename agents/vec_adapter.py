@@ -29,6 +29,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices,
 
 from rigid_env.envs import variant_kwargs
 from rigid_env.envs.batch import TaskBatch
+from rigid_env.envs.environments import render_fps
 
 RENDER_MODES = (None, "rgb_array")
 
@@ -103,7 +104,7 @@ class RigidBodySB3VecEnv(VecEnv):
         super().__init__(
             num_envs, self.task.single_observation_space, self.task.single_action_space
         )
-        self.metadata = {**self.metadata, "render_fps": round(1.0 / self.task.dt)}
+        self.metadata = {**self.metadata, "render_fps": render_fps(self.task.dt)}  # the env's
         self._rngs: list[np.random.Generator] = [
             seeding.np_random(None)[0] for _ in range(num_envs)
         ]

@@ -22,7 +22,7 @@ from rigid_env.agents.evaluate import load_policy, resolve_env_kwargs
 
 import rigid_env.envs  # noqa: F401  (registers the ids)
 
-ENV_ID = "RigidEnv/BdotDetumble-v0"
+ENV_ID = "RigidEnv/BdotDetumble-v1"
 ROOT = Path(__file__).resolve().parents[1]
 EPISODES, SEED, STEPS = 100, 12345, 480
 
@@ -56,7 +56,7 @@ def run(policy, n: int, kwargs: dict) -> dict[str, np.ndarray]:
 def main() -> None:
     default = ROOT / "agents" / "pretrained" / "ppo_bdot_detumble.zip"
     model = Path(sys.argv[1]) if len(sys.argv) > 1 else default
-    # Both play the task the policy was trained on (its sidecar's env kwargs: the command).
+    # Both play the task the policy was trained on (v1: wanted torques; its sidecar's env kwargs).
     kwargs = resolve_env_kwargs(model)
     runs = {"B-dot": run(None, EPISODES, kwargs)}
     if model.exists():

@@ -67,8 +67,23 @@ def integer(**bounds: int) -> Any:
     return Annotated[int, Field(strict=True, **bounds), BeforeValidator(_integer)]
 
 
-Flag = Annotated[bool, Field(strict=True)]
-"""true or false (YAML) / True or False: not 1, 0, "yes" or "true" in quotes."""
+Flag = Annotated[bool, Field(strict=True), BeforeValidator(_plain)]
+"""true or false (YAML) / True or False (a NumPy bool as the bool it holds): not 1, 0, "yes" or
+"true" in quotes."""
+
+
+def plain_tree(value: Any) -> Any:
+    """``value`` with every NumPy scalar in it (through dicts, lists and tuples) as the Python
+    value it holds: what a mapping given in place of a file (a scene dict) is read as, so a
+    ``np.float32`` dt counts as the number it holds, and a ``np.bool_`` as a bool (refused as a
+    number, as ``True`` is)."""
+    if isinstance(value, dict):
+        return {key: plain_tree(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return type(value)(plain_tree(item) for item in value)
+    return _plain(value)
+
+
 Unit = real("", ge=0.0, le=1.0)
 """A fraction of a whole [-] in [0, 1] (a valve's command level, a thrust fraction)."""
 Probability = real("", ge=0.0, le=1.0)

@@ -48,7 +48,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, Field, ValidationInfo, field_validator, model_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, FieldError, number, read_yaml, validate
@@ -166,17 +166,6 @@ class Scene(Spec):
             )
         return name
 
-    @field_validator("rtol", "atol")
-    @classmethod
-    def _error_controlled(cls, value: float | None, info: ValidationInfo) -> float | None:
-        name = info.data.get("integrator")
-        if value is not None and name in INTEGRATORS and not INTEGRATORS[name].error_control:
-            raise ValueError(
-                f"integrator {name!r} takes fixed steps; rtol and atol set the error control "
-                "of 'dop853' (leave them out, or choose integrator: dop853)"
-            )
-        return value
-
     @field_validator("initial", "effects_spec", "actuators", mode="before")
     @classmethod
     def _empty(cls, value: Any) -> Any:
@@ -193,7 +182,30 @@ class Scene(Spec):
                 f"{self.integrator!r} does not step reaction wheels ({NO_WHEELS[self.integrator]})",
                 f"choose one of: {', '.join(WHEEL_STEPS)}",
             )
+        self._error_controlled()
         return self
+
+    def _error_controlled(self) -> None:
+        """Refuse tolerances given to a fixed-step integrator, naming only the error-controlled
+        integrators that step this scene (none steps reaction wheels: then none is named)."""
+        given = [k for k in ("rtol", "atol") if getattr(self, k) is not None]
+        if not given or INTEGRATORS[self.integrator].error_control:
+            return
+        wheels = self.actuators.reaction_wheels is not None
+        controlled = [n for n, i in INTEGRATORS.items() if i.error_control]
+        usable = [n for n in controlled if not (wheels and n in NO_WHEELS)]
+        fix = (
+            f"leave them out, or choose integrator: {usable[0]}"
+            if usable
+            else "leave them out (no error-controlled integrator steps reaction wheels; a "
+            "smaller dt or more substeps make a fixed step more accurate)"
+        )
+        raise FieldError(
+            given[0],
+            f"integrator {self.integrator!r} takes fixed steps; rtol and atol set the error "
+            f"control of {', '.join(repr(n) for n in controlled)}",
+            fix,
+        )
 
     # ---- derived ---------------------------------------------------------------------------
     @cached_property
@@ -495,7 +507,8 @@ def load_scene(
             file, a YAML error, an unknown or missing key, a wrong type or a bad value.
     """
     if isinstance(source, Mapping):
-        label, stem, data = name_for_errors or "<scene dict>", "scene", dict(source)
+        label, stem = name_for_errors or "<scene dict>", "scene"
+        data = knobs.plain_tree(dict(source))  # NumPy scalars as the numbers they hold
     elif isinstance(source, str | os.PathLike):
         label, stem, data = name_for_errors or str(source), Path(source).stem, None
     else:

@@ -25,3 +25,12 @@ def test_ten_line_example_prints_its_comment() -> None:
     for g, e in zip(got[1:], expected[1:], strict=True):
         digits = len(e.split(".")[1]) if "." in e else 0
         assert float(g) == pytest.approx(float(e), abs=0.5 * 10.0**-digits), (got, expected)
+
+
+def test_ten_line_example_counts_the_ids_it_registers() -> None:
+    """Its comment says how many ids ``import rigid_env`` registers: as many as there are."""
+    import rigid_env
+
+    line = next(x for x in README.read_text().splitlines() if x.startswith("import rigid_env  #"))
+    count = int(re.search(r"registers the (\d+) RigidEnv ids", line).group(1))
+    assert count == len(rigid_env.envs.ALL_ENV_IDS)

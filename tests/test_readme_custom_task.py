@@ -120,3 +120,19 @@ def test_custom_task_threaded_pass_equals_the_single_env(tmp_path, monkeypatch) 
         vec_obs, vec_rew, *_ = vec.step(a)
         obs, rew, *_ = single.step(a[-1])
         assert np.array_equal(vec_obs[-1], obs) and vec_rew[-1] == rew
+
+
+def test_custom_task_example_runs_pasted_into_python_c(tmp_path) -> None:
+    """Pasted where there is no file (``python -c``, as a REPL or a notebook runs it), the
+    README's code compiles its kernels without Numba's disk cache (which refuses a function of
+    ``<string>``: "no locator available") and prints what its comment says, nothing on
+    stderr."""
+    import subprocess
+
+    proc = subprocess.run(
+        [sys.executable, "-c", readme_code()], capture_output=True, text=True, cwd=tmp_path,
+        timeout=600,
+    )  # fmt: skip
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert proc.stdout.strip().splitlines()[-1] == "(11,) True False"
+    assert proc.stderr.strip().count("\n") == 0 and "cache" not in proc.stderr

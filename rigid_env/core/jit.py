@@ -9,10 +9,32 @@ all as plain Python.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any
+
 from numba import njit
+from numba.core.caching import FunctionCache
 from numba.core.compiler import Compiler
 
-kernel = njit(cache=True, nogil=True, error_model="numpy", forceinline=True)
+
+def cached_where_possible(**options: Any) -> Callable[[Callable[..., Any]], Any]:
+    """``njit(cache=True, **options)`` for a function that Numba can cache (one of a file, or
+    of a notebook cell), and without the disk cache for one that has no file (typed into a
+    REPL or ``python -c``: Numba would refuse with "no locator available"); such a function
+    is compiled again in each process, without a word."""
+    cached, uncached = njit(cache=True, **options), njit(**options)
+
+    def decorate(func: Callable[..., Any]) -> Any:
+        try:
+            FunctionCache(func)  # the test Numba's cache=True makes, raising where it cannot
+        except RuntimeError:
+            return uncached(func)
+        return cached(func)
+
+    return decorate
+
+
+kernel = cached_where_possible(nogil=True, error_model="numpy", forceinline=True)
 """The decorator of every compiled function: cached on disk, the GIL released, IEEE
 arithmetic (a division by zero gives inf or NaN, for the world's guard, not an exception), and
 inlined into its caller, so that a world step is one loop with no calls but the maths library's."""

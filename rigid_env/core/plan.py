@@ -16,7 +16,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rigid_env.core.effects import ForceEffect, StepMap
+from rigid_env.core.effects import ForceEffect, ReactionWheels, StepMap
 from rigid_env.core.integrators import IntegratorInfo, get_integrator
 from rigid_env.core.state import State
 
@@ -64,7 +64,11 @@ def number(name: str, value: Any, *, integer: bool = False) -> float:
 
 
 def check_tolerances(
-    integrator: str, rtol: float | None, atol: float | None, max_substeps: int
+    integrator: str,
+    rtol: float | None,
+    atol: float | None,
+    max_substeps: int,
+    wheels: bool = False,
 ) -> tuple[float, float, int] | None:
     """``(rtol, atol, max_substeps)`` for an error-controlled integrator (defaults filled in;
     an ``rtol`` below :data:`MIN_RTOL` clamped to it, with a ``RuntimeWarning``), None for a
@@ -76,9 +80,14 @@ def check_tolerances(
     if not get_integrator(integrator).error_control:
         given = [k for k, v in (("rtol", rtol), ("atol", atol)) if v is not None]
         if given:
+            fix = (  # the error-controlled integrator refuses wheels: not a fix for them
+                "leave them out: no error-controlled integrator steps reaction wheels"
+                if wheels
+                else "leave them out, or choose integrator 'dop853'"
+            )
             raise ValueError(
                 f"{given[0]}: integrator {integrator!r} takes fixed steps; rtol and atol set the "
-                "error control of 'dop853' (leave them out, or choose integrator 'dop853')"
+                f"error control of 'dop853' ({fix})"
             )
         return None
     rtol = DEFAULT_RTOL if rtol is None else number("rtol", rtol)
@@ -205,6 +214,7 @@ class StepPlan:
         if unknown:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         entry = get_integrator(integrator)
-        checked = check_tolerances(integrator, *tolerances)
+        wheels = any(isinstance(e, ReactionWheels) for e in effects)
+        checked = check_tolerances(integrator, *tolerances, wheels=wheels)
         return cls(entry, tuple(effects), dt, substeps, max_angular_speed, on_error, checked,
                    bool(adaptive))  # fmt: skip

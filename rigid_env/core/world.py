@@ -54,7 +54,7 @@ from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
-from rigid_env.core.wheels import wheel_derivatives, with_wheels
+from rigid_env.core.wheels import NO_WHEELS, wheel_derivatives, with_wheels
 
 __all__ = [
     "DEFAULT_ATOL",
@@ -86,11 +86,44 @@ BoolArray = NDArray[np.bool_]
 _FLOAT64 = np.dtype(np.float64)
 
 
+STABLE_AT_SPEED = ("implicit_gyro", "splitting", "exact_free")
+"""The integrators that stay stable at any spin (an implicit gyroscopic step, exact flows)."""
+
+
+def stable_choices(wheels: bool, before: str = "", current: str = "") -> str:
+    """The stable integrators a fix may name on a world with or without reaction wheels: only
+    those that step it (the wheels' registry, :data:`rigid_env.core.wheels.NO_WHEELS`, refuses
+    every one of them), ``current`` (the one that failed) left out; ``before`` + ``"a stable
+    integrator ('a', 'b' or 'c')"``, or "" where none is left."""
+    usable = [f"'{n}'" for n in STABLE_AT_SPEED if n != current and not (wheels and n in NO_WHEELS)]
+    if not usable:
+        return ""
+    listed = usable[0] if len(usable) == 1 else f"{', '.join(usable[:-1])} or {usable[-1]}"
+    return f"{before}a stable integrator ({listed})"
+
+
+_SETTING_CALLS = {
+    "h": "world.with_settings(substeps=k) (h = dt / substeps; or dt=...)",
+    "tolerances": "world.with_settings(rtol=..., atol=..., max_substeps=...) (an "
+    "error-controlled integrator's)",
+    "plan": "world.with_settings(...) with the settings it holds (dt, substeps, integrator, "
+    "effects, ...)",
+}
+"""The read-only values :meth:`World.with_settings` sets under other names (the others: their
+own)."""
+
+
 class NumericalInstabilityError(FloatingPointError):
     """A body's state turned non-finite; the message names the body, step, integrator and fix."""
 
     def __init__(
-        self, bodies: Sequence[int], step: int, integrator: str, dt: float, cause: str = ""
+        self,
+        bodies: Sequence[int],
+        step: int,
+        integrator: str,
+        dt: float,
+        cause: str = "",
+        wheels: bool = False,
     ) -> None:
         self.bodies = list(bodies)
         self.step = step
@@ -99,8 +132,8 @@ class NumericalInstabilityError(FloatingPointError):
         shown = ", ".join(str(b) for b in self.bodies[:5])
         if len(self.bodies) > 5:
             shown += f" ... ({len(self.bodies)} bodies)"
-        stable = "a stable integrator ('implicit_gyro' or 'splitting')"
-        fix = cause or f"use a smaller dt or more substeps, or {stable}"
+        others = stable_choices(wheels, ", or ", integrator)
+        fix = cause or f"use a smaller dt or more substeps{others}"
         super().__init__(
             f"state of body {shown} blew up at step {step} (a non-finite number, or a "
             f"kinetic energy {EXPLOSION_FACTOR**2:g}x beyond what the forces can supply in one "
@@ -255,6 +288,7 @@ class World:
         )
 
     # ---- settings, read-only: a new world for new ones --------------------------------------
+
     def _read_only(name: str, doc: str, planned: bool = False) -> property:  # type: ignore[misc]
         """A setting read from ``self._<name>``, or from the frozen plan where ``planned``,
         which refuses assignment with the :meth:`with_settings` call that does it."""
@@ -263,9 +297,25 @@ class World:
             return getattr(self._plan, name) if planned else getattr(self, "_" + name)
 
         def refuse(self: World, value: Any) -> None:
+            if name == "tolerances" and self._plan.tolerances is None:
+                raise AttributeError(
+                    "World.tolerances is read-only, and None here: "
+                    + (
+                        "no error-controlled integrator steps reaction wheels (a smaller dt or "
+                        "more substeps make a fixed step more accurate: world.with_settings("
+                        "substeps=k))"
+                        if self._wheels is not None
+                        else f"integrator {self._plan.integrator.name!r} takes fixed steps; "
+                        "make a new world with tolerances: world = world.with_settings("
+                        "integrator='dop853', rtol=..., atol=...)"
+                    )
+                )
+            value = getattr(value, "name", value) if name == "integrator" else value
+            shown = repr(value) if len(repr(value)) <= 40 else "..."  # not a page of effects
+            call = _SETTING_CALLS.get(name, f"world.with_settings({name}={shown})")
             raise AttributeError(
                 f"World.{name} is read-only (the compiled step is set up for it); make a new "
-                f"world with it: world = world.with_settings({name}={value!r})"
+                f"world with it: world = {call}"
             )
 
         return property(get, refuse, doc=doc)
@@ -682,7 +732,10 @@ class World:
                 raise limited
             bodies, step = np.flatnonzero(bad).tolist(), self.step_count + 1
             cause = self._likely_cause(bad)
-            raise NumericalInstabilityError(bodies, step, self._integrator.name, self._dt, cause)
+            wheels = self._wheels is not None
+            raise NumericalInstabilityError(
+                bodies, step, self._integrator.name, self._dt, cause, wheels=wheels
+            )
         if limited is not None:
             warnings.warn(str(limited), RuntimeWarning, stacklevel=3)
         self._status[bad] = FROZEN
@@ -771,13 +824,13 @@ class World:
             return
         self._warned_asymmetry = True
         b = int(np.argmax(worst))
+        exact = "" if self._wheels is not None else "'exact_free' (exact for any moments), or "
         warnings.warn(
             f"body {b}: principal moments {inertia[b].tolist()} break the triangle inequality "
             f"(|I_j - I_k| / I_i = {worst[b]:.3g} > {ASYMMETRY_LIMIT:g}; a real body has at "
             f"most 1): Euler's equations turn w up to {worst[b]:.3g}x faster than |w|^2, and "
             f"integrator {self.integrator.name!r} errs that much more per step; use a dt "
-            f"{worst[b]:.3g}x smaller, or 'exact_free' (exact for any moments), or check the "
-            "moments",
+            f"{worst[b]:.3g}x smaller, or {exact}check the moments",
             RuntimeWarning,
             stacklevel=3,
         )
@@ -787,7 +840,8 @@ class World:
         warnings.warn(
             f"integrator {self.integrator.name!r}: a body spins beyond its stable range (h |w| > "
             f"{self.integrator.stability:g} rad per step at h = {self.h:g} s); results may drift "
-            f"or blow up: use a smaller dt or more substeps, or 'exact_free' / 'implicit_gyro'",
+            f"or blow up: use a smaller dt or more substeps"
+            f"{stable_choices(self._wheels is not None, ', or ', self.integrator.name)}",
             RuntimeWarning,
             stacklevel=3,
         )

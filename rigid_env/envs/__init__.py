@@ -114,7 +114,13 @@ TASKS: dict[str, Task] = _by_name(
             max_episode_steps=200,
             newest=1,
         ),
-        Task("BdotDetumble", module="bdot_detumble", scene="bdot_detumble", max_episode_steps=480),
+        Task(
+            "BdotDetumble",
+            module="bdot_detumble",
+            scene="bdot_detumble",
+            max_episode_steps=480,
+            newest=1,
+        ),
         Task(
             "WheelPointing", module="wheel_pointing", scene="wheel_pointing", max_episode_steps=120
         ),
@@ -159,14 +165,27 @@ def variant_kwargs(kwargs: dict) -> dict:
     them, mappings key by key, so that ``gym.make("RigidEnv/DetumbleFaults-v0",
     randomization={"inertia": 0.3})`` keeps the variant's misalignment and faults (Gymnasium
     would hand over the given mapping in place of the registered one); None switches a mapping
-    off. Without ``variant``, ``kwargs`` as given."""
+    off. ``variant`` stays in the result: the task names itself by it in its errors. Without
+    ``variant``, ``kwargs`` as given.
+
+    Raises:
+        ValueError: ``variant`` given as None (Gymnasium would then hand over a given
+            ``randomization`` in place of the variant's, dropping its faults without a word) or
+            not a registered variant.
+    """
     kwargs = dict(kwargs)
-    name = kwargs.pop("variant", None)
-    if name is None:
+    if "variant" not in kwargs:
         return kwargs
+    name = kwargs["variant"]
+    if name is None:
+        raise ValueError(
+            "variant: None would drop the registered variant's own defaults (DetumbleFaults-v0's "
+            "faults and misalignment) for what is given; leave variant out (gym.make sets it "
+            "from the id), and make RigidEnv/Detumble-v0 for the task without them"
+        )
     if name not in VARIANTS:
         raise ValueError(f"variant: {name!r} is not one of {sorted(VARIANTS)}")
-    return merge_kwargs(VARIANTS[name].kwargs, kwargs)
+    return {**merge_kwargs(VARIANTS[name].kwargs, kwargs), "variant": name}
 
 
 def merge_kwargs(base: dict, over: dict) -> dict:

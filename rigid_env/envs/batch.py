@@ -31,7 +31,13 @@ from rigid_env.envs.hardware import (
     misaligned,
     with_preset,
 )
-from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
+from rigid_env.envs.params import (
+    EnvSettings,
+    TaskParams,
+    numbers,
+    parse_kwargs,
+    refuse_idle_draws,
+)
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
 from rigid_env.envs.sensors import SensorSuite
 from rigid_env.render import Frame, TaskView
@@ -145,10 +151,12 @@ class TaskBatch:
                     f"widen {holds} and the pass's reads"
                 )
 
-    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+    def __init__(self, num_envs: int, variant: str | None = None, **kwargs: Any) -> None:
         self.n = as_num_envs(num_envs)
-        name = type(self).__name__.removesuffix("Task")
-        settings, self.params = parse_kwargs(self.params_model, name, kwargs)
+        self.name: str = variant or type(self).__name__.removesuffix("Task")
+        """What the errors call the task: its class's name (``Detumble``), or the registered
+        variant it was made as (``DetumbleFaults-v0``)."""
+        settings, self.params = parse_kwargs(self.params_model, self.name, kwargs)
         self.settings: EnvSettings = settings
         self.scene: Scene = with_preset(
             load_scene(
@@ -158,6 +166,7 @@ class TaskBatch:
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
         )
         self.world = self._build_world()
+        refuse_idle_draws(settings.randomization, self.scene.name, self.world.force_effects)
         self.dt = self.world.dt
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
@@ -284,8 +293,8 @@ class TaskBatch:
         )
         if world.action_dim == 0:
             raise ValueError(
-                "scene: a task needs actuators (thrusters, point_forces or magnetorquers); the "
-                "scene has none"
+                "scene: a task needs actuators (thrusters, point_forces, magnetorquers or "
+                "reaction_wheels); the scene has none"
             )
         return world
 

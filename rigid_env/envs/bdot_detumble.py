@@ -7,6 +7,7 @@ from dataclasses import replace
 from typing import Any, Literal
 
 import numpy as np
+from pydantic import model_validator
 
 from rigid_env.core.effects import Magnetorquers
 from rigid_env.core.geomagnetic import OrbitField
@@ -16,10 +17,12 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
-from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
+from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
 from rigid_env.render import TaskView
+
+Version = task_version(newest=1)
 
 FIELD_SCALE = 5.0e-5
 """[T] the observed field is divided by this (the Earth's is 2e-5 to 6e-5 in low orbit)."""
@@ -39,11 +42,25 @@ class BdotDetumbleParams(TaskParams):
     reward, >= 0."""
     success_bonus: Bonus = 1.0
     """Reward on the step that reaches the threshold (the episode ends there), >= 0."""
+    version: Version = 0
+    """The task's version, 0 or 1 (see the env's Version History); gym.make sets it from the
+    id. It sets the default of ``command`` alone."""
     command: Literal["dipole", "torque"] = "dipole"
     """What an action asks for: ``"dipole"``, each coil's dipole over its limit;
     ``"torque"``, the torque wanted (body frame) over ``max_dipole |B|``, which the flight
     software's cross-product law turns into the dipole ``m = B x tau / |B|^2`` from the
-    magnetometer's reading the action was chosen on (:func:`torque_dipoles`)."""
+    magnetometer's reading the action was chosen on (:func:`torque_dipoles`). Default
+    ``"dipole"`` on v0, ``"torque"`` from v1."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _command_of_version(cls, data: Any) -> Any:
+        """``command`` left out: the version's default (``"torque"`` from v1)."""
+        if isinstance(data, dict) and "command" not in data:
+            version = data.get("version", 0)
+            newer = isinstance(version, int | np.integer) and not isinstance(version, bool)
+            data = {**data, "command": "torque" if newer and version >= 1 else "dipole"}
+        return data
 
 
 def torque_dipoles(
@@ -189,10 +206,11 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ## Action Space
 
-    ``Box(-1, 1, (3,), float32)``: the coils' dipoles over 0.2 A m^2, body x, y, z
-    (``configs/scenes/bdot_detumble.yaml``), held over the 5 s control step. Commands outside
-    [-1, 1] are clipped; NaN or inf raises ``ValueError``. With ``command="torque"`` an action
-    is instead the torque wanted, body x, y, z, over ``0.2 A m^2 |B|``: the cross-product law
+    ``Box(-1, 1, (3,), float32)``, held over the 5 s control step; commands outside [-1, 1]
+    are clipped, NaN or inf raises ``ValueError``. With ``command="dipole"`` (v0's default) an
+    action is the coils' dipoles over 0.2 A m^2, body x, y, z
+    (``configs/scenes/bdot_detumble.yaml``). With ``command="torque"`` (v1's default) it is
+    the torque wanted, body x, y, z, over ``0.2 A m^2 |B|``: the cross-product law
     ``m = B x tau / |B|^2`` turns it into the coils' dipole from the magnetometer's reading in
     the observation it answers (as flight software does), so the torque made is the wanted
     one less its part along ``B``, scaled down as a whole where a coil would pass its limit.
@@ -228,8 +246,8 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ## Arguments
 
-    ``gym.make("RigidEnv/BdotDetumble-v0", max_initial_spin=0.1745, success_threshold=0.01745,
-    effort_weight=0.05, success_bonus=1.0, command="dipole", integrator=None, dt=None,
+    ``gym.make("RigidEnv/BdotDetumble-v1", max_initial_spin=0.1745, success_threshold=0.01745,
+    effort_weight=0.05, success_bonus=1.0, command="torque", integrator=None, dt=None,
     substeps=None, scene=None, rotation_repr="quaternion", randomization=None,
     observe_control_period=False, sensors=None, render_mode=None)``; ``randomization`` as for
     the other tasks (``"sensor_noise"``: a gyro's white noise on the observed ``w`` [rad/s]);
@@ -243,8 +261,12 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ## Version History
 
+    * v1: the actions are wanted torques by default (``command="torque"``), the command the
+      shipped policy plays, so ``gym.make("RigidEnv/BdotDetumble-v1")`` is the env it was
+      trained for; otherwise v0 with ``command="torque"``, bit for bit.
     * v0: initial version; the keyword ``command`` came later (its default, ``"dipole"``,
-      is v0 as first published, bit for bit).
+      is v0 as first published, bit for bit; ``gym.make("RigidEnv/BdotDetumble-v0")`` still
+      makes it).
     """
 
     task_cls = BdotDetumbleTask

@@ -69,6 +69,13 @@ def _masked(value: NDArray[Any], mask: NDArray[np.bool_]) -> NDArray[Any]:
     return out
 
 
+def render_fps(dt: float) -> int:
+    """Frames per second of a rendering, one frame per control step ``dt`` [s]: ``1 / dt``
+    rounded, at least 1 (a 5 s step plays at 1 frame per second, not 0, which video writers
+    divide by)."""
+    return max(1, round(1.0 / dt))
+
+
 class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
     """Base of the single environments: a :class:`TaskBatch` of one body.
 
@@ -91,7 +98,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         self.task = task_class(self, task)(1, **variant_kwargs(kwargs))
         self.observation_space = self.task.single_observation_space
         self.action_space = self.task.single_action_space
-        self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.task.dt))}
+        self.metadata = {**self.metadata, "render_fps": render_fps(self.task.dt)}
         self.render_mode = render_mode
         self._renderer: Any = None
         self._has_reset = False
@@ -189,7 +196,7 @@ class RigidBodyVectorEnv(VectorEnv):
         self.single_action_space = self.task.single_action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.metadata = {**self.metadata, "render_fps": max(1, round(1.0 / self.task.dt))}
+        self.metadata = {**self.metadata, "render_fps": render_fps(self.task.dt)}
         self.render_mode = render_mode
         self._renderer: Any = None
         self._rngs: list[np.random.Generator] = []

@@ -34,15 +34,16 @@ from numba import njit, prange
 from numpy.typing import NDArray
 
 from rigid_env.core.dynamics import kinetic_energy
-from rigid_env.core.jit import kernel
+from rigid_env.core.jit import cached_where_possible, kernel
 from rigid_env.core.layout import body_model, load
 from rigid_env.core.maths import rotate
 from rigid_env.core.threads import split_range
 from rigid_env.envs.maths import canonical, safe_norm, tanh
 
-task_kernel = njit(cache=True, nogil=True, error_model="numpy", parallel=True)
-"""The decorator of a task's pass: cached on disk, the GIL released, and a pass given
-``threads > 1`` split over Numba's threads (one thread runs a plain loop)."""
+task_kernel = cached_where_possible(nogil=True, error_model="numpy", parallel=True)
+"""The decorator of a task's pass: cached on disk (where it has a file: a pass typed into a
+REPL is compiled in each process), the GIL released, and a pass given ``threads > 1`` split
+over Numba's threads (one thread runs a plain loop)."""
 _per_task = njit(nogil=True, error_model="numpy", forceinline=True)
 """:data:`kernel` without the disk cache, for the parts of the pass that take the task's
 ``evaluate``: they are compiled into each task's pass, which is cached with the task's module.

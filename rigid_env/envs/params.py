@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import difflib
 import os
+from collections.abc import Sequence
 from typing import Annotated, Any, Literal
 
 import numpy as np
@@ -21,6 +22,15 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationEr
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
+from rigid_env.core.effects import (
+    Gravity,
+    GravityGradient,
+    LinearActuator,
+    MagneticDipole,
+    Magnetorquers,
+    ReactionWheels,
+    Thrusters,
+)
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
 from rigid_env.envs.sensors import MAX_DELAY
@@ -171,6 +181,45 @@ class Randomization(BaseModel):
     def physical(self) -> bool:
         """Whether any mass-property draw is needed at reset."""
         return self.mass > 0.0 or self.inertia > 0.0
+
+
+MASS_BLIND = (Gravity, GravityGradient, MagneticDipole, Magnetorquers, ReactionWheels)
+"""Force effects through which a body's mass acts on nothing: gravity's acceleration is ``g``
+whatever the mass, and the others make torques alone (their force maps are zero)."""
+
+
+def refuse_idle_draws(r: Randomization, scene: str, effects: Sequence[Any]) -> None:
+    """Refuse a randomisation key that cannot act on a world of ``effects`` (its force effects,
+    the actuators among them), in one line naming the key, why and the fix (as ``thrusters=
+    "realistic"`` on a scene without thrusters is): ``thruster_misalignment`` and
+    ``thruster_faults`` without thrusters (misalignment tilts force directions: any actuator
+    with forces counts), ``mass`` where nothing pushes the centre of mass but gravity. The other
+    keys act on every task (``inertia``, ``thrust`` scales every actuator's command,
+    ``sensor_noise`` the observed rate every task observes, ``action_repeat``).
+
+    Raises:
+        ValueError: ``randomization.<key>: problem; fix``.
+    """
+    actuators = [e for e in effects if isinstance(e, LinearActuator)]
+    kinds = ", ".join(dict.fromkeys(a.name for a in actuators)) or "none"
+    forces = any(np.any(a.force_map != 0.0) for a in actuators)
+    thrusters = any(isinstance(a, Thrusters) for a in actuators)
+    if r.thruster_misalignment > 0.0 and not forces:
+        raise ValueError(
+            f"randomization.thruster_misalignment: tilts the thrusters' directions, and scene "
+            f"{scene!r} has none (its actuators: {kinds}); leave thruster_misalignment out"
+        )
+    if r.thruster_faults is not None and not thrusters:
+        raise ValueError(
+            f"randomization.thruster_faults: fails one thruster per episode, and scene {scene!r} "
+            f"has none (its actuators: {kinds}); leave thruster_faults out"
+        )
+    if r.mass > 0.0 and all(isinstance(e, MASS_BLIND) for e in effects):
+        raise ValueError(
+            f"randomization.mass: nothing in scene {scene!r} acts on the body in a way its mass "
+            f"changes (its actuators, {kinds}, make torques alone; gravity, if any, accelerates "
+            "every mass alike); leave mass out (randomization.inertia varies what a torque does)"
+        )
 
 
 class GyroSettings(BaseModel):

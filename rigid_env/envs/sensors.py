@@ -331,7 +331,7 @@ class SensorSuite:
             ValueError: one line naming ``sensors.<key>``, for a sensor the task cannot take
                 (it observes no such quantity, or observes it otherwise already).
         """
-        name = type(task).__name__.removesuffix("Task")
+        name = task.name
         for key, reason in task.refused_sensors.items():
             if getattr(settings, key, None) is not None:
                 raise ValueError(f"sensors.{key}: {name} {reason}; leave {key} out for {name}")

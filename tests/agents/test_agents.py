@@ -173,6 +173,21 @@ def test_vec_video_recorder_over_the_adapter_writes_a_video(tmp_path):
     assert video.stat().st_size > 1000
 
 
+@pytest.mark.parametrize("env_id", ["RigidEnv/Detumble-v0", "RigidEnv/BdotDetumble-v1"])
+def test_adapter_reports_the_envs_render_fps(env_id, tmp_path):
+    """The adapter's render_fps is the env's, never 0 (SB3's VecVideoRecorder divides by it):
+    20 on a 0.05 s step, 1 on BdotDetumble's 5 s one (round(1 / 5) would be 0)."""
+    from stable_baselines3.common.vec_env import VecVideoRecorder
+
+    env = RigidBodySB3VecEnv(env_id, num_envs=1, render_mode="rgb_array")
+    fps = gym.make(env_id).metadata["render_fps"]
+    assert env.metadata["render_fps"] == fps >= 1
+    assert fps == max(1, round(1.0 / env.task.dt))
+    rec = VecVideoRecorder(env, str(tmp_path), record_video_trigger=lambda step: False)
+    assert rec.frames_per_sec == fps
+    rec.close()
+
+
 def test_config_validation_errors(tmp_path):
     good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
     cases = {
@@ -244,6 +259,13 @@ def test_training_smoke_run(tmp_path):
     assert meta["trained_env_kwargs"] == trained
     assert meta["env_kwargs"] == {k: v for k, v in trained.items() if k != "randomization"}
     assert "steps/s" in out.stdout and "ETA" in out.stdout
+    # Every model it saved (final, best, checkpoints) carries what its actions mean.
+    from agents.meaning import meaning_of, mismatch, recorded_meaning
+
+    saved = list(run.rglob("*.zip"))
+    assert saved and all(recorded_meaning(z) is not None for z in saved)
+    record = meaning_of(gym.make("RigidEnv/Detumble-v0", **trained))
+    assert all(mismatch(recorded_meaning(z), record) is None for z in saved)
 
 
 def test_evaluate_cli_errors(tmp_path, capsys):
@@ -272,30 +294,31 @@ def test_model_for_another_env_is_refused(capsys):
     assert "Detumble" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize(("trained", "asked"), [("torque", "dipole"), (None, "torque")])
+@pytest.mark.parametrize(("trained", "asked"), [("torque", "dipole"), ("dipole", "torque")])
 def test_a_model_is_not_run_where_its_actions_mean_something_else(tmp_path, capsys, trained, asked):
-    """BdotDetumble's ``command`` changes what an action means, not its shape: a model trained on
-    wanted torques, evaluated on dipoles (or one whose sidecar names no command, so trained on
-    the default dipoles, evaluated on torques) is refused in one line naming the key, not run
-    to a silent failure."""
+    """BdotDetumble's ``command`` changes what an action means, not its shape: a model whose
+    record says wanted torques, evaluated on dipoles (or the other way round), is refused in
+    one line naming the key and the fix, not run to a silent failure (agents.meaning; the
+    record's every carrier in tests/agents/test_meaning.py)."""
     import shutil
+
+    from agents.meaning import meaning_of, stamp_file
 
     stem = PRETRAINED / "ppo_bdot_detumble"
     for suffix in (".zip", "_vecnormalize.pkl"):
         shutil.copy(f"{stem}{suffix}", tmp_path / f"m{suffix}")
-    meta = json.loads(stem.with_suffix(".json").read_text())
-    meta["vecnormalize"] = "m_vecnormalize.pkl"
-    for key in ("env_kwargs", "trained_env_kwargs"):
-        meta[key] = {} if trained is None else {"command": trained}
-    (tmp_path / "m.json").write_text(json.dumps(meta))
+    stamp_file(tmp_path / "m.zip", meaning_of(gym.make("RigidEnv/BdotDetumble-v1",
+                                                       command=trained)))  # fmt: skip
     model = str(tmp_path / "m.zip")
-    env = "RigidEnv/BdotDetumble-v0"
+    env = "RigidEnv/BdotDetumble-v1"
     assert evaluate_main([model, "--env", env, "--episodes", "2", "--env-kwargs",
                           f"command={asked}"]) == 2  # fmt: skip
     err = capsys.readouterr().err
-    assert f"trained with command={trained or 'dipole'!r}" in err and "leave command out" in err
+    assert f"command: the model's actions mean {trained!r}, this env's {asked!r}" in err
+    assert f"pass command={trained}" in err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert evaluate_main([model, "--env", env, "--episodes", "2", "--only", "model"]) == 0
+    assert evaluate_main([model, "--env", env, "--episodes", "2", "--only", "model",
+                          "--env-kwargs", f"command={trained}"]) == 0  # fmt: skip
 
 
 def test_resume_skips_a_checkpoint_killed_half_written(tmp_path):

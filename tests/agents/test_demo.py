@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -68,6 +69,12 @@ def test_demo_writes_table_and_animations(demo_run):
     md = (out / "results.md").read_text()
     assert "| task | policy | episodes | success rate | final \\|w\\| [rad/s]" in md
     assert md.count("| PPO |") == len(TASKS) and md.count("| PD |") == len(TASKS) - 1
+    # Fuel in each task's unit: the coils' dipole-time on magnetorquers, thrust's impulse else.
+    units = {r["task"]: r["fuel_unit"] for r in rows}
+    assert units["BdotDetumble"] == units["WheelPointing"] == "A m^2 s"
+    assert units["Detumble"] == "N s"
+    assert re.search(r"\| BdotDetumble \| PPO \|[^\n]*\| [\d.]+ A m\^2 s \|", md)
+    assert "[N s]" not in md.splitlines()[4]  # the header names no one unit for all
     # The terminal gets the table and every path written.
     assert "time to success [s]" in stdout and "TumblingFall" in stdout
     from PIL import Image
@@ -91,7 +98,7 @@ def test_demo_pd_row_equals_a_direct_evaluation(demo_run):
     assert float(row["success_rate"]) == ref["success_rate"]
     for col, key in (
         ("final_angular_speed_rad_s", "mean_final_angular_speed"),
-        ("fuel_N_s", "mean_fuel"),
+        ("fuel", "mean_fuel"),
         ("return", "mean_return"),
     ):
         assert float(row[col]) == pytest.approx(ref[key], rel=SAME_EPISODES), col
@@ -189,7 +196,7 @@ def test_a_fresh_run_equals_the_committed_results(demo_run):
     for row in fresh:
         ref = committed[(row["task"], row["policy"], row["seed"])]
         assert row["success"] == ref["success"], row
-        for col in ("final_angular_speed_rad_s", "fuel_N_s", "return"):
+        for col in ("final_angular_speed_rad_s", "fuel", "return"):
             assert float(row[col]) == pytest.approx(float(ref[col]), rel=ACROSS_CPUS, abs=1e-6)
         if ref["time_to_success_s"]:
             got, want = float(row["time_to_success_s"]), float(ref["time_to_success_s"])

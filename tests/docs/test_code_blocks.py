@@ -53,8 +53,9 @@ def test_python_block_runs_and_prints_what_the_page_shows(block: Block, tmp_path
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
         runpy.run_path(str(path), run_name="__main__")
-    want = block.output if block.output is not None else _comment_output(block.code)
-    if want is not None:
+    if block.output is not None:  # the page shows it as printed: exactly what prints
+        assert out.getvalue().split() == block.output.split(), (out.getvalue(), block.output)
+    elif (want := _comment_output(block.code)) is not None:  # a comment: to its digits
         _same(out.getvalue(), want)
 
 

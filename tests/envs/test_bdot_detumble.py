@@ -209,3 +209,24 @@ def test_an_unknown_command_is_one_line_naming_it(value) -> None:
     with pytest.raises(ValueError, match=r"^command: .*'dipole'.*'torque'") as err:
         gym.make(ENV_ID, command=value)
     assert "\n" not in str(err.value)
+
+
+def test_the_orbit_field_turns_as_the_manual_says() -> None:
+    """docs/magnetorquers.md: a dipole's field turns twice per orbit; on BdotDetumble's orbit
+    (94.5 min) by 727 degrees, 7.7 degrees a minute on average, from 5.7 to 11.5 along it.
+    20,001 samples: the chords' angles miss the arc by O(dtheta^3), far below the digits."""
+    import gymnasium as gym
+
+    orbit = gym.make("RigidEnv/BdotDetumble-v1").unwrapped.task.orbit
+    period = orbit.orbit.period
+    t = np.linspace(0.0, period, 20_001)
+    field = np.array([orbit.at(x) for x in t])
+    unit = field / np.linalg.norm(field, axis=1, keepdims=True)
+    turn = np.degrees(np.arccos(np.clip((unit[1:] * unit[:-1]).sum(axis=1), -1.0, 1.0)))
+    rate = turn / np.diff(t) * 60.0  # [deg/min]
+    assert period / 60.0 == pytest.approx(94.5, abs=0.05)
+    assert turn.sum() == pytest.approx(727.0, abs=0.5)
+    assert turn.sum() / (period / 60.0) == pytest.approx(7.7, abs=0.05)
+    assert rate.min() == pytest.approx(5.7, abs=0.05) and rate.max() == pytest.approx(
+        11.5, abs=0.05
+    )

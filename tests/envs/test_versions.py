@@ -12,7 +12,7 @@ import pytest
 import rigid_env
 from rigid_env.core.rotation import quat_from_axis_angle, quat_mul
 
-NEWEST = {"Detumble": 0, "SpinStabilize": 1, "Reorient": 1, "TumblingFall": 1}
+NEWEST = {"Detumble": 0, "SpinStabilize": 1, "Reorient": 1, "TumblingFall": 1, "BdotDetumble": 1}
 
 
 def make(env_id: str, **kwargs):
@@ -157,3 +157,32 @@ def test_spin_stabilize_v1_axis_term_has_no_flat_top():
     assert out[1][1] == angle and 0.0 < angle < math.radians(5.0)
     # The rate term is the same factor in both; the atan2 of a few ulps and the product: 1e-12.
     assert out[1][0] == pytest.approx(out[0][0] * (1.0 - angle / (math.pi / 4.0)), rel=1e-12)
+
+
+def _rollout(env_id: str, **kwargs) -> tuple[np.ndarray, np.ndarray]:
+    """Observations and rewards of 2 seeded episodes of 40 steps under seeded random actions."""
+    env, rng = make(env_id, **kwargs), np.random.default_rng(11)
+    obs, rewards = [], []
+    for seed in (3, 4):
+        o, _ = env.reset(seed=seed)
+        obs.append(o)
+        for _ in range(40):
+            o, r, *_ = env.step(rng.uniform(-1, 1, 3).astype(np.float32))
+            obs.append(o)
+            rewards.append(r)
+    env.close()
+    return np.array(obs), np.array(rewards)
+
+
+def test_bdot_detumble_v1_is_v0_with_the_torque_command():
+    """v1 changes the default command alone: its rollouts are v0's with ``command="torque"``
+    bit for bit, and v0's default stays the dipole (another rollout)."""
+    assert make("RigidEnv/BdotDetumble-v0").unwrapped.task.params.command == "dipole"
+    assert make("RigidEnv/BdotDetumble-v1").unwrapped.task.params.command == "torque"
+    assert make("RigidEnv/BdotDetumble-v1", command="dipole").unwrapped.task.params.command == (
+        "dipole"
+    )
+    v1 = _rollout("RigidEnv/BdotDetumble-v1")
+    v0_torque = _rollout("RigidEnv/BdotDetumble-v0", command="torque")
+    assert all(np.array_equal(a, b) for a, b in zip(v1, v0_torque, strict=True))
+    assert not np.array_equal(v1[0], _rollout("RigidEnv/BdotDetumble-v0")[0])

@@ -327,16 +327,33 @@ def test_final_model_without_its_statistics_is_never_replaced_by_a_checkpoint(
 ):
     """The final model.zip without vecnormalize.pkl: more steps from a checkpoint would put a
     checkpoint (saved before the final update) in the final model's place; refused in one line
-    (after the warning naming what is missing), nothing in the run rewritten (issue 35)."""
+    naming what is missing, with no "falling back" it does not do (issue 44), nothing in the
+    run rewritten (issue 35)."""
     config, runs = _copy_run(finished_run, tmp_path)
     run = runs / RUN
     (run / "vecnormalize.pkl").unlink()
     before = _files(run)
     assert _train(config, "--runs-dir", runs, "--resume", "--total-timesteps", 768) == 2
     err = capsys.readouterr().err
-    assert "model.zip lacks vecnormalize.pkl" in err.splitlines()[0]
-    assert_one_line_error(err.splitlines()[-1], ERR, "never replaced by a checkpoint")
+    assert_one_line_error(err, ERR, "never replaced by a checkpoint")
+    assert "model.zip lacks vecnormalize.pkl" in err and "falling back" not in err
     assert _files(run) == before
+
+
+def test_a_lock_that_is_a_folder_gets_a_true_message(tmp_path, capsys):
+    """A folder (or a link) where the run keeps its ``.lock`` file: one line saying so and
+    what to move, not "check that the folder can be written and has free space"."""
+    config = write_config(tmp_path, total_timesteps=256)
+    runs = tmp_path / "runs"
+    (runs / RUN / ".lock").mkdir(parents=True)
+    assert _train(config, "--runs-dir", runs) == 2
+    err = capsys.readouterr().err
+    assert_one_line_error(err, ERR, ".lock: is a folder, where the run keeps its lock file")
+    assert "free space" not in err
+    (runs / RUN / ".lock").rmdir()
+    (runs / RUN / ".lock").symlink_to(tmp_path / "elsewhere")
+    assert _train(config, "--runs-dir", runs) == 2
+    assert "is not a plain file" in capsys.readouterr().err
 
 
 def _files(run: Path) -> dict[Path, bytes]:
