@@ -231,6 +231,31 @@ class TaskBatch:
         self._check_extra_observations()
         self.sensors = SensorSuite.of(settings.sensors, self)
         """The observation's sensors (the ``sensors`` keyword; None: off, the truth observed)."""
+        self._plan_step()
+
+    def _plan_step(self) -> None:
+        """Decide once what construction fixes about a step, for the step to read and not
+        decide again: the action's accepted shapes, whether the bodies' command is made apart
+        from the action, whether a pass over all the envs is split over the cores, whether the
+        fuel is the pass's count of the commands, and which infos are reported."""
+        n, a = self.n, self.action_dim
+        self._action_shapes = ((n, a), (a,)) if n == 1 else ((n, a),)
+        r = self.randomization
+        self._commands_apart = (
+            type(self).demand is not TaskBatch.demand
+            or r.thrust > 0.0
+            or r.thruster_faults is not None
+        )
+        """Whether :meth:`check_action` makes :attr:`command` apart from :attr:`last_action`
+        (the task's :meth:`demand`, thrust randomisation or faults); else they are one array."""
+        self._threaded = threads.threaded(n)
+        """Whether a pass over all the envs is split over the cores."""
+        self._counts_commands = self._hardware.counts_commands
+        """Whether the fuel is the pass's count of the commands (no thruster hardware)."""
+        self._faulty = r.thruster_faults is not None
+        """Whether faults are drawn (and reported in the infos)."""
+        self._reports_substeps = self.world.tolerances is not None
+        """Whether the infos report the substeps (an error-controlled integrator)."""
 
     # ---- task interface ------------------------------------------------------------------
     def angular_velocity_scale(self) -> float:
@@ -365,17 +390,21 @@ class TaskBatch:
                 silently simulated).
         """
         act = as_actions(action)
-        if act.shape != (self.n, self.action_dim):
-            if self.n == 1 and act.shape == (self.action_dim,):
-                act = act.reshape(1, -1)
-            else:
-                raise ValueError(
-                    f"action: expected shape ({self.n}, {self.action_dim})"
-                    f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
-                    f"got {act.shape}"
-                )
+        if act.shape not in self._action_shapes:
+            raise ValueError(
+                f"action: expected shape ({self.n}, {self.action_dim})"
+                f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                f"got {act.shape}"
+            )
         if K.clip_commands(np.ascontiguousarray(act), self.last_action) < 0:
             raise ValueError(_NON_FINITE_ACTION)
+        if self._commands_apart:
+            self._make_command()
+        return self.last_action
+
+    def _make_command(self) -> None:
+        """The bodies' :attr:`command` from the clipped :attr:`last_action`: the task's
+        :meth:`demand`, times the thrust scales once thrust is randomised, then the faults."""
         demand = self.demand(self.last_action)
         if self.thrust_scale is not None:
             np.multiply(demand, self.thrust_scale, out=self.command)
@@ -388,7 +417,6 @@ class TaskBatch:
             for i, fault in enumerate(self.faults):
                 if fault is not None:
                     fault.apply(self.command[i], int(self.steps[i]))
-        return self.last_action
 
     def _draw_thrust_factors(
         self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
@@ -494,26 +522,34 @@ class TaskBatch:
         envs to step (default all); the others are held: their bodies frozen in the world
         (:attr:`World.failed`: a frozen body is left as it is, its thrust levels included),
         nothing drawn from their generators, and the pass run over the stepping envs only."""
+        if stepping is not None and not stepping.all():
+            return self._step_some(rngs, stepping)
         world = self.world
-        some = stepping is not None and not stepping.all()
         if self._noisy:
-            self._draw_thrust_factors(rngs, skip if stepping is None else ~stepping)
-        if some:
-            failed = self._advance_held(~stepping & ~world.failed)
-        else:
-            failed = self._advance()
-        self._own_obs(keep=stepping is not None)
-        if some:
-            idx = np.flatnonzero(stepping)
-            self.before_pass(idx, reset=False)
-            self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
-            self._count_delivered(idx)
-            return failed
+            self._draw_thrust_factors(rngs, skip)
+        failed = self._advance()
+        if self._obs_given:
+            self._own_obs(keep=stepping is not None)
         noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
         self.before_pass(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
-                                noise, self.record, self.obs), True)  # fmt: skip
-        self._count_delivered()
+                                noise, self.record, self.obs), True, self._threaded)  # fmt: skip
+        if not self._counts_commands:
+            self._count_delivered()
+        return failed
+
+    def _step_some(
+        self, rngs: Sequence[np.random.Generator], stepping: NDArray[np.bool_]
+    ) -> NDArray[np.bool_]:
+        """:meth:`_step_envs` of the envs ``stepping`` only, the others held."""
+        if self._noisy:
+            self._draw_thrust_factors(rngs, ~stepping)
+        failed = self._advance_held(~stepping & ~self.world.failed)
+        self._own_obs(keep=True)
+        idx = np.flatnonzero(stepping)
+        self.before_pass(idx, reset=False)
+        self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
+        self._count_delivered(idx)
         return failed
 
     def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -530,7 +566,7 @@ class TaskBatch:
         minimum impulse bit, noise), each env's fuel after it, counted as the impulse the
         thrusters deliver (:meth:`~rigid_env.envs.hardware.Hardware.delivered`), for
         :meth:`_count_delivered` to put in place of the pass's count of the commands."""
-        if self._hardware.counts_commands:
+        if self._counts_commands:
             return self.world.advance(self.command)
         levels = self.world.thrust_levels
         levels = None if levels is None else levels.copy()
@@ -556,22 +592,23 @@ class TaskBatch:
         record, obs = self.record[idx], self.obs[idx]
         cols = np.ascontiguousarray(self.world.columns[:, idx])
         model = np.ascontiguousarray(self.world.model_columns[:, idx])
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx],
-                                self._noise(rngs), record, obs), stepped)  # fmt: skip
+        arrays = self._arrays(cols, model, self.command[idx], self.target[idx],
+                              self._noise(rngs), record, obs)  # fmt: skip
+        self._pass(arrays, stepped, threads.threaded(idx.size))
         self.record[idx], self.obs[idx] = record, obs
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
         return (state, model, command, target, noise, record, obs, self.max_force)
 
-    def _pass(self, arrays: tuple[Any, ...], stepped: bool) -> None:
-        """The task's compiled pass over the envs of ``arrays`` (split over the cores when
-        many; each env is computed alone, so the split changes no number)."""
+    def _pass(self, arrays: tuple[Any, ...], stepped: bool, threaded: bool) -> None:
+        """The task's compiled pass over the envs of ``arrays``, split over the cores if
+        ``threaded`` (many envs; each env is computed alone, so the split changes no number)."""
         job = (self.numbers, arrays, stepped)
-        if not threads.threaded(arrays[0].shape[1]):
-            type(self).task_pass(job, 1)
-        else:
+        if threaded:
             threads.call_threaded(lambda t: type(self).task_pass(job, t))
+        else:
+            type(self).task_pass(job, 1)
 
     def _own_obs(self, keep: bool) -> None:
         """If :meth:`observe` gave :attr:`obs` away, write into a new buffer from now on (with
@@ -705,14 +742,17 @@ class TaskBatch:
             self._column_views = columns
         return columns
 
-    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
+    def info_one(self, r: K.EnvRecord | None = None, failed: bool | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
-        env returns, from its record (read here if not given)."""
+        env returns, from its record and whether its body failed (each read here if not
+        given)."""
         r = K.EnvRecord._make(self.record.item(0)) if r is None else r
-        faults = {key: column[0].item() for key, column in self._fault_infos().items()}
-        substeps = self._substeps()
-        taken = None if substeps is None else int(substeps[0])
-        out = self._info(r, bool(self.world.failed[0]), faults, taken)
+        failed = bool(self.world.failed[0]) if failed is None else failed
+        faults = {}
+        if self._faulty:
+            faults = {key: column[0].item() for key, column in self._fault_infos().items()}
+        taken = int(self._substeps()[0]) if self._reports_substeps else None
+        out = self._info(r, failed, faults, taken)
         out["angular_velocity_world"] = r.w_world.copy()  # item() gives a view of the record
         return out
 
