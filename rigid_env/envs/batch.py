@@ -33,7 +33,8 @@ from rigid_env.envs.hardware import (
 )
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
 from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
-from rigid_env.envs.sensors import SensorSuite
+from rigid_env.envs.sensors import RowNormals, SensorSuite
+from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
 from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
@@ -210,6 +211,9 @@ class TaskBatch:
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
+        self.streams = EnvStreams(n)
+        """The envs' generators for the draws of a step (thrust and sensor noise), all the envs
+        in one compiled pass, each from its own generator."""
         repeats = self.randomization.action_repeat or (1,)
         self.repeats = np.full(n, repeats[0], dtype=np.int64)
         """(N,) world steps each env holds an action for in its episode (its control period
@@ -256,6 +260,10 @@ class TaskBatch:
         """Whether faults are drawn (and reported in the infos)."""
         self._reports_substeps = self.world.tolerances is not None
         """Whether the infos report the substeps (an error-controlled integrator)."""
+        measuring = self.sensors is not None and self.sensors.measuring
+        self._draws = self._noisy or self._sigma > 0.0 or measuring
+        """Whether a step draws (thrust noise, sensor noise, sensors): the step's generators are
+        then followed by :attr:`streams`."""
 
     # ---- task interface ------------------------------------------------------------------
     def angular_velocity_scale(self) -> float:
@@ -418,16 +426,15 @@ class TaskBatch:
                 if fault is not None:
                     fault.apply(self.command[i], int(self.steps[i]))
 
-    def _draw_thrust_factors(
-        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
-    ) -> None:
+    def _draw_thrust_factors(self, skip: NDArray[np.bool_] | None = None) -> None:
         """Each env's thrust noise factors for this step from its own generator (factor 1,
-        nothing drawn, for envs about to restart: as a single env's generator sees it)."""
-        for k, rng in enumerate(rngs):
-            if skip is not None and skip[k]:
-                self.world.thrust_factors[k] = 1.0
-            else:
-                self.world.draw_thrust_factors(rng, rows=k)
+        nothing drawn, for envs about to restart: as a single env's generator sees it), all
+        drawn in one compiled pass (:attr:`streams`, following the step's generators)."""
+        rows = None if skip is None or not skip.any() else np.flatnonzero(~skip)
+        if rows is not None:
+            self.world.thrust_factors[skip] = 1.0
+        normals = self.streams.standard_normals(rows, self.action_dim)
+        self.world.draw_thrust_factors(RowNormals(normals), rows=rows)
 
     def step(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
@@ -525,12 +532,18 @@ class TaskBatch:
         if stepping is not None and not stepping.all():
             return self._step_some(rngs, stepping)
         world = self.world
+        if self._draws:
+            self.streams.follow(rngs)
         if self._noisy:
-            self._draw_thrust_factors(rngs, skip)
+            self._draw_thrust_factors(skip)
         failed = self._advance()
         if self._obs_given:
             self._own_obs(keep=stepping is not None)
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
+        noise = self._no_noise
+        if self._sigma > 0.0:
+            some = skip is not None and skip.any()
+            rows = np.flatnonzero(~skip) if some else None
+            noise = sensor_noise(self.streams, self._sigma, rows, self.n if some else 0)
         self.before_pass(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
                                 noise, self.record, self.obs), True, self._threaded)  # fmt: skip
@@ -542,13 +555,15 @@ class TaskBatch:
         self, rngs: Sequence[np.random.Generator], stepping: NDArray[np.bool_]
     ) -> NDArray[np.bool_]:
         """:meth:`_step_envs` of the envs ``stepping`` only, the others held."""
+        if self._draws:
+            self.streams.follow(rngs)
         if self._noisy:
-            self._draw_thrust_factors(rngs, ~stepping)
+            self._draw_thrust_factors(~stepping)
         failed = self._advance_held(~stepping & ~self.world.failed)
         self._own_obs(keep=True)
         idx = np.flatnonzero(stepping)
         self.before_pass(idx, reset=False)
-        self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
+        self._pass_rows(idx, stepped=True)
         self._count_delivered(idx)
         return failed
 
@@ -583,17 +598,18 @@ class TaskBatch:
             rows = slice(None) if idx is None else idx
             self.record["fuel"][rows] = self._fuel_after[rows]
 
-    def _pass_rows(
-        self, idx: NDArray[np.int64], rngs: Sequence[np.random.Generator], stepped: bool
-    ) -> None:
+    def _pass_rows(self, idx: NDArray[np.int64], stepped: bool) -> None:
         """The task's pass over the envs ``idx`` only (after a step of some, or a reset),
-        sensor noise drawn from ``rngs`` (one per index): their rows of the record and the
-        observation written, the others kept."""
+        sensor noise drawn from their generators (:attr:`streams`, following them): their rows
+        of the record and the observation written, the others kept."""
         record, obs = self.record[idx], self.obs[idx]
         cols = np.ascontiguousarray(self.world.columns[:, idx])
         model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        noise = self._no_noise
+        if self._sigma > 0.0:
+            noise = sensor_noise(self.streams, self._sigma, idx)
         arrays = self._arrays(cols, model, self.command[idx], self.target[idx],
-                              self._noise(rngs), record, obs)  # fmt: skip
+                              noise, record, obs)  # fmt: skip
         self._pass(arrays, stepped, threads.threaded(idx.size))
         self.record[idx], self.obs[idx] = record, obs
 
@@ -618,15 +634,6 @@ class TaskBatch:
             self.obs = self.obs.copy() if keep else np.empty_like(self.obs)
             self._obs_given = False
 
-    def _noise(
-        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
-    ) -> FloatArray:
-        """(K, 3) sensor noise on the observed ``w`` [rad/s], one row per generator (zeros,
-        nothing drawn, where ``skip``); one shared zero row when there is no noise."""
-        if self._sigma <= 0.0:
-            return self._no_noise
-        return sensor_noise(list(rngs), self._sigma, skip)
-
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
     ) -> None:
@@ -647,6 +654,9 @@ class TaskBatch:
                 )
             if randomized:
                 self._randomize(i, rngs[k])
+        if randomized and self.randomization.physical and idx.size:
+            model = self.world.model  # each body's mass properties drawn above, set at once
+            self.world.set_model(BodyModel(model.mass, model.inertia))
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
@@ -662,7 +672,9 @@ class TaskBatch:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
         self.before_pass(idx, reset=True)
-        self._pass_rows(idx, rngs, stepped=False)
+        if self._draws:
+            self.streams.follow(rngs, idx)
+        self._pass_rows(idx, stepped=False)
         self._observe_period(idx)
         if self.sensors is not None:
             self.sensors.reset(self, idx, rngs)
@@ -680,10 +692,9 @@ class TaskBatch:
             mass, inertia = random_mass_properties(
                 rng, r, self.base_model.mass[0], self.base_model.inertia[0]
             )
-            model = self.world.model
+            model = self.world.model  # set in the world by reset_envs, once for all its envs
             model.mass[i] = mass
             model.inertia[i] = inertia
-            self.world.set_model(BodyModel(model.mass, model.inertia))
         if r.thrust > 0.0:
             if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
                 self.thrust_scale = np.ones((self.n, self.action_dim))

@@ -1,5 +1,7 @@
-"""The random draws of the envs' resets, each from the generator it is given (an env's own):
-directions, orientations, tumbles, and the domain randomisation of mass properties and thrust."""
+"""The random draws of the envs, each from the generator it is given (an env's own):
+directions, orientations, tumbles and the domain randomisation of mass properties and thrust at
+a reset; the sensor noise of a step, for many envs in one compiled pass
+(:class:`~rigid_env.envs.streams.EnvStreams`)."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.envs.params import Randomization
+from rigid_env.envs.streams import EnvStreams
 
 FloatArray = NDArray[np.float64]
 
@@ -62,15 +65,15 @@ def random_thrust(rng: np.random.Generator, r: Randomization, actions: int) -> F
 
 
 def sensor_noise(
-    rngs: list[np.random.Generator], sigma: float, skip: NDArray[np.bool_] | None = None
+    streams: EnvStreams, sigma: float, rows: NDArray[np.int64] | None = None, n: int = 0
 ) -> FloatArray:
-    """(K, 3) Gaussian noise of standard deviation ``sigma`` [rad/s] on the observed ``w``, one
-    row per generator (zeros, nothing drawn, where ``skip``)."""
-    if skip is None or not skip.any():
-        return np.stack([rng.normal(0.0, sigma, 3) for rng in rngs])
-    return np.stack(
-        [
-            np.zeros(3) if s else rng.normal(0.0, sigma, 3)
-            for rng, s in zip(rngs, skip.tolist(), strict=True)
-        ]
-    )
+    """(K, 3) Gaussian noise of standard deviation ``sigma`` [rad/s] on the observed ``w`` of the
+    envs ``rows`` (None: all), each drawn from its env's generator as ``normal(0, sigma, 3)``
+    draws it (``0 + sigma z``, NumPy's ``random_normal``), in one compiled pass; with ``n``, an
+    (n, 3) array with those rows filled and the others zero (nothing drawn for them)."""
+    noise = 0.0 + sigma * streams.standard_normals(rows, 3)
+    if not n:
+        return noise
+    out = np.zeros((n, 3))
+    out[rows] = noise
+    return out

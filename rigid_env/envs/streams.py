@@ -1,0 +1,117 @@
+"""Batched draws from the envs' own generators: row ``k`` of a batch drawn from env ``k``'s
+generator, for all the rows in one compiled pass instead of one Python call per env.
+
+Numba compiles NumPy's ``Generator`` methods to the same algorithms on the generator's own bit
+generator (its state is shared, not copied), so a compiled ``g.standard_normal()`` or
+``g.random()`` is the number NumPy's method would have drawn next, and leaves the generator where
+NumPy's would: an env draws the same stream whether it is stepped alone or in a batch, and its
+generator stays the one the caller holds. A method with parameters is its standard draw
+transformed as NumPy's C code transforms it, which the caller writes in NumPy on the batch:
+``normal(loc, scale) = loc + scale * standard_normal()`` and ``uniform(low, high) = low +
+(high - low) * random()`` (NumPy's ``random_normal`` and ``random_uniform``).
+
+:class:`EnvStreams` keeps the envs' generators in a Numba typed list (what a compiled pass can
+take), following the generators it is handed: an env's entry is replaced when a new generator
+(a new seed) comes for it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numba import njit
+from numba.typed import List
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+_draws = njit(cache=True, nogil=True)
+
+
+@_draws
+def _standard_normals(gens, rows, out):
+    """``out[k, j]``: the ``j``-th next standard normal of generator ``rows[k]``."""
+    for k in range(rows.size):
+        g = gens[rows[k]]
+        for j in range(out.shape[1]):
+            out[k, j] = g.standard_normal()
+
+
+@_draws
+def _randoms(gens, rows, out):
+    """``out[k, j]``: the ``j``-th next double in [0, 1) of generator ``rows[k]``."""
+    for k in range(rows.size):
+        g = gens[rows[k]]
+        for j in range(out.shape[1]):
+            out[k, j] = g.random()
+
+
+class EnvStreams:
+    """The generators of ``n`` envs, env ``i`` drawing from its own, for compiled draws over
+    many envs at once (:meth:`standard_normals`, :meth:`randoms`).
+
+    Before drawing, the caller says which generator each env draws from (:meth:`follow`); an
+    entry is replaced only when its generator changed (a new seed), so following the same
+    generators step after step costs a comparison of two lists.
+
+    Args:
+        n: the number of envs.
+    """
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self._gens: list[Any] = [None] * n
+        """Env ``i``'s generator (None before it is followed)."""
+        self._typed: Any = None
+        """The same generators in a Numba typed list (made at the first :meth:`follow`)."""
+        self._all = np.arange(n)
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled without the generators (a typed list does not pickle): the next
+        :meth:`follow` takes them again."""
+        return {"n": self.n}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(state["n"])
+
+    def follow(
+        self, rngs: Sequence[np.random.Generator], rows: NDArray[np.int64] | None = None
+    ) -> None:
+        """Env ``rows[k]`` draws from ``rngs[k]`` from now on (``rows`` None: env ``i`` from
+        ``rngs[i]``, all ``n``)."""
+        if rows is None:
+            if not isinstance(rngs, list):
+                rngs = list(rngs)
+            if rngs == self._gens:  # the same generators: one comparison in C (by identity)
+                return
+            if len(rngs) != self.n:
+                raise ValueError(f"rngs: expected {self.n} generators, got {len(rngs)}")
+            rows = self._all
+        if self._typed is None:
+            self._typed = List([rngs[0]] * self.n)  # placeholders, replaced below
+        gens, typed = self._gens, self._typed
+        for k, i in enumerate(rows.tolist()):
+            g = rngs[k]
+            if gens[i] is not g:
+                gens[i] = typed[i] = g
+
+    def standard_normals(self, rows: NDArray[np.int64] | None, width: int) -> FloatArray:
+        """(K, width) standard normals, row ``k`` the next ``width`` of env ``rows[k]``'s
+        generator (``rows`` None: every env's, K = n), as ``standard_normal(width)`` draws
+        them."""
+        rows = self._all if rows is None else rows
+        out = np.empty((rows.size, width))
+        if width and rows.size:
+            _standard_normals(self._typed, rows, out)
+        return out
+
+    def randoms(self, rows: NDArray[np.int64] | None, width: int) -> FloatArray:
+        """(K, width) doubles in [0, 1), row ``k`` the next ``width`` of env ``rows[k]``'s
+        generator (``rows`` None: every env's), as ``random(width)`` draws them."""
+        rows = self._all if rows is None else rows
+        out = np.empty((rows.size, width))
+        if width and rows.size:
+            _randoms(self._typed, rows, out)
+        return out
