@@ -104,7 +104,7 @@ class EnvStreams:
         rows = self._all if rows is None else rows
         out = np.empty((rows.size, width))
         if width and rows.size:
-            _standard_normals(self._typed, rows, out)
+            _standard_normals(self._followed(), rows, out)
         return out
 
     def randoms(self, rows: NDArray[np.int64] | None, width: int) -> FloatArray:
@@ -113,5 +113,11 @@ class EnvStreams:
         rows = self._all if rows is None else rows
         out = np.empty((rows.size, width))
         if width and rows.size:
-            _randoms(self._typed, rows, out)
+            _randoms(self._followed(), rows, out)
         return out
+
+    def _followed(self) -> Any:
+        """The typed list of the generators followed, or a one-line error before any."""
+        if self._typed is None:
+            raise RuntimeError("EnvStreams: no generators to draw from; call follow(rngs) first")
+        return self._typed
