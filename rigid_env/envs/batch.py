@@ -25,8 +25,12 @@ from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.hardware import (
     FAULT_KINDS,
+    FAULT_ROW,
+    NO_FAULT,
     Fault,
     Hardware,
+    apply_faults,
+    cross,
     draw_fault,
     misaligned,
     with_preset,
@@ -205,8 +209,10 @@ class TaskBatch:
         """(N, obs_dim) the latest observations (overwritten by every step and reset, unless
         :meth:`observe` gave them away: then a new buffer is written)."""
         self._obs_given = False
-        self.faults: list[Fault | None] = [None] * n
-        """Each env's thruster fault in its episode (``randomization.thruster_faults``), or None."""
+        self.fault_rows = np.array([NO_FAULT] * n, dtype=FAULT_ROW)
+        """(N,) each env's thruster fault in its episode (``randomization.thruster_faults``) as a
+        :data:`~rigid_env.envs.hardware.FAULT_ROW` (:data:`~rigid_env.envs.hardware.NO_FAULT`:
+        none); :attr:`faults` by env."""
         self._thrusters = [e for e in self.world.force_effects if isinstance(e, Thrusters)]
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
@@ -422,9 +428,7 @@ class TaskBatch:
             else:
                 self.command[:] = demand
         if self.randomization.thruster_faults is not None:
-            for i, fault in enumerate(self.faults):
-                if fault is not None:
-                    fault.apply(self.command[i], int(self.steps[i]))
+            apply_faults(self.command, self.steps, self.fault_rows)
 
     def _draw_thrust_factors(self, skip: NDArray[np.bool_] | None = None) -> None:
         """Each env's thrust noise factors for this step from its own generator (factor 1,
@@ -703,7 +707,8 @@ class TaskBatch:
         if r.thruster_misalignment > 0.0:
             self._misalign(i, rng, r.thruster_misalignment)
         if r.thruster_faults is not None:
-            self.faults[i] = draw_fault(rng, r.thruster_faults, self.action_dim)
+            fault = draw_fault(rng, r.thruster_faults, self.action_dim)
+            self.fault_rows[i] = NO_FAULT if fault is None else fault.row
         if r.drawn_repeat:
             choices = r.action_repeat
             self.repeats[i] = choices[int(rng.integers(len(choices)))]
@@ -726,7 +731,7 @@ class TaskBatch:
                 d = misaligned(effect.directions, rng, degrees)
                 force = d * effect.max_force[:, None]
                 maps[i, k : k + rows, :3] = force
-                maps[i, k : k + rows, 3:] = np.cross(effect.points, force)
+                maps[i, k : k + rows, 3:] = cross(effect.points, force)
             k += rows
 
     def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
@@ -791,24 +796,27 @@ class TaskBatch:
             return None
         return self.substeps if self._repeating else self.world.substeps_taken
 
+    @property
+    def faults(self) -> list[Fault | None]:
+        """Each env's thruster fault in its episode (None: none), read from :attr:`fault_rows`."""
+        return [
+            None if k < 0 else Fault(k, step, FAULT_KINDS[kind], level)
+            for k, step, kind, level in self.fault_rows.tolist()
+        ]
+
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
         """Where faults are drawn: each env's failed thruster (-1: none), the step its fault
         starts, its kind (index in :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and
         level, and whether it acts now."""
         if self.randomization.thruster_faults is None:
             return {}
-        f = [
-            (-1, -1, -1, 0.0)
-            if x is None
-            else (x.thruster, x.step, FAULT_KINDS.index(x.kind), x.level)
-            for x in self.faults
-        ]
-        thruster, step, kind, level = (np.array(c) for c in zip(*f, strict=True))
+        rows = self.fault_rows
+        thruster, step = rows["thruster"], rows["step"]
         return {
             "fault_thruster": thruster,
             "fault_step": step,
-            "fault_kind": kind,
-            "fault_level": level.astype(np.float64),
+            "fault_kind": rows["kind"],
+            "fault_level": rows["level"],
             "fault_active": (thruster >= 0) & (self.steps > step),
         }
 
