@@ -201,18 +201,33 @@ def draw_fault(rng: np.random.Generator, faults: ThrusterFaults, actions: int) -
 def misaligned(directions: FloatArray, rng: np.random.Generator, max_degrees: float) -> FloatArray:
     """(A, 3) unit ``directions`` each tilted by an angle uniform in ``[0, max_degrees]`` about
     an axis perpendicular to it, uniform in angle: ``d cos t + e sin t`` with ``e`` a unit
-    vector normal to ``d``."""
-    out = np.empty_like(directions)
-    for k, d in enumerate(directions):
-        tilt = math.radians(max_degrees) * rng.random()
-        phi = 2.0 * math.pi * rng.random()
-        a = np.array([1.0, 0.0, 0.0]) if abs(d[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        e1 = cross(d, a)
-        e1 /= np.linalg.norm(e1)
-        e2 = cross(d, e1)
-        e = math.cos(phi) * e1 + math.sin(phi) * e2
-        out[k] = math.cos(tilt) * d + math.sin(tilt) * e
-    return out
+    vector normal to ``d``. Drawn thruster after thruster, its tilt then its angle; the
+    thrusters' arithmetic done together (each vector's norm and each sine by itself, as for one
+    thruster)."""
+    u = rng.random(2 * len(directions)).reshape(-1, 2)  # the draws of random() in turn
+    tilt = math.radians(max_degrees) * u[:, 0]
+    phi = 2.0 * math.pi * u[:, 1]
+    d = directions
+    a = np.where((np.abs(d[:, 0]) < 0.9)[:, None], _X_AXIS, _Y_AXIS)
+    e1 = cross(d, a)
+    e1 /= np.array([[np.linalg.norm(row)] for row in e1])
+    e2 = cross(d, e1)
+    cos_phi, sin_phi = _cos_sin(phi)
+    e = cos_phi * e1 + sin_phi * e2
+    cos_tilt, sin_tilt = _cos_sin(tilt)
+    return cos_tilt * d + sin_tilt * e
+
+
+_X_AXIS, _Y_AXIS = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+
+
+def _cos_sin(angles: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """(K, 1) ``math.cos`` and ``math.sin`` of each angle (K,) (the C library's, as for one)."""
+    values = angles.tolist()
+    return (
+        np.array([[math.cos(x)] for x in values]),
+        np.array([[math.sin(x)] for x in values]),
+    )
 
 
 @dataclass(frozen=True)
