@@ -260,6 +260,8 @@ class TaskBatch:
         (the task's :meth:`demand`, thrust randomisation or faults); else they are one array."""
         self._threaded = threads.threaded(n)
         """Whether a pass over all the envs is split over the cores."""
+        self._reads_world = type(self).before_pass is not TaskBatch.before_pass
+        """Whether the task reads more of the world before its pass (:meth:`before_pass`)."""
         self._counts_commands = self._hardware.counts_commands
         """Whether the fuel is the pass's count of the commands (no thruster hardware)."""
         self._faulty = r.thruster_faults is not None
@@ -540,7 +542,7 @@ class TaskBatch:
             self.streams.follow(rngs)
         if self._noisy:
             self._draw_thrust_factors(skip)
-        failed = self._advance()
+        failed = self.world.advance(self.command) if self._counts_commands else self._advance()
         if self._obs_given:
             self._own_obs(keep=stepping is not None)
         noise = self._no_noise
@@ -548,7 +550,8 @@ class TaskBatch:
             some = skip is not None and skip.any()
             rows = np.flatnonzero(~skip) if some else None
             noise = sensor_noise(self.streams, self._sigma, rows, self.n if some else 0)
-        self.before_pass(slice(None), reset=False)
+        if self._reads_world:
+            self.before_pass(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
                                 noise, self.record, self.obs), True, self._threaded)  # fmt: skip
         if not self._counts_commands:
