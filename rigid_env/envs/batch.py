@@ -36,7 +36,12 @@ from rigid_env.envs.hardware import (
     with_preset,
 )
 from rigid_env.envs.params import EnvSettings, TaskParams, numbers, parse_kwargs
-from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
+from rigid_env.envs.sampling import (
+    mass_property_draws,
+    random_mass_properties,
+    random_thrust,
+    sensor_noise,
+)
 from rigid_env.envs.sensors import RowNormals, SensorSuite
 from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
@@ -651,16 +656,23 @@ class TaskBatch:
         draws = []
         r = self.randomization
         randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
-        for k, i in enumerate(idx.tolist()):
-            draws.append(self.sample(rngs[k]))
-            if np.shape(draws[-1][4]) != (self.target_dim,):
-                raise ValueError(
-                    f"{type(self).__name__}.sample: drew a target of shape "
-                    f"{np.shape(draws[-1][4])}, the task declares target_dim = {self.target_dim}; "
-                    "return a target of target_dim numbers (or declare its size in target_dim)"
-                )
-            if randomized:
-                self._randomize(i, rngs[k])
+        # Each env draws its initial state, then its episode's randomisation, from its own
+        # generator: all the envs' states, then all their randomisations (the draws of many at
+        # once), unless envs share a generator: then env by env, in order.
+        shared = randomized and len({id(g) for g in rngs}) < len(rngs)
+        groups = [[k] for k in range(idx.size)] if shared else [list(range(idx.size))]
+        for group in groups:
+            for k in group:
+                draws.append(self.sample(rngs[k]))
+                if np.shape(draws[-1][4]) != (self.target_dim,):
+                    raise ValueError(
+                        f"{type(self).__name__}.sample: drew a target of shape "
+                        f"{np.shape(draws[-1][4])}, the task declares target_dim = "
+                        f"{self.target_dim}; return a target of target_dim numbers (or declare "
+                        "its size in target_dim)"
+                    )
+            if randomized and group:
+                self._randomize(idx[group], [rngs[k] for k in group])
         if randomized and self.randomization.physical and idx.size:
             model = self.world.model  # each body's mass properties drawn above, set at once
             self.world.set_model(BodyModel(model.mass, model.inertia))
@@ -686,8 +698,17 @@ class TaskBatch:
         if self.sensors is not None:
             self.sensors.reset(self, idx, rngs)
 
-    def _randomize(self, i: int, rng: np.random.Generator) -> None:
+    def _randomize(self, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
+        """The episode draws of the envs ``rows`` (``rngs``: their generators, one each): their
+        mass properties and thrust scales from their uniform draws (all the envs' in one
+        compiled pass), then env by env their thrusters' misalignment, fault and control
+        period."""
         r = self.randomization
+        physical = mass_property_draws(r)
+        thrust = self.action_dim if r.thrust > 0.0 else 0
+        if physical + thrust:
+            self.streams.follow(rngs, rows)
+            u = self.streams.randoms(rows, physical + thrust)
         if r.physical:
             if self.world.model.n == 1:  # first randomised reset: give every body its own copy
                 self.world.set_model(
@@ -697,24 +718,27 @@ class TaskBatch:
                     )
                 )
             mass, inertia = random_mass_properties(
-                rng, r, self.base_model.mass[0], self.base_model.inertia[0]
+                u[:, :physical], r, self.base_model.mass[0], self.base_model.inertia[0]
             )
             model = self.world.model  # set in the world by reset_envs, once for all its envs
-            model.mass[i] = mass
-            model.inertia[i] = inertia
-        if r.thrust > 0.0:
+            model.mass[rows] = mass
+            model.inertia[rows] = inertia
+        if thrust:
             if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
                 self.thrust_scale = np.ones((self.n, self.action_dim))
                 self.command = self.last_action * self.thrust_scale
-            self.thrust_scale[i] = random_thrust(rng, r, self.action_dim)
-        if r.thruster_misalignment > 0.0:
-            self._misalign(i, rng, r.thruster_misalignment)
-        if r.thruster_faults is not None:
-            fault = draw_fault(rng, r.thruster_faults, self.action_dim)
-            self.fault_rows[i] = NO_FAULT if fault is None else fault.row
-        if r.drawn_repeat:
-            choices = r.action_repeat
-            self.repeats[i] = choices[int(rng.integers(len(choices)))]
+            self.thrust_scale[rows] = random_thrust(u[:, physical:], r)
+        if not (r.hardware or r.drawn_repeat):
+            return
+        for i, rng in zip(rows.tolist(), rngs, strict=True):
+            if r.thruster_misalignment > 0.0:
+                self._misalign(i, rng, r.thruster_misalignment)
+            if r.thruster_faults is not None:
+                fault = draw_fault(rng, r.thruster_faults, self.action_dim)
+                self.fault_rows[i] = NO_FAULT if fault is None else fault.row
+            if r.drawn_repeat:
+                choices = r.action_repeat
+                self.repeats[i] = choices[int(rng.integers(len(choices)))]
 
     def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
         """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""
