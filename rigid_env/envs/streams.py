@@ -31,21 +31,36 @@ _draws = njit(cache=True, nogil=True)
 
 
 @_draws
-def _standard_normals(gens, rows, out):
-    """``out[k, j]``: the ``j``-th next standard normal of generator ``rows[k]``."""
-    for k in range(rows.size):
-        g = gens[rows[k]]
-        for j in range(out.shape[1]):
-            out[k, j] = g.standard_normal()
+def _draw(g, normal):
+    """The next standard normal of generator ``g`` (``normal``), else its next double in
+    [0, 1)."""
+    return g.standard_normal() if normal else g.random()
 
 
 @_draws
-def _randoms(gens, rows, out):
-    """``out[k, j]``: the ``j``-th next double in [0, 1) of generator ``rows[k]``."""
+def _draw_picked(gens, rows, out, normal):
+    """``out[k, j]``: the ``j``-th next draw of generator ``rows[k]``, picked by index (a few
+    rows of many)."""
     for k in range(rows.size):
         g = gens[rows[k]]
         for j in range(out.shape[1]):
-            out[k, j] = g.random()
+            out[k, j] = _draw(g, normal)
+
+
+@_draws
+def _draw_sweep(gens, rows, out, normal):
+    """:func:`_draw_picked` for increasing ``rows``, walking the generators in order (a walk
+    costs a fifth of picking by index per generator)."""
+    k = 0
+    i = 0
+    for g in gens:
+        if k == rows.size:
+            break
+        if rows[k] == i:
+            for j in range(out.shape[1]):
+                out[k, j] = _draw(g, normal)
+            k += 1
+        i += 1
 
 
 class EnvStreams:
@@ -101,19 +116,21 @@ class EnvStreams:
         """(K, width) standard normals, row ``k`` the next ``width`` of env ``rows[k]``'s
         generator (``rows`` None: every env's, K = n), as ``standard_normal(width)`` draws
         them."""
-        rows = self._all if rows is None else rows
-        out = np.empty((rows.size, width))
-        if width and rows.size:
-            _standard_normals(self._followed(), rows, out)
-        return out
+        return self._draws(rows, width, normal=True)
 
     def randoms(self, rows: NDArray[np.int64] | None, width: int) -> FloatArray:
         """(K, width) doubles in [0, 1), row ``k`` the next ``width`` of env ``rows[k]``'s
         generator (``rows`` None: every env's), as ``random(width)`` draws them."""
+        return self._draws(rows, width, normal=False)
+
+    def _draws(self, rows: NDArray[np.int64] | None, width: int, normal: bool) -> FloatArray:
+        """The draws of :meth:`standard_normals` or :meth:`randoms`: a walk over the generators
+        for many increasing rows, else picked by index."""
+        many = rows is None or (4 * rows.size >= self.n and bool(np.all(rows[1:] > rows[:-1])))
         rows = self._all if rows is None else rows
         out = np.empty((rows.size, width))
         if width and rows.size:
-            _randoms(self._followed(), rows, out)
+            (_draw_sweep if many else _draw_picked)(self._followed(), rows, out, normal)
         return out
 
     def _followed(self) -> Any:
