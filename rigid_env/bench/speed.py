@@ -21,6 +21,9 @@ writes ``speed.md`` (one table per measurement), ``speed.csv`` (one row per meas
    them; the no-effect world is measured twice (the noise floor).
 5. ``ppo``: PPO's environment steps per second with our SB3 adapter, ``DummyVecEnv`` and
    ``SubprocVecEnv`` (same PPO settings and number of environments).
+6. ``random``: env-steps per second of the vector env of every shipped policy whose training
+   env draws per episode or step (its config's randomisation and sensors, or a variant's own),
+   and the cost of a reset per env, each beside the same env without those draws.
 
 Timing is :mod:`rigid_env.bench.timing`'s (peers interleaved round by round, medians, ratios
 within a run); writing is :mod:`rigid_env.bench.report`'s. This module holds the cases, and
@@ -58,6 +61,8 @@ from rigid_env.bench.speed_rows import (
     PPO_ADAPTER,
     PPO_DUMMY,
     PPO_SUBPROC,
+    RANDOMISED,
+    RESET,
     SECTIONS,
     SYNC_CASE,
     Config,
@@ -117,7 +122,7 @@ SMOKE = replace(
     FULL, name="smoke", min_time=0.0, repeats=1, core_sizes=(1, 8),
     core_integrators=("symplectic_euler", "rk4"), env_ids=(DETUMBLE,), vec_sizes=(4, 8),
     sync_sizes=(4,), effect_sizes=(1, 8), ppo_timesteps=64, ppo_repeats=1, ppo_warmup=False,
-    ppo_n_envs=(2,), ppo_n_steps=32, ppo_batch_size=64,
+    ppo_n_envs=(2,), ppo_n_steps=32, ppo_batch_size=64, random_size=8,
 )  # fmt: skip
 """A tiny run of all the machinery, for the test-suite (numbers meaningless)."""
 
@@ -598,6 +603,96 @@ def bench_ppo(cfg: Config, res: Results) -> None:
 
 
 # --------------------------------------------------------------------------------------------
+# 6. Randomisation and sensors: the vector env's steps and resets beside the nominal env's
+# --------------------------------------------------------------------------------------------
+
+RESET_EVERY = 16
+"""A timed reset restarts every 16th env of the N (autoresets restart a few envs at a time)."""
+
+
+def shipped_randomisations() -> dict[str, tuple[str, dict[str, Any], dict[str, Any]]]:
+    """Name -> (env id, nominal kwargs, shipped kwargs) of every shipped policy whose training
+    env draws per episode or per step: its config's ``env_kwargs`` (over a variant's own) hold a
+    randomisation or sensors. The nominal kwargs are the same with both switched off."""
+    import yaml
+
+    from rigid_env.agents.shipped import POLICIES
+    from rigid_env.envs import VARIANTS, merge_kwargs
+    from rigid_env.resources import agent_config_path
+
+    out = {}
+    for env_id, stem in POLICIES.items():
+        config = yaml.safe_load(agent_config_path(f"ppo_{stem}").read_text(encoding="utf-8"))
+        shipped = dict(config.get("env_kwargs") or {})
+        variant = VARIANTS.get(env_id.split("/")[-1])
+        drawn = merge_kwargs(variant.kwargs if variant else {}, shipped)
+        if not (drawn.get("randomization") or drawn.get("sensors")):
+            continue
+        nominal = {**shipped, "randomization": None, "sensors": None}
+        out[short_id(env_id)] = (env_id, nominal, shipped)
+    return out
+
+
+def _random_cases(name: str, env_id: str, kwargs: dict[str, Any], n: int) -> list[Case]:
+    """The step and the reset of ``env_id``'s vector env of ``n`` envs made with ``kwargs``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(8)]
+    env.reset(seed=0)
+    task, rngs = env.unwrapped.task, env.unwrapped._rngs
+    rows = np.arange(0, n, min(RESET_EVERY, n))
+    own = [rngs[i] for i in rows]
+    i = 0
+
+    def step() -> None:
+        nonlocal i
+        env.step(actions[i % len(actions)])
+        i += 1
+
+    return [
+        Case(name, step, n, close=env.close),
+        Case(name + RESET, lambda: task.reset_envs(rows, own), rows.size),
+    ]
+
+
+def bench_random(cfg: Config, res: Results) -> None:
+    """Env-steps/s and the cost of a reset per env, with and without the shipped draws."""
+    n = cfg.random_size
+    for name, (env_id, nominal, shipped) in shipped_randomisations().items():
+        cases = _random_cases(name, env_id, nominal, n)
+        cases += _random_cases(name + RANDOMISED, env_id, shipped, n)
+        timings = measure(cases, min_time=cfg.min_time, repeats=cfg.repeats, clock=cfg.clock)
+        for case in (name, name + RANDOMISED):
+            t, peer = timings[case], timings[name]
+            res.rows.append(
+                _row("random", case, n, "env_steps_per_s", "1/s", t, t.rate, peer=name,
+                     ratio=t.rate / peer.rate)
+            )  # fmt: skip
+            t, peer = timings[case + RESET], timings[name + RESET]
+            res.rows.append(
+                _row("random", case + RESET, n, "us_per_reset_env", "us", t, t.per_unit * 1e6,
+                     peer=name + RESET, ratio=t.per_unit / peer.per_unit)
+            )  # fmt: skip
+        del cases
+        gc.collect()
+        _log(f"  random {name}: done")
+    res.notes["random"] = [
+        f'`gym.make_vec(id, num_envs={n}, vectorization_mode="vector_entry_point", '
+        "**env_kwargs)` of every shipped policy whose training env draws per episode or step, "
+        "with its config's `env_kwargs` (*randomised*: `configs/agents/ppo_<task>.yaml`, over a "
+        "variant's own) and with the same `randomization=None, sensors=None` (nominal). "
+        "Steps: random actions drawn beforehand, autoreset as the env does it (an episode's "
+        f"reset is part of the step's cost). Resets: `reset_envs` of every {RESET_EVERY}th env, "
+        "each drawing from its own generator; cost per reset env.",
+        "Ratios: env-steps/s over the nominal env's (higher is faster); time per reset env "
+        "over the nominal env's (lower is faster). An action repeat (TumblingFall) makes an env "
+        "step several world steps, so its env-steps/s fall by that factor for the physics alone.",
+    ]
+
+
+# --------------------------------------------------------------------------------------------
 # Command
 # --------------------------------------------------------------------------------------------
 
@@ -608,6 +703,7 @@ MEASUREMENTS = {
     "vec": bench_vec,
     "effects": bench_effects,
     "ppo": bench_ppo,
+    "random": bench_random,
 }
 """Section name -> the function that measures it into :class:`Results`."""
 

@@ -23,6 +23,8 @@ from rigid_env.bench.speed_rows import (
     PPO_ADAPTER,
     PPO_DUMMY,
     PPO_SUBPROC,
+    RANDOMISED,
+    RESET,
     SECTIONS,
     SYNC_CASE,
     Results,
@@ -245,12 +247,55 @@ def ppo(res: Results) -> tuple[Section, Panel]:
     return section, panel
 
 
+def random(res: Results) -> tuple[Section, Panel]:
+    """Each env's steps and resets with its shipped draws beside its nominal ones; bars of the
+    step ratios."""
+    names = [r.case for r in res.section("random") if not r.case.endswith((RANDOMISED, RESET))]
+    table, shown = [], []
+    for name in names:
+        n = next(r.n for r in res.section("random") if r.case == name)
+        step, rand = res.get("random", name, n), res.get("random", name + RANDOMISED, n)
+        reset = res.get("random", name + RESET, n)
+        rand_reset = res.get("random", name + RANDOMISED + RESET, n)
+        assert step and rand and reset and rand_reset  # measured together
+        table.append(
+            [f"`{name}`", str(n), si(step.value), si(rand.value), times(rand.ratio),
+             f"{reset.value:.3g}", f"{rand_reset.value:.3g}", times(rand_reset.ratio)]
+        )  # fmt: skip
+        shown.append((name, rand, rand_reset))
+    header = [
+        "env", "N", "nominal env-steps/s", "randomised env-steps/s", "x nominal",
+        "nominal us/reset env", "randomised us/reset env", "x nominal",
+    ]  # fmt: skip
+    section = Section(
+        "6. Randomisation and sensors: the vector env's steps and resets",
+        res.notes["random"],
+        [Table(header, table, "lrrrrrrr")],
+    )
+    bars = Series(
+        "",
+        [],
+        [r.ratio for _, r, _ in shown],
+        color="tab:blue",
+        notes=[f"{times(r.ratio)}; reset {times(z.ratio)}" for _, r, z in shown],
+    )
+    panel = Panel(
+        "barh",
+        "(6) shipped randomisation and sensors (x = env-steps/s over the nominal env's)",
+        "env-steps/s, randomised / nominal (higher is faster)",
+        series=[bars],
+        categories=[name for name, _, _ in shown],
+    )
+    return section, panel
+
+
 LAYOUTS: dict[str, Callable[[Results], tuple[Section, Panel]]] = {
     "core": core,
     "env": env,
     "vec": vec,
     "effects": effects,
     "ppo": ppo,
+    "random": random,
 }
 """Section name -> its tables and panel."""
 

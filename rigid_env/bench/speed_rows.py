@@ -9,7 +9,7 @@ from dataclasses import dataclass, field, fields
 
 from rigid_env.core import INTEGRATORS
 
-SECTIONS = ("core", "env", "vec", "effects", "ppo")
+SECTIONS = ("core", "env", "vec", "effects", "ppo", "random")
 """The measurements, in the order they run and appear."""
 
 MJ_INTEGRATORS = {"Euler": "symplectic_euler", "RK4": "rk4"}
@@ -23,6 +23,11 @@ NOISE_FLOOR = "no effects (again)"
 PPO_ADAPTER = "RigidBodySB3VecEnv"
 PPO_DUMMY = "DummyVecEnv"
 PPO_SUBPROC = "SubprocVecEnv"
+RANDOMISED = " randomised"
+"""The suffix of a ``random`` case measured with its shipped randomisation and sensors (the case
+without it is its nominal peer)."""
+RESET = " reset"
+"""The suffix of a ``random`` case that times resets (per reset env) rather than steps."""
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,8 @@ class Config:
     """PPO minibatch size."""
     effect_integrator: str = "rk4"
     """Integrator of the effects measurement."""
+    random_size: int = 4096
+    """``num_envs`` of the randomisation measurement (its steps and resets)."""
     clock: str = "wall"
     """``wall`` or ``cpu`` (:data:`rigid_env.bench.timing.CLOCKS`); PPO is always timed on
     the wall clock (its SubprocVecEnv works in other processes)."""

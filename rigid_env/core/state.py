@@ -83,9 +83,11 @@ class BodyModel:
         return np.stack([np.broadcast_to(named[name], (n,)) for name in Body._fields], axis=1)
 
     def columns(self, n: int) -> FloatArray:
-        """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated)."""
+        """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated),
+        C-contiguous whether the bodies share a row or each has its own (the compiled step is
+        specialised by layout: a per-body model laid out by body ran the step at half speed)."""
         rows = self.rows()
-        return np.array(np.broadcast_to(rows, (n, rows.shape[1])).T)
+        return np.ascontiguousarray(np.broadcast_to(rows, (n, rows.shape[1])).T)
 
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:

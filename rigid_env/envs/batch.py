@@ -25,8 +25,12 @@ from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.hardware import (
     FAULT_KINDS,
+    FAULT_ROW,
+    NO_FAULT,
     Fault,
     Hardware,
+    apply_faults,
+    cross,
     draw_fault,
     misaligned,
     with_preset,
@@ -38,8 +42,14 @@ from rigid_env.envs.params import (
     parse_kwargs,
     refuse_idle_draws,
 )
-from rigid_env.envs.sampling import random_mass_properties, random_thrust, sensor_noise
-from rigid_env.envs.sensors import SensorSuite
+from rigid_env.envs.sampling import (
+    mass_property_draws,
+    random_mass_properties,
+    random_thrust,
+    sensor_noise,
+)
+from rigid_env.envs.sensors import RowNormals, SensorSuite
+from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
 from rigid_env.resources import scene_path
 from rigid_env.scene import Scene, load_scene
@@ -213,12 +223,17 @@ class TaskBatch:
         """(N, obs_dim) the latest observations (overwritten by every step and reset, unless
         :meth:`observe` gave them away: then a new buffer is written)."""
         self._obs_given = False
-        self.faults: list[Fault | None] = [None] * n
-        """Each env's thruster fault in its episode (``randomization.thruster_faults``), or None."""
+        self.fault_rows = np.array([NO_FAULT] * n, dtype=FAULT_ROW)
+        """(N,) each env's thruster fault in its episode (``randomization.thruster_faults``) as a
+        :data:`~rigid_env.envs.hardware.FAULT_ROW` (:data:`~rigid_env.envs.hardware.NO_FAULT`:
+        none); :attr:`faults` by env."""
         self._thrusters = [e for e in self.world.force_effects if isinstance(e, Thrusters)]
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
+        self.streams = EnvStreams(n)
+        """The envs' generators for the draws of a step (thrust and sensor noise), all the envs
+        in one compiled pass, each from its own generator."""
         repeats = self.randomization.action_repeat or (1,)
         self.repeats = np.full(n, repeats[0], dtype=np.int64)
         """(N,) world steps each env holds an action for in its episode (its control period
@@ -240,6 +255,37 @@ class TaskBatch:
         self._check_extra_observations()
         self.sensors = SensorSuite.of(settings.sensors, self)
         """The observation's sensors (the ``sensors`` keyword; None: off, the truth observed)."""
+        self._plan_step()
+
+    def _plan_step(self) -> None:
+        """Decide once what construction fixes about a step, for the step to read and not
+        decide again: the action's accepted shapes, whether the bodies' command is made apart
+        from the action, whether a pass over all the envs is split over the cores, whether the
+        fuel is the pass's count of the commands, and which infos are reported."""
+        n, a = self.n, self.action_dim
+        self._action_shapes = ((n, a), (a,)) if n == 1 else ((n, a),)
+        r = self.randomization
+        self._commands_apart = (
+            type(self).demand is not TaskBatch.demand
+            or r.thrust > 0.0
+            or r.thruster_faults is not None
+        )
+        """Whether :meth:`check_action` makes :attr:`command` apart from :attr:`last_action`
+        (the task's :meth:`demand`, thrust randomisation or faults); else they are one array."""
+        self._threaded = threads.threaded(n)
+        """Whether a pass over all the envs is split over the cores."""
+        self._reads_world = type(self).before_pass is not TaskBatch.before_pass
+        """Whether the task reads more of the world before its pass (:meth:`before_pass`)."""
+        self._counts_commands = self._hardware.counts_commands
+        """Whether the fuel is the pass's count of the commands (no thruster hardware)."""
+        self._faulty = r.thruster_faults is not None
+        """Whether faults are drawn (and reported in the infos)."""
+        self._reports_substeps = self.world.tolerances is not None
+        """Whether the infos report the substeps (an error-controlled integrator)."""
+        measuring = self.sensors is not None and self.sensors.measuring
+        self._draws = self._noisy or self._sigma > 0.0 or measuring
+        """Whether a step draws (thrust noise, sensor noise, sensors): the step's generators are
+        then followed by :attr:`streams`."""
 
     # ---- task interface ------------------------------------------------------------------
     def angular_velocity_scale(self) -> float:
@@ -374,17 +420,21 @@ class TaskBatch:
                 silently simulated).
         """
         act = as_actions(action)
-        if act.shape != (self.n, self.action_dim):
-            if self.n == 1 and act.shape == (self.action_dim,):
-                act = act.reshape(1, -1)
-            else:
-                raise ValueError(
-                    f"action: expected shape ({self.n}, {self.action_dim})"
-                    f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
-                    f"got {act.shape}"
-                )
+        if act.shape not in self._action_shapes:
+            raise ValueError(
+                f"action: expected shape ({self.n}, {self.action_dim})"
+                f"{' or (' + str(self.action_dim) + ',)' if self.n == 1 else ''}, "
+                f"got {act.shape}"
+            )
         if K.clip_commands(np.ascontiguousarray(act), self.last_action) < 0:
             raise ValueError(_NON_FINITE_ACTION)
+        if self._commands_apart:
+            self._make_command()
+        return self.last_action
+
+    def _make_command(self) -> None:
+        """The bodies' :attr:`command` from the clipped :attr:`last_action`: the task's
+        :meth:`demand`, times the thrust scales once thrust is randomised, then the faults."""
         demand = self.demand(self.last_action)
         if self.thrust_scale is not None:
             np.multiply(demand, self.thrust_scale, out=self.command)
@@ -394,21 +444,17 @@ class TaskBatch:
             else:
                 self.command[:] = demand
         if self.randomization.thruster_faults is not None:
-            for i, fault in enumerate(self.faults):
-                if fault is not None:
-                    fault.apply(self.command[i], int(self.steps[i]))
-        return self.last_action
+            apply_faults(self.command, self.steps, self.fault_rows)
 
-    def _draw_thrust_factors(
-        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
-    ) -> None:
+    def _draw_thrust_factors(self, skip: NDArray[np.bool_] | None = None) -> None:
         """Each env's thrust noise factors for this step from its own generator (factor 1,
-        nothing drawn, for envs about to restart: as a single env's generator sees it)."""
-        for k, rng in enumerate(rngs):
-            if skip is not None and skip[k]:
-                self.world.thrust_factors[k] = 1.0
-            else:
-                self.world.draw_thrust_factors(rng, rows=k)
+        nothing drawn, for envs about to restart: as a single env's generator sees it), all
+        drawn in one compiled pass (:attr:`streams`, following the step's generators)."""
+        rows = None if skip is None or not skip.any() else np.flatnonzero(~skip)
+        if rows is not None:
+            self.world.thrust_factors[skip] = 1.0
+        normals = self.streams.standard_normals(rows, self.action_dim)
+        self.world.draw_thrust_factors(RowNormals(normals), rows=rows)
 
     def step(
         self, rngs: Sequence[np.random.Generator], restarting: NDArray[np.bool_] | None = None
@@ -503,26 +549,43 @@ class TaskBatch:
         envs to step (default all); the others are held: their bodies frozen in the world
         (:attr:`World.failed`: a frozen body is left as it is, its thrust levels included),
         nothing drawn from their generators, and the pass run over the stepping envs only."""
+        if stepping is not None and not stepping.all():
+            return self._step_some(rngs, stepping)
         world = self.world
-        some = stepping is not None and not stepping.all()
+        if self._draws:
+            self.streams.follow(rngs)
         if self._noisy:
-            self._draw_thrust_factors(rngs, skip if stepping is None else ~stepping)
-        if some:
-            failed = self._advance_held(~stepping & ~world.failed)
-        else:
-            failed = self._advance()
-        self._own_obs(keep=stepping is not None)
-        if some:
-            idx = np.flatnonzero(stepping)
-            self.before_pass(idx, reset=False)
-            self._pass_rows(idx, [rngs[i] for i in idx], stepped=True)
-            self._count_delivered(idx)
-            return failed
-        noise = self._no_noise if self._sigma <= 0.0 else self._noise(rngs, skip)
-        self.before_pass(slice(None), reset=False)
+            self._draw_thrust_factors(skip)
+        failed = self.world.advance(self.command) if self._counts_commands else self._advance()
+        if self._obs_given:
+            self._own_obs(keep=stepping is not None)
+        noise = self._no_noise
+        if self._sigma > 0.0:
+            some = skip is not None and skip.any()
+            rows = np.flatnonzero(~skip) if some else None
+            noise = sensor_noise(self.streams, self._sigma, rows, self.n if some else 0)
+        if self._reads_world:
+            self.before_pass(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
-                                noise, self.record, self.obs), True)  # fmt: skip
-        self._count_delivered()
+                                noise, self.record, self.obs), True, self._threaded)  # fmt: skip
+        if not self._counts_commands:
+            self._count_delivered()
+        return failed
+
+    def _step_some(
+        self, rngs: Sequence[np.random.Generator], stepping: NDArray[np.bool_]
+    ) -> NDArray[np.bool_]:
+        """:meth:`_step_envs` of the envs ``stepping`` only, the others held."""
+        if self._draws:
+            self.streams.follow(rngs)
+        if self._noisy:
+            self._draw_thrust_factors(~stepping)
+        failed = self._advance_held(~stepping & ~self.world.failed)
+        self._own_obs(keep=True)
+        idx = np.flatnonzero(stepping)
+        self.before_pass(idx, reset=False)
+        self._pass_rows(idx, stepped=True)
+        self._count_delivered(idx)
         return failed
 
     def _advance_held(self, held: NDArray[np.bool_]) -> NDArray[np.bool_]:
@@ -539,7 +602,7 @@ class TaskBatch:
         minimum impulse bit, noise), each env's fuel after it, counted as the impulse the
         thrusters deliver (:meth:`~rigid_env.envs.hardware.Hardware.delivered`), for
         :meth:`_count_delivered` to put in place of the pass's count of the commands."""
-        if self._hardware.counts_commands:
+        if self._counts_commands:
             return self.world.advance(self.command)
         levels = self.world.thrust_levels
         levels = None if levels is None else levels.copy()
@@ -556,31 +619,33 @@ class TaskBatch:
             rows = slice(None) if idx is None else idx
             self.record["fuel"][rows] = self._fuel_after[rows]
 
-    def _pass_rows(
-        self, idx: NDArray[np.int64], rngs: Sequence[np.random.Generator], stepped: bool
-    ) -> None:
+    def _pass_rows(self, idx: NDArray[np.int64], stepped: bool) -> None:
         """The task's pass over the envs ``idx`` only (after a step of some, or a reset),
-        sensor noise drawn from ``rngs`` (one per index): their rows of the record and the
-        observation written, the others kept."""
+        sensor noise drawn from their generators (:attr:`streams`, following them): their rows
+        of the record and the observation written, the others kept."""
         record, obs = self.record[idx], self.obs[idx]
         cols = np.ascontiguousarray(self.world.columns[:, idx])
         model = np.ascontiguousarray(self.world.model_columns[:, idx])
-        self._pass(self._arrays(cols, model, self.command[idx], self.target[idx],
-                                self._noise(rngs), record, obs), stepped)  # fmt: skip
+        noise = self._no_noise
+        if self._sigma > 0.0:
+            noise = sensor_noise(self.streams, self._sigma, idx)
+        arrays = self._arrays(cols, model, self.command[idx], self.target[idx],
+                              noise, record, obs)  # fmt: skip
+        self._pass(arrays, stepped, threads.threaded(idx.size))
         self.record[idx], self.obs[idx] = record, obs
 
     def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
         return (state, model, command, target, noise, record, obs, self.max_force)
 
-    def _pass(self, arrays: tuple[Any, ...], stepped: bool) -> None:
-        """The task's compiled pass over the envs of ``arrays`` (split over the cores when
-        many; each env is computed alone, so the split changes no number)."""
+    def _pass(self, arrays: tuple[Any, ...], stepped: bool, threaded: bool) -> None:
+        """The task's compiled pass over the envs of ``arrays``, split over the cores if
+        ``threaded`` (many envs; each env is computed alone, so the split changes no number)."""
         job = (self.numbers, arrays, stepped)
-        if not threads.threaded(arrays[0].shape[1]):
-            type(self).task_pass(job, 1)
-        else:
+        if threaded:
             threads.call_threaded(lambda t: type(self).task_pass(job, t))
+        else:
+            type(self).task_pass(job, 1)
 
     def _own_obs(self, keep: bool) -> None:
         """If :meth:`observe` gave :attr:`obs` away, write into a new buffer from now on (with
@@ -589,15 +654,6 @@ class TaskBatch:
         if self._obs_given:
             self.obs = self.obs.copy() if keep else np.empty_like(self.obs)
             self._obs_given = False
-
-    def _noise(
-        self, rngs: Sequence[np.random.Generator], skip: NDArray[np.bool_] | None = None
-    ) -> FloatArray:
-        """(K, 3) sensor noise on the observed ``w`` [rad/s], one row per generator (zeros,
-        nothing drawn, where ``skip``); one shared zero row when there is no noise."""
-        if self._sigma <= 0.0:
-            return self._no_noise
-        return sensor_noise(list(rngs), self._sigma, skip)
 
     def reset_envs(
         self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
@@ -609,16 +665,26 @@ class TaskBatch:
         draws = []
         r = self.randomization
         randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
-        for k, i in enumerate(idx.tolist()):
-            draws.append(self.sample(rngs[k]))
-            if np.shape(draws[-1][4]) != (self.target_dim,):
-                raise ValueError(
-                    f"{type(self).__name__}.sample: drew a target of shape "
-                    f"{np.shape(draws[-1][4])}, the task declares target_dim = {self.target_dim}; "
-                    "return a target of target_dim numbers (or declare its size in target_dim)"
-                )
-            if randomized:
-                self._randomize(i, rngs[k])
+        # Each env draws its initial state, then its episode's randomisation, from its own
+        # generator: all the envs' states, then all their randomisations (the draws of many at
+        # once), unless envs share a generator: then env by env, in order.
+        shared = randomized and len({id(g) for g in rngs}) < len(rngs)
+        groups = [[k] for k in range(idx.size)] if shared else [list(range(idx.size))]
+        for group in groups:
+            for k in group:
+                draws.append(self.sample(rngs[k]))
+                if np.shape(draws[-1][4]) != (self.target_dim,):
+                    raise ValueError(
+                        f"{type(self).__name__}.sample: drew a target of shape "
+                        f"{np.shape(draws[-1][4])}, the task declares target_dim = "
+                        f"{self.target_dim}; return a target of target_dim numbers (or declare "
+                        "its size in target_dim)"
+                    )
+            if randomized and group:
+                self._randomize(idx[group], [rngs[k] for k in group])
+        if randomized and self.randomization.physical and idx.size:
+            model = self.world.model  # each body's mass properties drawn above, set at once
+            self.world.set_model(BodyModel(model.mass, model.inertia))
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
@@ -634,13 +700,24 @@ class TaskBatch:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
         self.before_pass(idx, reset=True)
-        self._pass_rows(idx, rngs, stepped=False)
+        if self._draws:
+            self.streams.follow(rngs, idx)
+        self._pass_rows(idx, stepped=False)
         self._observe_period(idx)
         if self.sensors is not None:
             self.sensors.reset(self, idx, rngs)
 
-    def _randomize(self, i: int, rng: np.random.Generator) -> None:
+    def _randomize(self, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
+        """The episode draws of the envs ``rows`` (``rngs``: their generators, one each): their
+        mass properties and thrust scales from their uniform draws (all the envs' in one
+        compiled pass), then env by env their thrusters' misalignment, fault and control
+        period."""
         r = self.randomization
+        physical = mass_property_draws(r)
+        thrust = self.action_dim if r.thrust > 0.0 else 0
+        if physical + thrust:
+            self.streams.follow(rngs, rows)
+            u = self.streams.randoms(rows, physical + thrust)
         if r.physical:
             if self.world.model.n == 1:  # first randomised reset: give every body its own copy
                 self.world.set_model(
@@ -650,24 +727,27 @@ class TaskBatch:
                     )
                 )
             mass, inertia = random_mass_properties(
-                rng, r, self.base_model.mass[0], self.base_model.inertia[0]
+                u[:, :physical], r, self.base_model.mass[0], self.base_model.inertia[0]
             )
-            model = self.world.model
-            model.mass[i] = mass
-            model.inertia[i] = inertia
-            self.world.set_model(BodyModel(model.mass, model.inertia))
-        if r.thrust > 0.0:
+            model = self.world.model  # set in the world by reset_envs, once for all its envs
+            model.mass[rows] = mass
+            model.inertia[rows] = inertia
+        if thrust:
             if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
                 self.thrust_scale = np.ones((self.n, self.action_dim))
                 self.command = self.last_action * self.thrust_scale
-            self.thrust_scale[i] = random_thrust(rng, r, self.action_dim)
-        if r.thruster_misalignment > 0.0:
-            self._misalign(i, rng, r.thruster_misalignment)
-        if r.thruster_faults is not None:
-            self.faults[i] = draw_fault(rng, r.thruster_faults, self.action_dim)
-        if r.drawn_repeat:
-            choices = r.action_repeat
-            self.repeats[i] = choices[int(rng.integers(len(choices)))]
+            self.thrust_scale[rows] = random_thrust(u[:, physical:], r)
+        if not (r.hardware or r.drawn_repeat):
+            return
+        for i, rng in zip(rows.tolist(), rngs, strict=True):
+            if r.thruster_misalignment > 0.0:
+                self._misalign(i, rng, r.thruster_misalignment)
+            if r.thruster_faults is not None:
+                fault = draw_fault(rng, r.thruster_faults, self.action_dim)
+                self.fault_rows[i] = NO_FAULT if fault is None else fault.row
+            if r.drawn_repeat:
+                choices = r.action_repeat
+                self.repeats[i] = choices[int(rng.integers(len(choices)))]
 
     def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
         """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""
@@ -687,7 +767,7 @@ class TaskBatch:
                 d = misaligned(effect.directions, rng, degrees)
                 force = d * effect.max_force[:, None]
                 maps[i, k : k + rows, :3] = force
-                maps[i, k : k + rows, 3:] = np.cross(effect.points, force)
+                maps[i, k : k + rows, 3:] = cross(effect.points, force)
             k += rows
 
     def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:
@@ -714,14 +794,17 @@ class TaskBatch:
             self._column_views = columns
         return columns
 
-    def info_one(self, r: K.EnvRecord | None = None) -> dict[str, Any]:
+    def info_one(self, r: K.EnvRecord | None = None, failed: bool | None = None) -> dict[str, Any]:
         """:meth:`infos` of env 0 as Python scalars (a (3,) array for a vector): what a single
-        env returns, from its record (read here if not given)."""
+        env returns, from its record and whether its body failed (each read here if not
+        given)."""
         r = K.EnvRecord._make(self.record.item(0)) if r is None else r
-        faults = {key: column[0].item() for key, column in self._fault_infos().items()}
-        substeps = self._substeps()
-        taken = None if substeps is None else int(substeps[0])
-        out = self._info(r, bool(self.world.failed[0]), faults, taken)
+        failed = bool(self.world.failed[0]) if failed is None else failed
+        faults = {}
+        if self._faulty:
+            faults = {key: column[0].item() for key, column in self._fault_infos().items()}
+        taken = int(self._substeps()[0]) if self._reports_substeps else None
+        out = self._info(r, failed, faults, taken)
         out["angular_velocity_world"] = r.w_world.copy()  # item() gives a view of the record
         return out
 
@@ -749,24 +832,27 @@ class TaskBatch:
             return None
         return self.substeps if self._repeating else self.world.substeps_taken
 
+    @property
+    def faults(self) -> list[Fault | None]:
+        """Each env's thruster fault in its episode (None: none), read from :attr:`fault_rows`."""
+        return [
+            None if k < 0 else Fault(k, step, FAULT_KINDS[kind], level)
+            for k, step, kind, level in self.fault_rows.tolist()
+        ]
+
     def _fault_infos(self) -> dict[str, NDArray[Any]]:
         """Where faults are drawn: each env's failed thruster (-1: none), the step its fault
         starts, its kind (index in :data:`~rigid_env.envs.hardware.FAULT_KINDS`, -1: none) and
         level, and whether it acts now."""
         if self.randomization.thruster_faults is None:
             return {}
-        f = [
-            (-1, -1, -1, 0.0)
-            if x is None
-            else (x.thruster, x.step, FAULT_KINDS.index(x.kind), x.level)
-            for x in self.faults
-        ]
-        thruster, step, kind, level = (np.array(c) for c in zip(*f, strict=True))
+        rows = self.fault_rows
+        thruster, step = rows["thruster"], rows["step"]
         return {
             "fault_thruster": thruster,
             "fault_step": step,
-            "fault_kind": kind,
-            "fault_level": level.astype(np.float64),
+            "fault_kind": rows["kind"],
+            "fault_level": rows["level"],
             "fault_active": (thruster >= 0) & (self.steps > step),
         }
 

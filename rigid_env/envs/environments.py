@@ -129,7 +129,7 @@ class RigidBodyEnv(gym.Env[NDArray[np.float32], NDArray[np.float32]]):
         task = self.task
         task.check_action(action)
         r, failed = task.step_one(self._rngs[0])
-        info = task.info_one(r)
+        info = task.info_one(r, failed)
         if self.render_mode == "human":
             self.render()
         return task.obs[0].copy(), r.reward, r.terminated, failed, info

@@ -185,9 +185,10 @@ def fine_spin(c, state, noise, obs, start, stop):
         if shared:  # the same noise for every env (none: zeros)
             for i in range(n):
                 fine[k, i] = tanh((row[i] + nk) / FINE_SPIN)
-        else:
+        else:  # each env's noise: its column copied contiguous, for the loop to vectorise
+            noise_k = noise[start:stop, k].copy()
             for i in range(n):
-                fine[k, i] = tanh((row[i] + noise[start + i, k]) / FINE_SPIN)
+                fine[k, i] = tanh((row[i] + noise_k[i]) / FINE_SPIN)
     col = (6 if c.sixd else 4) + 3
     for i in range(n):
         obs[start + i, col], obs[start + i, col + 1], obs[start + i, col + 2] = fine[:, i]

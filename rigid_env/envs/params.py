@@ -155,7 +155,7 @@ class Randomization(BaseModel):
     """Relative half-width in [0, 1) for each actuator's strength."""
     sensor_noise: NoiseRate = 0.0
     """Standard deviation of Gaussian noise on the observed angular velocity [rad/s], >= 0
-    (drawn every step for every env: a per-env loop, so off by default)."""
+    (drawn every step, every env from its own generator, all the envs in one compiled pass)."""
     thruster_misalignment: TiltDegrees = 0.0
     """Largest tilt of a thruster's direction [deg] in [0, 90]: per episode each thruster is
     tilted by an angle uniform in [0, this] about a uniform axis normal to it."""

@@ -1,5 +1,7 @@
-"""The random draws of the envs' resets, each from the generator it is given (an env's own):
-directions, orientations, tumbles, and the domain randomisation of mass properties and thrust."""
+"""The random draws of the envs, each from the generator it is given (an env's own):
+directions, orientations and tumbles at a reset; the domain randomisation of mass properties and
+thrust from each env's uniform draws, and the sensor noise of a step, many envs at once (their
+draws in one compiled pass, :class:`~rigid_env.envs.streams.EnvStreams`)."""
 
 from __future__ import annotations
 
@@ -9,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.envs.params import Randomization
+from rigid_env.envs.streams import EnvStreams
 
 FloatArray = NDArray[np.float64]
 
@@ -39,38 +42,56 @@ def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray
     return q, (max_spin * rng.random()) * random_unit_vectors(rng)
 
 
+def mass_property_draws(r: Randomization) -> int:
+    """How many uniform draws :func:`random_mass_properties` takes per env: one for the mass,
+    three for the moments, each where it is randomised."""
+    return int(r.mass > 0) + 3 * int(r.inertia > 0)
+
+
 def random_mass_properties(
-    rng: np.random.Generator, r: Randomization, mass: float, inertia: FloatArray
-) -> tuple[float, FloatArray]:
-    """A body's mass [kg] and principal moments (3,) [kg m^2] drawn around ``mass`` and
-    ``inertia``: ``mass U(1 - r.mass, 1 + r.mass)``, each moment ``I_k U(1 - r.inertia, 1 +
-    r.inertia)``, then the largest clipped to the sum of the other two (a physical body)."""
-    drawn = mass * rng.uniform(1.0 - r.mass, 1.0 + r.mass) if r.mass > 0 else mass
-    moments = (
-        inertia * rng.uniform(1.0 - r.inertia, 1.0 + r.inertia, size=3)
-        if r.inertia > 0
-        else inertia.copy()
-    )
-    k = int(np.argmax(moments))
-    moments[k] = min(moments[k], moments.sum() - moments[k])
+    u: FloatArray, r: Randomization, mass: float, inertia: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """(K,) masses [kg] and (K, 3) principal moments [kg m^2] drawn around ``mass`` and
+    ``inertia`` from each env's (K, :func:`mass_property_draws`) uniform draws ``u`` in [0, 1)
+    (the mass's first): ``mass U(1 - r.mass, 1 + r.mass)``, each moment ``I_k U(1 - r.inertia,
+    1 + r.inertia)``, ``U(a, b) = a + (b - a) u`` as NumPy's ``uniform`` makes it; then the
+    largest moment clipped to the sum of the other two (a physical body), that sum ``(I_0 +
+    I_1) + I_2`` in the order NumPy's ``sum`` of three adds them."""
+    k, col = u.shape[0], 0
+    drawn = np.full(k, mass)
+    if r.mass > 0:
+        lo, hi = 1.0 - r.mass, 1.0 + r.mass
+        drawn = mass * (lo + (hi - lo) * u[:, 0])
+        col = 1
+    moments = np.tile(inertia, (k, 1))
+    if r.inertia > 0:
+        lo, hi = 1.0 - r.inertia, 1.0 + r.inertia
+        moments = inertia * (lo + (hi - lo) * u[:, col : col + 3])
+    rows, largest = np.arange(k), np.argmax(moments, axis=1)
+    top = moments[rows, largest]
+    total = (moments[:, 0] + moments[:, 1]) + moments[:, 2]
+    moments[rows, largest] = np.minimum(top, total - top)
     return drawn, moments
 
 
-def random_thrust(rng: np.random.Generator, r: Randomization, actions: int) -> FloatArray:
-    """(A,) each actuator's strength relative to the scene's, ``U(1 - r.thrust, 1 + r.thrust)``."""
-    return rng.uniform(1.0 - r.thrust, 1.0 + r.thrust, size=actions)
+def random_thrust(u: FloatArray, r: Randomization) -> FloatArray:
+    """(K, A) each actuator's strength relative to the scene's, ``U(1 - r.thrust, 1 +
+    r.thrust)``, from each env's (K, A) uniform draws ``u`` in [0, 1) (``a + (b - a) u``, as
+    NumPy's ``uniform``)."""
+    lo, hi = 1.0 - r.thrust, 1.0 + r.thrust
+    return lo + (hi - lo) * u
 
 
 def sensor_noise(
-    rngs: list[np.random.Generator], sigma: float, skip: NDArray[np.bool_] | None = None
+    streams: EnvStreams, sigma: float, rows: NDArray[np.int64] | None = None, n: int = 0
 ) -> FloatArray:
-    """(K, 3) Gaussian noise of standard deviation ``sigma`` [rad/s] on the observed ``w``, one
-    row per generator (zeros, nothing drawn, where ``skip``)."""
-    if skip is None or not skip.any():
-        return np.stack([rng.normal(0.0, sigma, 3) for rng in rngs])
-    return np.stack(
-        [
-            np.zeros(3) if s else rng.normal(0.0, sigma, 3)
-            for rng, s in zip(rngs, skip.tolist(), strict=True)
-        ]
-    )
+    """(K, 3) Gaussian noise of standard deviation ``sigma`` [rad/s] on the observed ``w`` of the
+    envs ``rows`` (None: all), each drawn from its env's generator as ``normal(0, sigma, 3)``
+    draws it (``0 + sigma z``, NumPy's ``random_normal``), in one compiled pass; with ``n``, an
+    (n, 3) array with those rows filled and the others zero (nothing drawn for them)."""
+    noise = 0.0 + sigma * streams.standard_normals(rows, 3)
+    if not n:
+        return noise
+    out = np.zeros((n, 3))
+    out[rows] = noise
+    return out

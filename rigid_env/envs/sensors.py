@@ -3,7 +3,7 @@ measurement delay, each optional and vectorised over the leading env axis; and
 :class:`SensorSuite`, the sensors of a task's observation (the env keyword ``sensors``).
 
 Every random draw comes from the ``numpy.random.Generator`` passed in (an env's own), or from
-:class:`RowNormals`, which draws row ``k`` of a batch from env ``k``'s own generator. A noise
+:class:`RowNormals`, whose row ``k`` of a batch was drawn from env ``k``'s own generator. A noise
 term whose standard deviation is 0 is skipped, drawing nothing: a sensor with all its noise at 0
 returns a copy of the truth bit for bit and leaves the generator's state as it was, so an env
 whose sensors are off keeps its default path unchanged.
@@ -243,21 +243,18 @@ class Delay:
 
 class RowNormals:
     """Standard normals of a batch of K envs, row ``k`` from env ``k``'s own generator: each
-    env's numbers of one measurement drawn in one call, then handed to the sensor models in the
-    order they ask (:meth:`standard_normal`), so that a generator sees the same draws whether
-    its env is measured alone or in a batch.
+    env's numbers of one measurement drawn at once (all the envs in one compiled pass,
+    :meth:`~rigid_env.envs.streams.EnvStreams.standard_normals`), then handed to the models in
+    the order they ask (:meth:`standard_normal`), so that a generator sees the same draws
+    whether its env is measured alone or in a batch.
 
     Args:
-        rngs: one generator per row.
-        per_row: how many numbers to draw from each (all of which the models must then take:
-            :meth:`check_used`).
+        normals: (K, per_row) the numbers drawn, row ``k`` from env ``k``'s generator (all of
+            which the models must then take: :meth:`check_used`).
     """
 
-    def __init__(self, rngs: Sequence[np.random.Generator], per_row: int) -> None:
-        self._normals = np.empty((len(rngs), per_row))
-        if per_row:
-            for k, rng in enumerate(rngs):
-                rng.standard_normal(out=self._normals[k])
+    def __init__(self, normals: FloatArray) -> None:
+        self._normals = normals
         self._used = 0
 
     def standard_normal(self, size: tuple[int, ...]) -> FloatArray:
@@ -323,6 +320,11 @@ class SensorSuite:
         self._measuring = any(x is not None for x in (gyro, self.magnetometer, self.star_tracker))
         self._delay_started = False
 
+    @property
+    def measuring(self) -> bool:
+        """Whether a sensor draws at each step (a delay alone draws nothing)."""
+        return self._measuring
+
     @classmethod
     def of(cls, settings: Sensors, task: TaskBatch) -> SensorSuite | None:
         """The sensors ``settings`` of ``task``, or None when every one is off.
@@ -360,7 +362,8 @@ class SensorSuite:
         if not self._measuring:
             return
         rows = np.arange(task.n) if skip is None else np.flatnonzero(~skip)
-        draws = RowNormals([rngs[i] for i in rows.tolist()], self._per_sample)
+        task.streams.follow(rngs)
+        draws = RowNormals(task.streams.standard_normals(rows, self._per_sample))
         self._measure(task, rows, draws)
 
     def delay(self, task: TaskBatch) -> None:
@@ -376,7 +379,9 @@ class SensorSuite:
         generator per row): their gyro biases drawn anew, their observations measured, and their
         delay history filled with them."""
         if self._measuring:
-            draws = RowNormals(rngs, self._per_reset + self._per_sample)
+            task.streams.follow(rngs, rows)
+            per_row = self._per_reset + self._per_sample
+            draws = RowNormals(task.streams.standard_normals(rows, per_row))
             if self.gyro is not None:
                 self.bias = self.gyro.reset(self.bias, draws, rows)
             self._measure(task, rows, draws)

@@ -81,6 +81,11 @@ def test_csv_rows_compare_with_the_peers_of_the_issue(smoke_out: Path) -> None:
         ("ppo", speed.PPO_DUMMY),
         ("ppo", speed.PPO_SUBPROC),
     } <= cases
+    # Every shipped policy that trains under draws is measured with and without them, steps
+    # and resets (Detumble's config randomises; DetumbleFaults is a variant that does).
+    for name in ("Detumble", "DetumbleFaults"):
+        for case in (name, name + " randomised"):
+            assert {("random", case), ("random", case + " reset")} <= cases
     # SyncVectorEnv is measured at the small sizes only; the others are marked extrapolated.
     sync = {int(r["n"]): r["note"] for r in rows if r["case"] == speed.SYNC_CASE}
     for n, note in sync.items():
@@ -103,6 +108,7 @@ def test_markdown_has_header_and_sections(smoke_out: Path) -> None:
         "## 3. Vector environment",
         "## 4. Effects",
         "## 5. Training",
+        "## 6. Randomisation and sensors",
     ):
         assert key in text, key
     assert "Traceback" not in text

@@ -353,6 +353,25 @@ def test_domain_randomization_draws_from_env_generator_only():
         gym.make("RigidEnv/Detumble-v0", randomization={"mass": 1.5})
 
 
+def test_envs_sharing_one_generator_draw_env_by_env_as_resets_one_at_a_time():
+    """A reset of several envs draws each env's state and then its randomisation, env after
+    env, from its generator: envs handed one shared generator get the numbers that resets of
+    one env at a time from it give (a batched draw of all the states first would not)."""
+    from rigid_env.envs.detumble import DetumbleTask
+
+    rand = {"mass": 0.2, "inertia": 0.3, "thrust": 0.3, "thruster_misalignment": 2.0}
+    together, alone = DetumbleTask(4, randomization=rand), DetumbleTask(4, randomization=rand)
+    g, h = np.random.default_rng(5), np.random.default_rng(5)
+    together.reset_envs(np.arange(4), [g] * 4)
+    for i in range(4):
+        alone.reset_envs([i], [h])
+    np.testing.assert_array_equal(together.world.columns, alone.world.columns)
+    np.testing.assert_array_equal(together.world.model_columns, alone.world.model_columns)
+    np.testing.assert_array_equal(together.thrust_scale, alone.thrust_scale)
+    np.testing.assert_array_equal(together.world.body_maps, alone.world.body_maps)
+    assert g.random() == h.random()
+
+
 @pytest.mark.parametrize(
     ("env_id", "matters"),
     [

@@ -8,9 +8,13 @@ import pytest
 from pydantic import ValidationError
 
 from rigid_env.envs.hardware import (
+    FAULT_ROW,
+    NO_FAULT,
     REALISTIC_LAG,
     Fault,
     ThrusterFaults,
+    apply_faults,
+    cross,
     draw_fault,
     misaligned,
     with_preset,
@@ -50,6 +54,37 @@ def test_fault_draws_are_seeded_and_each_kind_acts_on_the_command() -> None:
         after = u.copy()
         fault.apply(after, 2)
         np.testing.assert_array_equal(after, [0.5, expected, 0.5])
+
+
+def test_faults_of_a_batch_act_on_their_own_envs_from_their_own_steps() -> None:
+    """apply_faults over envs at different steps: each env's command as its Fault alone makes it
+    (acting from its step on), an env without a fault untouched."""
+    faults = [
+        Fault(0, 3, "stuck_off", 0.0),
+        Fault(2, 1, "stuck_on", 0.9),
+        Fault(1, 5, "degraded", 0.25),
+        None,
+        Fault(2, 0, "degraded", 0.5),
+    ]
+    rows = np.array([NO_FAULT if f is None else f.row for f in faults], dtype=FAULT_ROW)
+    steps = np.array([3, 0, 7, 9, 4])
+    u = np.linspace(-0.9, 0.8, 15).reshape(5, 3)
+    got = u.copy()
+    apply_faults(got, steps, rows)
+    expected = u.copy()
+    expected[0, 0] = 0.0  # from step 3 on
+    # env 1: its fault starts at step 1, not yet at step 0
+    expected[2, 1] = 0.25 * u[2, 1]
+    expected[4, 2] = 0.5 * u[4, 2]
+    np.testing.assert_array_equal(got, expected)
+
+
+def test_cross_is_numpys_cross_bit_for_bit() -> None:
+    """The same products and differences in the same order as np.cross: equal, not close."""
+    rng = np.random.default_rng(0)
+    a, b = rng.normal(size=(50, 3)), rng.normal(size=(50, 3)) * 1e3
+    np.testing.assert_array_equal(cross(a, b), np.cross(a, b))
+    np.testing.assert_array_equal(cross(a[0], b[1]), np.cross(a[0], b[1]))
 
 
 @pytest.mark.parametrize(
