@@ -32,7 +32,7 @@ from __future__ import annotations
 import json
 import re
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -470,6 +470,7 @@ def train(
     verbose: int = 0,
     callbacks: Sequence[Any] = (),
     or_start: bool = False,
+    stop: Callable[[Any], bool] | None = None,
 ) -> Path:
     """Train and save; returns the run directory.
 
@@ -482,6 +483,8 @@ def train(
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
         or_start: with ``resume``, start the run when there is none (else that is an error).
+        stop: ``learner: rsl_rl`` only: called with the run's ``DurableEvaluation`` after each
+            evaluation; True ends the run there (SB3 callbacks do not run in that learner).
 
     Raises:
         ConfigError: the run exists and ``resume`` is not set; ``resume`` without
@@ -493,7 +496,7 @@ def train(
     check_runs_dir(runs_dir, run_dir)
     _refuse_resume_of_nothing(run_dir, resume, or_start)  # before the lock creates the folder
     with locked(run_dir):
-        return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start)
+        return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start, stop)
 
 
 def _train(
@@ -504,6 +507,7 @@ def _train(
     verbose: int,
     callbacks: Sequence[Any],
     or_start: bool,
+    stop: Callable[[Any], bool] | None = None,
 ) -> Path:
     """:func:`train` with the run folder's lock held."""
     tb = run_dir / "tb"
@@ -542,6 +546,13 @@ def _train(
             "restore its files, or move model.zip and model.json out of the run to resume from "
             "its checkpoints",
         )  # fmt: skip
+    if cfg.learner == "rsl_rl":
+        from .parallel.train import train_parallel
+
+        if callbacks:
+            raise ConfigError(cfg.run_name, "learner", "SB3 callbacks do not run in learner "
+                              "rsl_rl", "pass stop= instead, or use learner sb3")  # fmt: skip
+        return train_parallel(cfg, run_dir, start, trained, progress, stop)
     if start is not None:
         model, env, snap = start
         if verbose:
