@@ -470,7 +470,7 @@ def train(
     verbose: int = 0,
     callbacks: Sequence[Any] = (),
     or_start: bool = False,
-    stop: Callable[[Any], bool] | None = None,
+    stop: Callable[[Any, float], bool] | None = None,
 ) -> Path:
     """Train and save; returns the run directory.
 
@@ -483,8 +483,9 @@ def train(
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
         or_start: with ``resume``, start the run when there is none (else that is an error).
-        stop: ``learner: rsl_rl`` only: called with the run's ``DurableEvaluation`` after each
-            evaluation; True ends the run there (SB3 callbacks do not run in that learner).
+        stop: ``learner: rsl_rl`` only: called after each evaluation with the run's
+            ``DurableEvaluation`` and the seconds evaluations took so far; True ends the run
+            there (SB3 callbacks do not run in that learner).
 
     Raises:
         ConfigError: the run exists and ``resume`` is not set; ``resume`` without
@@ -507,7 +508,7 @@ def _train(
     verbose: int,
     callbacks: Sequence[Any],
     or_start: bool,
-    stop: Callable[[Any], bool] | None = None,
+    stop: Callable[[Any, float], bool] | None = None,
 ) -> Path:
     """:func:`train` with the run folder's lock held."""
     tb = run_dir / "tb"

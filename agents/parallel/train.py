@@ -31,8 +31,9 @@ from ..callbacks import DurableEvaluation, finish_snapshots, save_snapshot, warn
 from ..config import ConfigError, TrainConfig
 from .learner import from_sb3, make_runner, ppo_arguments, to_sb3
 
-Stop = Callable[[DurableEvaluation], bool]
-"""Called after each evaluation; True ends the run there (the learning benchmark's peers)."""
+Stop = Callable[[DurableEvaluation, float], bool]
+"""Called after each evaluation with it and the wall-clock seconds all evaluations took so far;
+True ends the run there (the learning benchmark stops a run at the bar)."""
 
 
 def _optim_path(model_zip: Path) -> Path:
@@ -106,7 +107,7 @@ def train_parallel(
     next_eval = (steps // cfg.eval.freq + 1) * cfg.eval.freq
     next_ckpt = (steps // cfg.checkpoint_freq + 1) * cfg.checkpoint_freq
     t0 = time.perf_counter()
-    steps0 = steps
+    steps0, evaluating = steps, 0.0
     while steps < cfg.total_timesteps:
         runner.learn(1)
         steps += rollout
@@ -118,13 +119,15 @@ def train_parallel(
                       folder / f"model_vecnormalize_{n}_steps.pkl", meta)  # fmt: skip
             next_ckpt = (steps // cfg.checkpoint_freq + 1) * cfg.checkpoint_freq
         if steps >= next_eval or steps >= cfg.total_timesteps:
+            t_eval = time.perf_counter()
             to_sb3(runner, model)
             evaluation.on_step()
+            evaluating += time.perf_counter() - t_eval
             model.logger.dump(steps)
             next_eval = (steps // cfg.eval.freq + 1) * cfg.eval.freq
             if progress:
                 _progress_line(cfg, steps, steps0, t0, evaluation)
-            if stop is not None and stop(evaluation):
+            if stop is not None and stop(evaluation, evaluating):
                 break
     _snapshot(runner, model, run_dir / "model.zip", run_dir / "vecnormalize.pkl", meta)
     venv.close()

@@ -1,0 +1,207 @@
+"""Three rates of each learner on one task, in one run: env step; step + inference; step +
+inference + training (issue 45).
+
+    rigid-env bench learn --rates-only [--tasks detumble] [--learners sb3 rsl_rl skrl]
+                          [--repeats 3] [--threads 1] [--out DIR] [--force]
+
+Learners: ``sb3`` (the SB3 path with the task's shipped config, ``configs/agents/ppo_<task>
+.yaml``: its own n_envs and rollout), ``rsl_rl`` (``configs/agents/rsl_ppo_<task>.yaml``, the
+learner of :mod:`rigid_env.agents.parallel`) and ``skrl`` (skrl's PPO, the peer rsl-rl was
+chosen against, on the rsl_rl config's envs and PPO arguments). Each learner steps its own env
+stack (SB3's ``VecNormalize`` over the batched task, same-step resets), with uniform random
+actions for the first rate and its own policy for the others; *+ inference* is what a rollout
+does per step (the policy and value forward, sampling, the step), *full* is the learner's own
+training loop over whole rollouts, updates included. Every learner runs on ``--threads`` torch
+and Numba threads (default 1: on a shared machine a second thread that finds its core busy
+spins and costs more than it gives). Each rate is the median of ``--repeats`` timed
+stretches, the learners interleaved (a stretch of each in turn), after a warm-up stretch that
+compiles the kernels.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rigid_env.resources import data_path
+
+LEARNERS = ("sb3", "rsl_rl", "skrl")
+RATES = ("env", "inference", "full")
+
+
+@dataclass(frozen=True)
+class RateRow:
+    """The three rates of one learner on one task [env-steps/s]."""
+
+    task: str
+    learner: str
+    config: str
+    n_envs: int
+    n_steps: int
+    batch_size: int
+    threads: int
+    env: float
+    inference: float
+    full: float
+
+
+def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
+    """Stretches of the SB3 path, each returning the env-steps it made."""
+    import torch
+    from stable_baselines3.common.utils import obs_as_tensor
+
+    from rigid_env.agents.train import _new_model, make_vec_env
+
+    venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    model = _new_model(cfg, venv, Path("/nonexistent"), 0)
+    model.tensorboard_log = None
+    n, steps = cfg.n_envs, model.n_steps
+    rng = np.random.default_rng(0)
+    low, high = venv.action_space.low, venv.action_space.high
+    state = {"obs": venv.reset()}
+
+    def env() -> int:
+        for _ in range(steps):
+            venv.step(rng.uniform(low, high, (n, len(low))).astype(np.float32))
+        return n * steps
+
+    def inference() -> int:
+        obs = state["obs"]
+        for _ in range(steps):
+            with torch.no_grad():
+                actions, _, _ = model.policy(obs_as_tensor(obs, model.device))
+            obs, *_ = venv.step(np.clip(actions.numpy(), low, high))
+        state["obs"] = obs
+        return n * steps
+
+    def full() -> int:
+        before = model.num_timesteps
+        model.learn(n * steps, reset_num_timesteps=False)
+        return model.num_timesteps - before
+
+    return {"env": env, "inference": inference, "full": full}
+
+
+def _rsl(cfg: Any) -> dict[str, Callable[[], int]]:
+    import gymnasium as gym
+    import torch
+
+    from rigid_env.agents.parallel.learner import make_runner, ppo_arguments
+    from rigid_env.agents.train import make_vec_env
+
+    venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    runner = make_runner(cfg, venv, int(gym.spec(cfg.env_id).max_episode_steps))
+    env_ = runner.env
+    n, steps = cfg.n_envs, ppo_arguments(cfg)["n_steps"]
+
+    def env() -> int:
+        for _ in range(steps):
+            env_.step(torch.rand(n, env_.num_actions) * 2 - 1)
+        return n * steps
+
+    def inference() -> int:
+        obs = env_.get_observations()
+        with torch.inference_mode():
+            for _ in range(steps):
+                actions = runner.alg.act(obs)
+                obs, *_ = env_.step(actions)
+                runner.alg.transition.clear()
+        return n * steps
+
+    def full() -> int:
+        runner.learn(1)
+        return n * steps
+
+    return {"env": env, "inference": inference, "full": full}
+
+
+def _skrl(cfg: Any) -> dict[str, Callable[[], int]]:
+    import torch
+
+    from rigid_env.agents.parallel.learner import ppo_arguments
+    from rigid_env.agents.parallel.skrl_peer import make_skrl, train_steps
+    from rigid_env.agents.train import make_vec_env
+
+    venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    agent, env_ = make_skrl(cfg, venv)
+    n, steps = cfg.n_envs, ppo_arguments(cfg)["n_steps"]
+    state = {"obs": env_.reset()[0]}
+
+    def env() -> int:
+        for _ in range(steps):
+            env_.step(torch.rand(n, len(venv.action_space.low)) * 2 - 1)
+        return n * steps
+
+    def inference() -> int:
+        obs = state["obs"]
+        with torch.no_grad():
+            for t in range(steps):
+                actions, _ = agent.act(obs, None, timestep=t, timesteps=steps)
+                obs, *_ = env_.step(actions)
+        state["obs"] = obs
+        return n * steps
+
+    def full() -> int:
+        state["obs"] = train_steps(agent, env_, steps, state["obs"])
+        return n * steps
+
+    return {"env": env, "inference": inference, "full": full}
+
+
+BUILDERS = {"sb3": _sb3, "rsl_rl": _rsl, "skrl": _skrl}
+
+
+def config_of(task: str, learner: str) -> Path:
+    """The config a learner runs ``task`` with (skrl: the rsl_rl one)."""
+    stem = f"ppo_{task}" if learner == "sb3" else f"rsl_ppo_{task}"
+    return data_path(f"configs/agents/{stem}.yaml")
+
+
+def measure(task: str, learners: tuple[str, ...], repeats: int, threads: int) -> list[RateRow]:
+    """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``."""
+    from rigid_env.agents.config import load_config
+    from rigid_env.agents.parallel.learner import ppo_arguments
+    from rigid_env.agents.train import limit_threads
+
+    limit_threads(threads)
+    cfgs = {k: load_config(config_of(task, k), {"threads": threads}) for k in learners}
+    stretches = {k: BUILDERS[k](cfgs[k]) for k in learners}
+    for k in learners:  # warm-up: compile the kernels, fill torch's caches
+        for rate in RATES:
+            stretches[k][rate]()
+    seconds: dict[tuple[str, str], list[float]] = {}
+    for _ in range(repeats):
+        for rate in RATES:
+            for k in learners:
+                t = time.perf_counter()
+                made = stretches[k][rate]()
+                seconds.setdefault((k, rate), []).append(made / (time.perf_counter() - t))
+    rows = []
+    for k in learners:
+        a = ppo_arguments(cfgs[k])
+        rates = {rate: float(np.median(seconds[(k, rate)])) for rate in RATES}
+        rows.append(RateRow(task, k, config_of(task, k).name, cfgs[k].n_envs, a["n_steps"],
+                            a["batch_size"], threads, **rates))  # fmt: skip
+    return rows
+
+
+def markdown(rows: list[RateRow]) -> list[str]:
+    """The rates table, with each learner's full rate against the SB3 path's."""
+    lines = [
+        "| task | learner | config | n_envs x n_steps | minibatch | env [steps/s] | "
+        "+ inference [steps/s] | full PPO [steps/s] | full / SB3's |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        sb3 = next((s.full for s in rows if s.task == r.task and s.learner == "sb3"), np.nan)
+        lines.append(
+            f"| {r.task} | {r.learner} | {r.config} | {r.n_envs} x {r.n_steps} | "
+            f"{r.batch_size} | {r.env:,.0f} | {r.inference:,.0f} | {r.full:,.0f} | "
+            f"{r.full / sb3:.1f}x |"
+        )
+    return lines
