@@ -1,14 +1,19 @@
 """Time to the bar: how long the shipped PPO configs take to train each task, beside the
-previous configs, in the same run.
+previous configs and the rsl-rl learner's, in the same run; and the three rates of each learner.
 
     rigid-env bench learn [--tasks detumble ...] [--seeds 0 1 2] [--jobs 2]
-                          [--previous-limit 240] [--previous-seeds 0 ...] [--out DIR] [--force]
+                          [--previous-limit 240] [--previous-seeds 0 ...] [--rsl-seeds 0 ...]
+                          [--out DIR] [--force]
+    rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl]
+                          [--repeats 3] [--threads 1] [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
-budget) and, as the peer, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
-issue 24), shortened: it stops at its first evaluation that meets the bar, or after
-``--previous-limit`` seconds of CPU time. Both evaluate every ``eval.freq`` steps on the same
+budget) and, as the peers, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
+issue 24) and, where the task has one, ``configs/agents/rsl_ppo_<task>.yaml`` (rsl-rl's PPO over
+thousands of envs, :mod:`rigid_env.agents.parallel`), shortened: each stops at its first
+evaluation that meets the bar, or after ``--previous-limit`` seconds of CPU time. All evaluate
+every ``eval.freq`` steps on the same
 100 held-out episodes (:mod:`rigid_env.agents.bar`: at least 95 % success and at most 1.5x
 the PD controller's fuel), so *time to bar* is the wall-clock (and process CPU time) and the
 env-steps from the start of training to that evaluation. Each final model is then evaluated on
@@ -18,7 +23,8 @@ wall-clock of the periodic evaluations (the configs evaluate at different rates)
 
 Writes ``results.md`` (tables), ``results.csv`` (one row per run) and ``time_to_bar.png``
 (success of each evaluation against training wall-clock, one curve per run) to ``--out``
-(default ``runs/bench_learn``), and the runs themselves under ``--out``/runs.
+(default ``runs/bench_learn``), and the runs themselves under ``--out``/runs. ``--rates-only``
+writes ``rates.md`` and ``rates.csv`` instead (:mod:`rigid_env.bench.learn_rates`).
 """
 
 from __future__ import annotations

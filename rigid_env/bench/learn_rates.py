@@ -164,10 +164,16 @@ def config_of(task: str, learner: str) -> Path:
 
 def measure(task: str, learners: tuple[str, ...], repeats: int, threads: int) -> list[RateRow]:
     """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``."""
+    import importlib.util
+
     from rigid_env.agents.config import load_config
     from rigid_env.agents.parallel.learner import ppo_arguments
     from rigid_env.agents.train import limit_threads
 
+    for k, module in (("rsl_rl", "rsl_rl"), ("skrl", "skrl")):
+        if k in learners and importlib.util.find_spec(module) is None:
+            raise ValueError(f"--learners: {k} is not installed; pip install 'rigid_env[bench]', "
+                             f"or leave {k} out of --learners")  # fmt: skip
     limit_threads(threads)
     cfgs = {k: load_config(config_of(task, k), {"threads": threads}) for k in learners}
     stretches = {k: BUILDERS[k](cfgs[k]) for k in learners}
