@@ -132,6 +132,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeats", type=_count(1), default=3, help="timed stretches per rate")
     parser.add_argument("--threads", type=_count(1), default=1, help="threads of the rates")
     parser.add_argument(
+        "--n-envs",
+        type=_count(1),
+        help="envs of rsl_rl and skrl in the rates (default: the rsl_rl config's; the "
+        "minibatch scales with it)",
+    )
+    parser.add_argument(
         "--rates-only",
         action="store_true",
         help="measure the three rates of each learner (rates.md) and train nothing",
@@ -394,7 +400,7 @@ def run_rates(args: argparse.Namespace) -> int:
     rows = []
     t0 = time.perf_counter()
     for task in args.tasks:
-        rows += measure(task, tuple(args.learners), args.repeats, args.threads)
+        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs)
     lines = [
         "# Three rates of each learner (rigid-env bench learn --rates-only)",
         "",

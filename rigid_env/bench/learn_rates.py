@@ -162,8 +162,12 @@ def config_of(task: str, learner: str) -> Path:
     return data_path(f"configs/agents/{stem}.yaml")
 
 
-def measure(task: str, learners: tuple[str, ...], repeats: int, threads: int) -> list[RateRow]:
-    """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``."""
+def measure(
+    task: str, learners: tuple[str, ...], repeats: int, threads: int, n_envs: int | None = None
+) -> list[RateRow]:
+    """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``; ``n_envs``
+    replaces the rsl_rl config's (rsl_rl and skrl), its minibatch scaled with it (the same
+    number of minibatches per rollout)."""
     import importlib.util
 
     from rigid_env.agents.config import load_config
@@ -176,6 +180,12 @@ def measure(task: str, learners: tuple[str, ...], repeats: int, threads: int) ->
                              f"or leave {k} out of --learners")  # fmt: skip
     limit_threads(threads)
     cfgs = {k: load_config(config_of(task, k), {"threads": threads}) for k in learners}
+    for k in learners:
+        if k != "sb3" and n_envs is not None:
+            hp = cfgs[k].hyperparams.model_dump(exclude_none=True)
+            hp["batch_size"] = hp["batch_size"] * n_envs // cfgs[k].n_envs
+            wider = {"threads": threads, "n_envs": n_envs, "hyperparams": hp}
+            cfgs[k] = load_config(config_of(task, k), wider)
     stretches = {k: BUILDERS[k](cfgs[k]) for k in learners}
     for k in learners:  # warm-up: compile the kernels, fill torch's caches
         for rate in RATES:
