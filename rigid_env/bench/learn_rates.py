@@ -14,8 +14,8 @@ does per step (the policy and value forward, sampling, the step), *full* is the 
 training loop over whole rollouts, updates included. Every learner runs on ``--threads`` torch
 and Numba threads (default 1: on a shared machine a second thread that finds its core busy
 spins and costs more than it gives). Each rate is the median of ``--repeats`` timed
-stretches, the learners interleaved (a stretch of each in turn), after a warm-up stretch that
-compiles the kernels.
+stretches of at least 2 s (whole rollouts), the learners interleaved (a stretch of each in
+turn), after a warm-up stretch that compiles the kernels.
 """
 
 from __future__ import annotations
@@ -31,6 +31,8 @@ import numpy as np
 from rigid_env.resources import data_path
 
 LEARNERS = ("sb3", "rsl_rl", "skrl")
+STRETCH_S = 2.0
+"""Least wall-clock of one timed stretch (whole rollouts, repeated until it is reached)."""
 RATES = ("env", "inference", "full")
 
 
@@ -194,8 +196,9 @@ def measure(
     for _ in range(repeats):
         for rate in RATES:
             for k in learners:
-                t = time.perf_counter()
-                made = stretches[k][rate]()
+                t, made = time.perf_counter(), 0
+                while made == 0 or time.perf_counter() - t < STRETCH_S:
+                    made += stretches[k][rate]()
                 seconds.setdefault((k, rate), []).append(made / (time.perf_counter() - t))
     rows = []
     for k in learners:
