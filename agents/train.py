@@ -17,6 +17,10 @@ A run uses ``threads`` CPU threads (default 1: two seeds train at once on two co
 (:mod:`agents.bar`), and prints a line with env-steps/s, that evaluation and an ETA
 (:mod:`agents.progress`; TensorBoard gets the same numbers).
 
+A config with ``learner: rsl_rl`` trains with rsl-rl's PPO over all its envs at once
+(:mod:`agents.parallel`, the ``[learner]`` extra) in the same run folder, with the same files,
+evaluations and resume rules; its models are SB3 ``PPO`` zips like the others.
+
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
 count, statistics and replay buffer; one that lacks a file its sidecar names (or statistics the
 config needs) or does not load is skipped with a warning, and with none left the resume is

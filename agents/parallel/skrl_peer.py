@@ -100,6 +100,13 @@ def make_skrl(cfg: TrainConfig, venv: Any) -> tuple[PPO, SkrlVecEnv]:
     a = ppo_arguments(cfg)
     pi, vf = hidden_layers(cfg)
     log_std = cfg.policy_kwargs.log_std_init or 0.0
+    adaptive = {}
+    if cfg.rsl_rl is not None and cfg.rsl_rl.schedule == "adaptive":  # skrl's own KL rule
+        from skrl.resources.schedulers.torch import KLAdaptiveLR
+
+        limits = {"kl_threshold": cfg.rsl_rl.desired_kl, "min_lr": 1e-5, "max_lr": 1e-2}
+        adaptive = {"learning_rate_scheduler": KLAdaptiveLR,
+                    "learning_rate_scheduler_kwargs": limits}  # fmt: skip
     memory = RandomMemory(memory_size=a["n_steps"], num_envs=env.num_envs, device="cpu")
     agent = PPO(
         models={"policy": _Policy(env, pi, log_std), "value": _Value(env, vf)},
@@ -120,6 +127,7 @@ def make_skrl(cfg: TrainConfig, venv: Any) -> tuple[PPO, SkrlVecEnv]:
             "entropy_loss_scale": a["ent_coef"],
             "value_loss_scale": a["vf_coef"],
             "time_limit_bootstrap": True,
+            **adaptive,
         },
     )
     agent.init()
