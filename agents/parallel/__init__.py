@@ -4,4 +4,6 @@
 ``learner.py`` builds rsl-rl's runner from a training config and copies its networks into an
 SB3 ``PPO`` (the zip every tool of ours reads); ``train.py`` is the run folder around it.
 ``python -m agents.train CONFIG`` runs it when the config says ``learner: rsl_rl``.
+``skrl_peer.py`` is skrl's PPO on the same env stack, the peer ``rigid-env bench learn
+--rates-only`` measures beside it.
 """

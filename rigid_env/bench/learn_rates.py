@@ -165,7 +165,12 @@ def config_of(task: str, learner: str) -> Path:
 
 
 def measure(
-    task: str, learners: tuple[str, ...], repeats: int, threads: int, n_envs: int | None = None
+    task: str,
+    learners: tuple[str, ...],
+    repeats: int,
+    threads: int,
+    n_envs: int | None = None,
+    stretch_s: float = STRETCH_S,
 ) -> list[RateRow]:
     """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``; ``n_envs``
     replaces the rsl_rl config's (rsl_rl and skrl), its minibatch scaled with it (the same
@@ -197,7 +202,7 @@ def measure(
         for rate in RATES:
             for k in learners:
                 t, made = time.perf_counter(), 0
-                while made == 0 or time.perf_counter() - t < STRETCH_S:
+                while made == 0 or time.perf_counter() - t < stretch_s:
                     made += stretches[k][rate]()
                 seconds.setdefault((k, rate), []).append(made / (time.perf_counter() - t))
     rows = []

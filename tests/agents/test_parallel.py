@@ -135,3 +135,17 @@ def test_train_command_runs_resumes_and_evaluates(tmp_path: Path) -> None:
 
     res = evaluate(run / "model.zip", TINY["env_id"], 2, 5, only=["model"])
     assert res["model"]["episodes"] == 2
+
+
+@pytest.mark.slow
+def test_rates_benchmark_measures_every_learner() -> None:
+    """`rigid-env bench learn --rates-only`'s measurement runs each learner's three loops (the
+    rates themselves are the benchmark's to report, not a test's to bound)."""
+    pytest.importorskip("skrl")
+    from rigid_env.bench.learn_rates import RATES, markdown, measure
+
+    rows = measure("detumble", ("sb3", "rsl_rl", "skrl"), 1, 1, n_envs=64, stretch_s=0.0)
+    assert [r.learner for r in rows] == ["sb3", "rsl_rl", "skrl"]
+    assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
+    assert rows[1].n_envs == rows[2].n_envs == 64
+    assert len(markdown(rows)) == 2 + len(rows)
