@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+import torch
 
 OPSET = 18
 
@@ -63,19 +64,11 @@ def deployable(model_path: Path) -> tuple[Any, dict[str, Any]]:
     return module.eval(), record
 
 
-def _module_base() -> type:
-    import torch
-
-    return torch.nn.Module
-
-
-class DeployedPolicy(_module_base()):  # type: ignore[misc]
+class DeployedPolicy(torch.nn.Module):
     """Raw observation -> deterministic action of an SB3 ``ActorCriticPolicy`` (see the module
     docstring); ``norm`` None: the policy reads raw observations."""
 
     def __init__(self, policy: Any, norm: Any, action_space: Any) -> None:
-        import torch
-
         super().__init__()
         self.policy = policy
         use = norm is not None and norm.norm_obs
@@ -90,9 +83,7 @@ class DeployedPolicy(_module_base()):  # type: ignore[misc]
         self.register_buffer("low", torch.as_tensor(action_space.low, dtype=torch.float32))
         self.register_buffer("high", torch.as_tensor(action_space.high, dtype=torch.float32))
 
-    def forward(self, obs: Any) -> Any:
-        import torch
-
+    def forward(self, obs: torch.Tensor) -> torch.Tensor:
         x = obs
         if self.normalise:
             z = (obs.to(torch.float64) - self.mean) / self.std
@@ -110,7 +101,6 @@ def export_onnx(model_path: Path, out: Path, force: bool = False) -> Path:
         ExportError: a missing or foreign model, or ``out`` exists and ``force`` is not set.
     """
     import onnx
-    import torch
 
     if (out.exists() or out.is_symlink()) and not force:
         raise ExportError(f"{out}: exists; pass --force to replace it, or choose another path")
