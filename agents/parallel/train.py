@@ -27,8 +27,8 @@ import torch
 import yaml
 
 from ..bar import BarEvaluation, evaluation_env_kwargs
-from ..callbacks import DurableEvaluation, finish_snapshots, save_snapshot, warn, write_atomic
-from ..config import ConfigError, TrainConfig
+from ..callbacks import DurableEvaluation, save_snapshot, warn, write_atomic
+from ..config import TrainConfig
 from .learner import from_sb3, make_runner, ppo_arguments, to_sb3
 
 Stop = Callable[[DurableEvaluation, float], bool]
@@ -79,6 +79,7 @@ def train_parallel(
         optim = _optim_path(snap.model)
         if optim.exists():
             runner.alg.optimizer.load_state_dict(torch.load(optim, weights_only=True))
+            runner.alg.learning_rate = runner.alg.optimizer.param_groups[0]["lr"]  # adaptive
         else:
             warn(f"{run_dir}: {optim.name} is missing; Adam starts afresh from {snap.model.name}")
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -148,6 +149,3 @@ def _progress_line(
         file=sys.stdout,
         flush=True,
     )
-
-
-__all__ = ["ConfigError", "finish_snapshots", "train_parallel"]

@@ -8,14 +8,21 @@ Learners: ``sb3`` (the SB3 path with the task's shipped config, ``configs/agents
 .yaml``: its own n_envs and rollout), ``rsl_rl`` (``configs/agents/rsl_ppo_<task>.yaml``, the
 learner of :mod:`rigid_env.agents.parallel`) and ``skrl`` (skrl's PPO, the peer rsl-rl was
 chosen against, on the rsl_rl config's envs and PPO arguments). Each learner steps its own env
-stack (SB3's ``VecNormalize`` over the batched task, same-step resets), with uniform random
-actions for the first rate and its own policy for the others; *+ inference* is what a rollout
+stack (SB3's ``VecNormalize`` over the batched task, same-step resets), with zero commands for
+the first rate, over one whole episode of every env (the body coasts and its episode ends at
+the time limit, so each env's reset, costly under randomisation, counts once per episode;
+uniform random commands spin it past the task's bounds and resets would set the rate) and its
+own policy for the others; *+ inference* is what a rollout
 does per step (the policy and value forward, sampling, the step), *full* is the learner's own
 training loop over whole rollouts, updates included. Every learner runs on ``--threads`` torch
 and Numba threads (default 1: on a shared machine a second thread that finds its core busy
 spins and costs more than it gives). Each rate is the median of ``--repeats`` timed
 stretches of at least 2 s (whole rollouts), the learners interleaved (a stretch of each in
-turn), after a warm-up stretch that compiles the kernels.
+turn), after a warm-up stretch that compiles the kernels; every stretch also spans at least
+the task's time limit in vector steps (whole rollouts), so that each rate pays the resets once
+per env and episode (under the training randomisation a reset rebuilds the env's model, about
+1 ms per env here: a stretch of one rollout would count them in one stretch and miss them in
+the next).
 """
 
 from __future__ import annotations
@@ -52,6 +59,14 @@ class RateRow:
     full: float
 
 
+def _episode(cfg: Any) -> int:
+    """The task's time limit in steps: one env-rate stretch, so that every env's reset counts
+    once per episode (coasting envs all end together, at the limit)."""
+    import gymnasium as gym
+
+    return int(gym.spec(cfg.env_id).max_episode_steps)
+
+
 def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
     """Stretches of the SB3 path, each returning the env-steps it made."""
     import torch
@@ -62,15 +77,15 @@ def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     model = _new_model(cfg, venv, Path("/nonexistent"), 0)
     model.tensorboard_log = None
-    n, steps = cfg.n_envs, model.n_steps
-    rng = np.random.default_rng(0)
+    n, steps, episode = cfg.n_envs, model.n_steps, _episode(cfg)
     low, high = venv.action_space.low, venv.action_space.high
+    coast = np.zeros((n, len(low)), dtype=np.float32)
     state = {"obs": venv.reset()}
 
     def env() -> int:
-        for _ in range(steps):
-            venv.step(rng.uniform(low, high, (n, len(low))).astype(np.float32))
-        return n * steps
+        for _ in range(episode):
+            venv.step(coast)
+        return n * episode
 
     def inference() -> int:
         obs = state["obs"]
@@ -99,12 +114,12 @@ def _rsl(cfg: Any) -> dict[str, Callable[[], int]]:
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     runner = make_runner(cfg, venv, int(gym.spec(cfg.env_id).max_episode_steps))
     env_ = runner.env
-    n, steps = cfg.n_envs, ppo_arguments(cfg)["n_steps"]
+    n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
 
     def env() -> int:
-        for _ in range(steps):
-            env_.step(torch.rand(n, env_.num_actions) * 2 - 1)
-        return n * steps
+        for _ in range(episode):
+            env_.step(torch.zeros(n, env_.num_actions))
+        return n * episode
 
     def inference() -> int:
         obs = env_.get_observations()
@@ -131,13 +146,13 @@ def _skrl(cfg: Any) -> dict[str, Callable[[], int]]:
 
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     agent, env_ = make_skrl(cfg, venv)
-    n, steps = cfg.n_envs, ppo_arguments(cfg)["n_steps"]
+    n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
     state = {"obs": env_.reset()[0]}
 
     def env() -> int:
-        for _ in range(steps):
-            env_.step(torch.rand(n, len(venv.action_space.low)) * 2 - 1)
-        return n * steps
+        for _ in range(episode):
+            env_.step(torch.zeros(n, len(venv.action_space.low)))
+        return n * episode
 
     def inference() -> int:
         obs = state["obs"]
@@ -171,10 +186,13 @@ def measure(
     threads: int,
     n_envs: int | None = None,
     stretch_s: float = STRETCH_S,
+    whole_episodes: bool = True,
 ) -> list[RateRow]:
     """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``; ``n_envs``
     replaces the rsl_rl config's (rsl_rl and skrl), its minibatch scaled with it (the same
-    number of minibatches per rollout)."""
+    number of minibatches per rollout). A timed stretch lasts at least ``stretch_s`` and, with
+    ``whole_episodes``, one episode's length of vector steps, so that every rate counts the
+    resets at their rate in training (one per env and episode)."""
     import importlib.util
 
     from rigid_env.agents.config import load_config
@@ -202,7 +220,8 @@ def measure(
         for rate in RATES:
             for k in learners:
                 t, made = time.perf_counter(), 0
-                while made == 0 or time.perf_counter() - t < stretch_s:
+                least = cfgs[k].n_envs * _episode(cfgs[k]) if whole_episodes else 1
+                while made < least or time.perf_counter() - t < stretch_s:
                     made += stretches[k][rate]()
                 seconds.setdefault((k, rate), []).append(made / (time.perf_counter() - t))
     rows = []
