@@ -68,6 +68,18 @@ class EvalConfig(BaseModel):
     """Seed of the evaluation env, >= 0 (training uses seed .. seed + n_envs - 1)."""
 
 
+class RslRlConfig(BaseModel):
+    """Settings of rsl-rl's PPO that SB3's PPO has no argument for (``learner: rsl_rl``)."""
+
+    model_config = _FROZEN
+    schedule: Literal["fixed", "adaptive"] = "fixed"
+    """The learning rate: fixed, or adapted after each minibatch to keep the KL divergence
+    between the rollout's policy and the updated one near ``desired_kl`` (divided by 1.5 above
+    twice it, multiplied by 1.5 below half of it, within [1e-5, 1e-2])."""
+    desired_kl: PositiveFloat = 0.01
+    """The KL divergence the adaptive schedule aims at, > 0."""
+
+
 class TrainConfig(BaseModel):
     """One training run: algorithm x task x seed."""
 
@@ -76,6 +88,11 @@ class TrainConfig(BaseModel):
     """Registered id, e.g. RigidEnv/Detumble-v0."""
     algo: Literal["ppo", "sac", "td3", "tqc"]
     """The algorithm (tqc needs sb3-contrib)."""
+    learner: Literal["sb3", "rsl_rl"] | None = None
+    """Who runs it: SB3 (left out, or sb3) or rsl-rl's PPO over the whole batch of envs
+    (rsl_rl: algo ppo only, ``pip install 'rigid_env[learner]'``; see agents.parallel)."""
+    rsl_rl: RslRlConfig | None = None
+    """Settings of learner rsl_rl beyond SB3's PPO arguments (only with that learner)."""
     total_timesteps: PositiveInt
     """Environment steps to train for (summed over envs), >= 1."""
     seed: Annotated[NonNegativeInt, Field(le=2**32 - 1)] = 0
@@ -135,6 +152,27 @@ class TrainConfig(BaseModel):
             raise ValueError(f"{exc.problem}; {exc.fix}") from None
         return algo
 
+    @field_validator("learner")
+    @classmethod
+    def _learner_runs_algo(cls, learner: str | None, info: ValidationInfo) -> str | None:
+        if learner == "rsl_rl":
+            if info.data.get("algo") not in (None, "ppo"):
+                raise ValueError("rsl_rl runs algo ppo only; use learner sb3 for the others")
+            try:
+                import rsl_rl  # noqa: F401
+            except ImportError:
+                raise ValueError(
+                    "rsl_rl is not installed; pip install 'rigid_env[learner]'"
+                ) from None
+        return learner
+
+    @field_validator("rsl_rl")
+    @classmethod
+    def _only_with_rsl_rl(cls, value: RslRlConfig | None, info: ValidationInfo) -> Any:
+        if value is not None and info.data.get("learner") != "rsl_rl":
+            raise ValueError("applies to learner rsl_rl only; remove it or set learner: rsl_rl")
+        return value
+
     @field_validator("policy_kwargs", "hyperparams", mode="wrap")
     @classmethod
     def _taken_by_algorithm(
@@ -183,8 +221,9 @@ class TrainConfig(BaseModel):
 
     @property
     def run_name(self) -> str:
-        """``<task>__<algo>__<seed>``."""
-        return f"{self.task}__{self.algo}__{self.seed}"
+        """``<task>__<algo>__<seed>`` (``<algo>_rsl`` for learner rsl_rl)."""
+        algo = f"{self.algo}_rsl" if self.learner == "rsl_rl" else self.algo
+        return f"{self.task}__{algo}__{self.seed}"
 
     @property
     def gamma(self) -> float:

@@ -17,6 +17,10 @@ A run uses ``threads`` CPU threads (default 1: two seeds train at once on two co
 (:mod:`agents.bar`), and prints a line with env-steps/s, that evaluation and an ETA
 (:mod:`agents.progress`; TensorBoard gets the same numbers).
 
+A config with ``learner: rsl_rl`` trains with rsl-rl's PPO over all its envs at once
+(:mod:`agents.parallel`, the ``[learner]`` extra) in the same run folder, with the same files,
+evaluations and resume rules; its models are SB3 ``PPO`` zips like the others.
+
 ``--resume`` continues from the newest complete checkpoint (or the final model) with its step
 count, statistics and replay buffer; one that lacks a file its sidecar names (or statistics the
 config needs) or does not load is skipped with a warning, and with none left the resume is
@@ -33,7 +37,7 @@ import errno
 import json
 import re
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -477,6 +481,7 @@ def train(
     verbose: int = 0,
     callbacks: Sequence[Any] = (),
     or_start: bool = False,
+    stop: Callable[[Any, float], bool] | None = None,
 ) -> Path:
     """Train and save; returns the run directory.
 
@@ -489,6 +494,9 @@ def train(
             evaluation) at every step, so on an evaluation step right after the evaluation
             (``agents.sweep`` reports to Ray Tune this way).
         or_start: with ``resume``, start the run when there is none (else that is an error).
+        stop: ``learner: rsl_rl`` only: called after each evaluation with the run's
+            ``DurableEvaluation`` and the seconds evaluations took so far; True ends the run
+            there (SB3 callbacks do not run in that learner).
 
     Raises:
         ConfigError: the run exists and ``resume`` is not set; ``resume`` without
@@ -500,7 +508,7 @@ def train(
     check_runs_dir(runs_dir, run_dir)
     _refuse_resume_of_nothing(run_dir, resume, or_start)  # before the lock creates the folder
     with locked(run_dir):
-        return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start)
+        return _train(cfg, run_dir, resume, progress, verbose, callbacks, or_start, stop)
 
 
 def _train(
@@ -511,6 +519,7 @@ def _train(
     verbose: int,
     callbacks: Sequence[Any],
     or_start: bool,
+    stop: Callable[[Any, float], bool] | None = None,
 ) -> Path:
     """:func:`train` with the run folder's lock held."""
     tb = run_dir / "tb"
@@ -551,6 +560,13 @@ def _train(
             "restore its files, or move model.zip and model.json out of the run to resume from "
             "its checkpoints",
         )  # fmt: skip
+    if cfg.learner == "rsl_rl":
+        from .parallel.train import train_parallel
+
+        if callbacks:
+            raise ConfigError(cfg.run_name, "learner", "SB3 callbacks do not run in learner "
+                              "rsl_rl", "pass stop= instead, or use learner sb3")  # fmt: skip
+        return train_parallel(cfg, run_dir, start, trained, progress, stop)
     if start is not None:
         model, env, snap, skipped = start
         for problem in skipped:

@@ -12,6 +12,9 @@
     rigid-env demo [--task T] [--episodes K] [--out DIR] [--force]
                                         the main job: pretrained policies beside the PD
                                         controller (agents.demo: a table and a GIF per task)
+    rigid-env export MODEL --onnx OUT [--force]
+                                        a policy as ONNX, normalisation folded in
+                                        (agents.export)
 
 A user's mistake (a bad file, scene or flag value) ends with exit status 2 and one line on
 stderr, ``rigid-env: error: ...``; a simulation that turns non-finite ends with status 1 and one
@@ -267,6 +270,20 @@ def build_parser() -> argparse.ArgumentParser:
     )
     demo.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
     demo.set_defaults(handler=_cmd_demo)
+
+    export = sub.add_parser(
+        "export",
+        help="a trained policy as ONNX, normalisation folded in, for use off Python",
+        description="Write MODEL (an SB3 PPO zip with its sidecar and VecNormalize statistics, "
+        "e.g. agents/pretrained/ppo_detumble.zip) as one ONNX graph from raw observations to "
+        "deterministic actions (rigid_env.agents.export; needs the [export] extra).",
+    )
+    export.add_argument("model", type=Path, metavar="MODEL", help="the model zip")
+    export.add_argument(
+        "--onnx", type=Path, required=True, metavar="OUT", help="the ONNX file to write"
+    )
+    export.add_argument("--force", action="store_true", help="replace OUT if it exists")
+    export.set_defaults(handler=_cmd_export)
     return parser
 
 
@@ -730,6 +747,20 @@ def _cmd_demo(args: argparse.Namespace, extra: list[str]) -> int:
     from rigid_env.agents import demo
 
     return demo.run(args.task, args.episodes, args.out, args.force)
+
+
+def _cmd_export(args: argparse.Namespace, extra: list[str]) -> int:
+    try:
+        import onnx  # noqa: F401
+
+        from rigid_env.agents import export
+    except ImportError as exc:
+        raise UsageError(
+            f"export needs {exc.name or 'onnx'}; pip install 'rigid_env[export]'"
+        ) from None
+    out = export.export_onnx(args.model, args.onnx, args.force)
+    print(f"wrote {out}")
+    return 0
 
 
 if __name__ == "__main__":

@@ -1,14 +1,19 @@
 """Time to the bar: how long the shipped PPO configs take to train each task, beside the
-previous configs, in the same run.
+previous configs and the rsl-rl learner's, in the same run; and the three rates of each learner.
 
     rigid-env bench learn [--tasks detumble ...] [--seeds 0 1 2] [--jobs 2]
-                          [--previous-limit 240] [--previous-seeds 0 ...] [--out DIR] [--force]
+                          [--previous-limit 240] [--previous-seeds 0 ...] [--rsl-seeds 0 ...]
+                          [--out DIR] [--force]
+    rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl]
+                          [--repeats 3] [--threads 1] [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
-budget) and, as the peer, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
-issue 24), shortened: it stops at its first evaluation that meets the bar, or after
-``--previous-limit`` seconds of CPU time. Both evaluate every ``eval.freq`` steps on the same
+budget) and, as the peers, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
+issue 24) and, where the task has one, ``configs/agents/rsl_ppo_<task>.yaml`` (rsl-rl's PPO over
+thousands of envs, :mod:`rigid_env.agents.parallel`), shortened: each stops at its first
+evaluation that meets the bar, or after ``--previous-limit`` seconds of CPU time. All evaluate
+every ``eval.freq`` steps on the same
 100 held-out episodes (:mod:`rigid_env.agents.bar`: at least 95 % success and at most 1.5x
 the PD controller's fuel), so *time to bar* is the wall-clock (and process CPU time) and the
 env-steps from the start of training to that evaluation. Each final model is then evaluated on
@@ -18,7 +23,8 @@ wall-clock of the periodic evaluations (the configs evaluate at different rates)
 
 Writes ``results.md`` (tables), ``results.csv`` (one row per run) and ``time_to_bar.png``
 (success of each evaluation against training wall-clock, one curve per run) to ``--out``
-(default ``runs/bench_learn``), and the runs themselves under ``--out``/runs.
+(default ``runs/bench_learn``), and the runs themselves under ``--out``/runs. ``--rates-only``
+writes ``rates.md`` and ``rates.csv`` instead (:mod:`rigid_env.bench.learn_rates`).
 """
 
 from __future__ import annotations
@@ -36,6 +42,7 @@ import numpy as np
 
 from rigid_env.agents.shipped import TASKS as SHIPPED
 from rigid_env.bench import report
+from rigid_env.bench.learn_rates import LEARNERS
 from rigid_env.resources import data_path
 
 TASKS = tuple(task.module for task in SHIPPED.values())
@@ -51,7 +58,7 @@ class LearnRow:
     """One training run's time to bar and final result."""
 
     task: str
-    config: str  # "shipped" | "previous"
+    config: str  # "shipped" | "previous" | "rsl_rl"
     seed: int
     steps: int  # env-steps trained
     seconds: float  # training wall-clock
@@ -107,19 +114,54 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=_count(0),
         help="seeds of the previous configs (default: --seeds; none: the shipped configs only)",
     )
+    parser.add_argument(
+        "--rsl-seeds",
+        nargs="*",
+        type=_count(0),
+        help="seeds of the rsl-rl learner's configs, configs/agents/rsl_ppo_<task>.yaml, where "
+        "a task has one (default: --seeds; none: leave them out); they stop at the bar or "
+        "after --previous-limit",
+    )
+    parser.add_argument(
+        "--learners",
+        nargs="+",
+        choices=LEARNERS,
+        default=list(LEARNERS),
+        help="whose three rates to measure (env; + inference; full PPO), in the same run",
+    )
+    parser.add_argument("--repeats", type=_count(1), default=3, help="timed stretches per rate")
+    parser.add_argument("--threads", type=_count(1), default=1, help="threads of the rates")
+    parser.add_argument(
+        "--n-envs",
+        type=_count(1),
+        help="envs of rsl_rl and skrl in the rates (default: the rsl_rl config's; the "
+        "minibatch scales with it)",
+    )
+    parser.add_argument(
+        "--rates-only",
+        action="store_true",
+        help="measure the three rates of each learner (rates.md) and train nothing",
+    )
     parser.add_argument("--out", type=Path, default=Path("runs/bench_learn"))
     parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
 
 
-def config_path(task: str, previous: bool) -> Path:
-    """The shipped (or previous) PPO config of ``task``."""
-    return data_path(f"configs/agents/{'previous/' if previous else ''}ppo_{task}.yaml")
+KINDS = ("shipped", "previous", "rsl_rl")
+"""The configs a task trains with: its shipped SB3 config, the SB3 config before issue 24, and
+the rsl-rl learner's (``configs/agents/rsl_ppo_<task>.yaml``, where the task has one)."""
+
+
+def config_path(task: str, previous: bool | str) -> Path:
+    """The shipped (``False``, ``"shipped"``), previous (``True``, ``"previous"``) or rsl-rl
+    (``"rsl_rl"``) PPO config of ``task``."""
+    stem = {"shipped": "ppo_", "previous": "previous/ppo_", "rsl_rl": "rsl_ppo_"}[_kind(previous)]
+    return data_path(f"configs/agents/{stem}{task}.yaml")
 
 
 def train_one(
     task: str,
     seed: int,
-    previous: bool,
+    previous: bool | str,
     runs_dir: Path,
     limit_s: float,
     config: Path | None = None,
@@ -170,8 +212,20 @@ def train_one(
 
     spent = [0.0]
     t0, c0 = time.perf_counter(), time.process_time()
-    stop = [StopAtBar()] if previous or math.isfinite(limit_s) else []
-    run_dir = train(cfg, runs_dir, progress=False, callbacks=[EvaluationTimer(), *stop])
+    if cfg.learner == "rsl_rl":
+
+        def at_bar(evaluation: DurableEvaluation, evaluating_s: float) -> bool:
+            spent[0] = evaluating_s
+            if evaluation.first_met is not None:
+                stopped[0] = "bar"
+            elif time.process_time() - c0 > limit_s:
+                stopped[0] = "limit"
+            return stopped[0] != "budget"
+
+        run_dir = train(cfg, runs_dir, progress=False, stop=at_bar)
+    else:
+        stop = [StopAtBar()] if _kind(previous) == "previous" or math.isfinite(limit_s) else []
+        run_dir = train(cfg, runs_dir, progress=False, callbacks=[EvaluationTimer(), *stop])
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     side = json.loads((run_dir / "model.json").read_text())
     with np.load(run_dir / "eval" / "evaluations.npz") as h:
@@ -184,7 +238,7 @@ def train_one(
     return asdict(
         LearnRow(
             task=task,
-            config="previous" if previous else "shipped",
+            config=_kind(previous),
             seed=seed,
             steps=steps,
             seconds=seconds,
@@ -200,6 +254,10 @@ def train_one(
             history=str(run_dir / "eval" / "evaluations.npz"),
         )
     )
+
+
+def _kind(previous: bool | str) -> str:
+    return {True: "previous", False: "shipped"}.get(previous, previous)  # type: ignore[arg-type]
 
 
 class _Timed:
@@ -241,7 +299,7 @@ MANIFEST = ".bench_learn_manifest.json"
 ever removes."""
 
 
-def _run_name(task: str, seed: int, previous: bool) -> str:
+def _run_name(task: str, seed: int, previous: bool | str) -> str:
     from rigid_env.agents.config import load_config
 
     return load_config(config_path(task, previous), {"seed": seed}).run_name
@@ -286,32 +344,34 @@ def _clear_own_runs(out: Path, planned: list[Path], force: bool) -> None:
     manifest.write_text(json.dumps(sorted(own | {str(p.relative_to(out)) for p in planned})))
 
 
-def _worker(job: tuple[str, int, bool, str, float]) -> dict[str, Any]:
+def _worker(job: tuple[str, int, bool | str, str, float]) -> dict[str, Any]:
     task, seed, previous, runs_dir, limit_s = job
     return train_one(task, seed, previous, Path(runs_dir), limit_s)
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the benchmark; 0 on success."""
+    if args.rates_only:
+        return run_rates(args)
     out = report.prepare_out(args.out, OUTPUTS, args.force)
     runs_dir = out / "runs"
     previous_seeds = args.seeds if args.previous_seeds is None else args.previous_seeds
-    planned = [
-        runs_dir / ("previous" if previous else "shipped") / _run_name(task, seed, previous)
+    rsl_seeds = args.seeds if args.rsl_seeds is None else args.rsl_seeds
+    kinds = (
+        ("shipped", math.inf, args.seeds),
+        ("previous", args.previous_limit, previous_seeds),
+        ("rsl_rl", args.previous_limit, rsl_seeds),
+    )
+    runs = [
+        (task, seed, kind, lim)
         for task in args.tasks
-        for previous, seeds in ((False, args.seeds), (True, previous_seeds))
+        for kind, lim, seeds in kinds
+        if kind != "rsl_rl" or config_path(task, kind).exists()
         for seed in seeds
     ]
+    planned = [runs_dir / kind / _run_name(task, seed, kind) for task, seed, kind, _ in runs]
     _clear_own_runs(out, planned, args.force)
-    jobs = [
-        (task, seed, previous, str(runs_dir / ("previous" if previous else "shipped")), lim)
-        for task in args.tasks
-        for previous, lim, seeds in (
-            (False, math.inf, args.seeds),
-            (True, args.previous_limit, previous_seeds),
-        )
-        for seed in seeds
-    ]
+    jobs = [(task, seed, kind, str(runs_dir / kind), lim) for task, seed, kind, lim in runs]
     t0 = time.perf_counter()
     rows: list[LearnRow] = []
     with mp.get_context("spawn").Pool(args.jobs, maxtasksperchild=1) as pool:
@@ -329,6 +389,30 @@ def run(args: argparse.Namespace) -> int:
     report.write_csv(out / "results.csv", rows)
     _figure(rows, out / "time_to_bar.png")
     print(f"wrote {out / 'results.md'}, results.csv, time_to_bar.png")
+    return 0
+
+
+def run_rates(args: argparse.Namespace) -> int:
+    """``--rates-only``: the three rates of each learner on each task (rates.md, rates.csv)."""
+    from rigid_env.bench.learn_rates import markdown, measure
+
+    out = report.prepare_out(args.out, ("rates.md", "rates.csv"), args.force)
+    rows = []
+    t0 = time.perf_counter()
+    for task in args.tasks:
+        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs)
+    lines = [
+        "# Three rates of each learner (rigid-env bench learn --rates-only)",
+        "",
+        f"{report.machine()}; {report.versions('torch', 'stable-baselines3', 'rsl-rl-lib', 'skrl')}"
+        f"; load at the end: {report.load()}. {args.threads} thread(s), median of "
+        f"{args.repeats} interleaved stretches each; {time.perf_counter() - t0:.0f} s in all.",
+        "",
+        *markdown(rows),
+    ]
+    (out / "rates.md").write_text("\n".join(lines) + "\n")
+    report.write_csv(out / "rates.csv", rows)
+    print("\n".join(lines))
     return 0
 
 
@@ -359,16 +443,16 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
     lines += [
         "",
         "| task | shipped: median (worst) time to bar [s] | previous: median time to bar [s] | "
-        "env-steps/s shipped / previous | training env-steps/s shipped / previous |",
-        "|---|---|---|---|---|",
+        "rsl_rl: median (worst) time to bar [s] | env-steps/s shipped / previous | "
+        "training env-steps/s shipped / previous | training env-steps/s rsl_rl / shipped |",
+        "|---|---|---|---|---|---|---|",
     ]
     for task in TASKS:
         new = [r for r in rows if r.task == task and r.config == "shipped"]
         old = [r for r in rows if r.task == task and r.config == "previous"]
+        rsl = [r for r in rows if r.task == task and r.config == "rsl_rl"]
         if not new:
             continue
-        bar = [r.bar_seconds for r in new]
-        worst = max(bar) if not any(math.isnan(b) for b in bar) else math.nan
         ratio, training = (
             (
                 _median([r.steps_per_s for r in new]) / _median([r.steps_per_s for r in old]),
@@ -379,11 +463,26 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
             else (math.nan, math.nan)
         )
         old_bar = _median([r.bar_seconds for r in old]) if old else math.nan
+        rsl_speed = (
+            _median([r.train_steps_per_s for r in rsl])
+            / _median([r.train_steps_per_s for r in new])
+            if rsl
+            else math.nan
+        )
         lines.append(
-            f"| {task} | {_median(bar):.1f} ({worst:.1f}) | {old_bar:.1f} | {ratio:.2f}x | "
-            f"{training:.2f}x |"
+            f"| {task} | {_bars(new)} | {old_bar:.1f} | {_bars(rsl)} | {ratio:.2f}x | "
+            f"{training:.2f}x | {rsl_speed:.2f}x |"
         )
     return "\n".join(lines) + "\n"
+
+
+def _bars(rows: list[LearnRow]) -> str:
+    """``median (worst)`` time to bar of ``rows`` (worst nan if one never met it)."""
+    if not rows:
+        return "-"
+    bar = [r.bar_seconds for r in rows]
+    worst = max(bar) if not any(math.isnan(b) for b in bar) else math.nan
+    return f"{_median(bar):.1f} ({worst:.1f})"
 
 
 def _figure(rows: list[LearnRow], path: Path) -> None:
@@ -400,7 +499,7 @@ def _figure(rows: list[LearnRow], path: Path) -> None:
             with np.load(r.history) as h:
                 x = h["seconds"]
                 y = [float(np.mean(s)) for s in h["successes"]]
-            style = "-" if r.config == "shipped" else ":"
+            style = {"shipped": "-", "previous": ":", "rsl_rl": "--"}[r.config]
             color = f"C{r.seed}"
             ax.plot(x, y, style, color=color, marker=".", label=f"{r.config} seed {r.seed}")
         ax.axhline(0.95, color="grey", lw=0.8)
