@@ -61,7 +61,7 @@ from rigid_env.core.effects import (
     Thrusters,
 )
 from rigid_env.core.inertia import MassProperties
-from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.integrators import INTEGRATORS, NO_WHEELS, WHEEL_STEPS
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -71,7 +71,6 @@ from rigid_env.core.rotation import (
     quat_rotate_inv,
 )
 from rigid_env.core.state import BodyModel, State
-from rigid_env.core.wheels import NO_WHEELS, WHEEL_STEPS
 from rigid_env.core.world import World
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene_sections import (

@@ -11,7 +11,8 @@ writes ``speed.md`` (one table per measurement), ``speed.csv`` (one row per meas
    asymmetric body (principal moments (1, 2, 3)) with random spins; beside MuJoCo on the same
    body (one free joint, no gravity, no contacts), stepped by ``mujoco.mj_step`` in a Python
    loop (one body) and by ``mujoco.rollout.rollout`` on the calling thread (``N`` initial
-   states), with MuJoCo's ``Euler`` and ``RK4`` integrators.
+   states), with MuJoCo's ``Euler`` and ``RK4`` integrators; and the same bodies with three
+   reaction wheels (rk4) beside ``rk4`` without them.
 2. ``env``: microseconds per ``env.step`` of every task through ``gym.make`` (default
    wrappers), beside Gymnasium's ``Pendulum-v1`` and MuJoCo's ``InvertedPendulum-v5``.
 3. ``vec``: env-steps per second of every task's native vector env
@@ -84,7 +85,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core.effects import GravityGradient
+from rigid_env.core.effects import GravityGradient, ReactionWheels
 from rigid_env.core.threads import THREAD_MIN_BODIES
 from rigid_env.envs import ENV_IDS
 from rigid_env.resources import scene_path
@@ -106,6 +107,14 @@ MJ_BLOCK = 1000
 """``mj_step`` calls per timed call of the Python-loop peer (the state is restored first)."""
 MJ_ROLLOUT_BODY_STEPS = 8192
 """Body-steps per ``rollout`` call: ``nstep = 8192 / N`` clipped to [10, 1000]."""
+WHEELS_CASE = "rk4 + 3 reaction wheels"
+"""The core row of the benchmark body carrying three reaction wheels, beside ``rk4`` without."""
+
+
+def bench_wheels() -> ReactionWheels:
+    """Three reaction wheels along the body's principal axes, a CubeSat's (J 1e-5 kg m^2,
+    2e-3 N m, limit 628 rad/s)."""
+    return ReactionWheels(np.eye(3), inertia=1.0e-5, max_torque=2.0e-3, max_speed=628.0)
 
 
 FULL = Config(
@@ -227,6 +236,14 @@ def _core_cases(n: int, cfg: Config) -> list[Case]:
     for name in cfg.core_integrators:
         world = World(model, integrator=name, dt=DT, state=s0)
         cases.append(Case(name, world.step, n, reset=lambda w=world: w.reset(s0)))
+    if "rk4" in cfg.core_integrators:  # the same bodies carrying wheels, driven at random
+        world = World(model, [bench_wheels()], integrator="rk4", dt=DT, state=s0)
+        u = np.random.default_rng(5).uniform(-1.0, 1.0, (n, 3))
+
+        def driven(w: World = world, u: FloatArray = u) -> None:
+            w.step(u)
+
+        cases.append(Case(WHEELS_CASE, driven, n, reset=lambda w=world: w.reset(s0)))
     spec = mujoco.mjtState.mjSTATE_FULLPHYSICS.value
     for mj_name in MJ_INTEGRATORS:
         m = mujoco_model(mj_name)
@@ -260,6 +277,8 @@ def bench_core(cfg: Config, res: Results) -> None:
         for name, t in timings.items():
             if name.startswith("MuJoCo"):
                 peer = name.replace("mj_step loop", "rollout")
+            elif name == WHEELS_CASE:
+                peer = "rk4"
             else:
                 peer = f"MuJoCo {'Euler' if INTEGRATORS[name].order == 1 else 'RK4'} rollout"
             ratio = t.rate / timings[peer].rate
@@ -277,6 +296,11 @@ def bench_core(cfg: Config, res: Results) -> None:
         f"`mj_step` loop runs {MJ_BLOCK} steps per call in Python (state restored first).",
         "Ratio: our body-steps/s over MuJoCo `rollout` at the same N, first-order integrators "
         "against MuJoCo `Euler`, the others against `RK4` (higher is faster).",
+        f"`{WHEELS_CASE}`: the same bodies (rk4) each carrying three reaction wheels along its "
+        "principal axes (J 1e-5 kg m^2, 2e-3 N m, 628 rad/s), each body driving them at its own "
+        "random levels in [-1, 1]; its ratio is to `rk4` without wheels at the same N (the "
+        "cost of the wheels' momenta riding through the same passes; must hold: >= 0.5x at "
+        "N = 4096).",
         f"From N = {THREAD_MIN_BODIES} on, `World.step` splits the bodies over the process's "
         f"cores (Numba threads, {numba.get_num_threads()} here); MuJoCo's `rollout` runs on one "
         "thread, so at N = 4096 the ratio counts our threads too.",

@@ -23,14 +23,17 @@ from rigid_env.core.layout import EFFECTS, Params
 inline = njit(inline="always", error_model="numpy")
 """A link of a chain: inlined into the compiled function that calls it."""
 
-RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers", "wheels")
+RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers")
 """The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
 rare effects', the thrusters' hardware (its switch times split a substep per body) and the
 magnetorquers (the actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`). The
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
-of a branch inside a vectorised loop). ``wheels``: a world with reaction wheels has a step of its
-own (:mod:`rigid_env.core.wheels`); the vectorised passes' integrators see none."""
+of a branch inside a vectorised loop)."""
+WHEELS = "wheels"
+"""The flag of the reaction wheels: the vectorised passes are compiled twice, seeing it as the
+constant 0 (:func:`common`: a world without wheels, whose loops carry no wheel code) and as the
+constant 1 (:func:`wheeled`: the wheels' momenta ride through the integrator's flow)."""
 
 
 def _chain(links: list[tuple[int, Callable]], step: Callable) -> Callable:
@@ -114,9 +117,15 @@ def rare(c: Params) -> bool:
 
 
 def common(c: Params) -> Params:
-    """``c`` with the :data:`RARE` flags 0; compiled, 0 as constants that remove the effects'
-    branches from the code."""
-    return c._replace(**dict.fromkeys(RARE, 0.0))
+    """``c`` with the :data:`RARE` flags and the :data:`WHEELS` flag 0; compiled, 0 as
+    constants that remove the effects' and the wheels' branches from the code."""
+    return c._replace(**dict.fromkeys((*RARE, WHEELS), 0.0))
+
+
+def wheeled(c: Params) -> Params:
+    """``c`` with the :data:`RARE` flags 0 and the :data:`WHEELS` flag 1, as constants (for a
+    world whose bodies carry wheels and nothing rare)."""
+    return c._replace(**dict.fromkeys(RARE, 0.0), **{WHEELS: 1.0})
 
 
 def _any_set(indices: tuple[int, ...]) -> Callable:
@@ -139,16 +148,26 @@ _rare = _any_set(tuple(Params._fields.index(name) for name in RARE))
 _potential = _any_set(_POTENTIAL_FLAGS)
 
 
-@intrinsic
-def _common(typingctx, c):
-    def codegen(context, builder, sig, args):
-        out = args[0]
-        zero = context.get_constant(types.float64, 0.0)
-        for name in RARE:
-            out = builder.insert_value(out, zero, Params._fields.index(name))
-        return out
+def _set_flags(zeros: tuple[str, ...], ones: tuple[str, ...]) -> Callable:
+    """An intrinsic ``c -> c`` with the flags ``zeros`` set to the constant 0 and ``ones`` to 1."""
 
-    return c(c), codegen
+    @intrinsic
+    def set_flags(typingctx, c):
+        def codegen(context, builder, sig, args):
+            out = args[0]
+            for names, value in ((zeros, 0.0), (ones, 1.0)):
+                constant = context.get_constant(types.float64, value)
+                for name in names:
+                    out = builder.insert_value(out, constant, Params._fields.index(name))
+            return out
+
+        return c(c), codegen
+
+    return set_flags
+
+
+_common = _set_flags((*RARE, WHEELS), ())
+_wheeled = _set_flags(RARE, (WHEELS,))
 
 
 @overload(rare, inline="always")
@@ -164,3 +183,8 @@ def _overload_any_potential(c):
 @overload(common, inline="always")
 def _overload_common(c):
     return lambda c: _common(c)
+
+
+@overload(wheeled, inline="always")
+def _overload_wheeled(c):
+    return lambda c: _wheeled(c)

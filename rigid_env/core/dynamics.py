@@ -11,7 +11,7 @@ from __future__ import annotations
 from rigid_env.core.compose import effect_terms
 from rigid_env.core.forces import add, dipole_torque
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import ZERO3, command_level, dipole_row, field_of, map_row
+from rigid_env.core.layout import ZERO3, ZERO4, command_level, dipole_row, field_of, map_row
 from rigid_env.core.maths import axpy, rotate
 
 
@@ -108,6 +108,16 @@ def accelerations(x, v, q, w, act, m, c, gyro):
     inv_m = m.inv_mass
     alpha = (tx * m.inv_inertia_x, ty * m.inv_inertia_y, tz * m.inv_inertia_z)
     return (fx * inv_m, fy * inv_m, fz * inv_m), alpha
+
+
+@kernel
+def rigid_rates(x, v, q, w, hw, act, m, c, wheels):
+    """``(v', w', hw')`` of a body without wheels, as a flow of the body and its wheels reads
+    them (:mod:`rigid_env.core.integrators`): its :func:`accelerations` (Euler's gyroscopic
+    term included) and no wheel rates (``hw`` stays the constant zeros, whose arithmetic the
+    compiler drops as unused)."""
+    a, alpha = accelerations(x, v, q, w, act, m, c, True)
+    return a, alpha, ZERO4
 
 
 @kernel

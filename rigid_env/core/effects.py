@@ -538,8 +538,8 @@ class ReactionWheels(LinearActuator):
         return out
 
     def parameters(self) -> dict[str, float]:
-        """The count of wheels; their rows go last in the parameters (:func:`pack`)."""
-        return {"wheels": float(self.axes.shape[0])}
+        """The wheels' flag and count; their rows go last in the parameters (:func:`pack`)."""
+        return {"wheels": 1.0, "wheel_count": float(self.axes.shape[0])}
 
 
 def _unit_axes(where: str, value: object, count: str, item: str, most: float = math.inf):

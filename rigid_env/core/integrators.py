@@ -30,30 +30,23 @@ from numpy.typing import NDArray
 from rigid_env.core.dop853 import dop853
 from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
 from rigid_env.core.exact_step import exact_free
-from rigid_env.core.jit import kernel, pass_kernel, threads_kernel, world_kernel
+from rigid_env.core.jit import flow_kernel, kernel, threads_kernel, world_kernel
+from rigid_env.core.layout import ZERO4
 from rigid_env.core.maths import axpy, normalize, qdot, sincos, solve3, spin
 from rigid_env.core.stepping import advance, over_threads
+from rigid_env.core.wheels import rates
 
 FloatArray = NDArray[np.float64]
 
 
 # ---- textbook methods ------------------------------------------------------------------------
-# Each explicit method is written once as a flow of ``(x, v, q, w)`` and the momenta ``hw`` of a
-# body's reaction wheels (a 4-tuple, rigid_env.core.wheels), under the rates ``f(x, v, q, w, hw,
-# act, m, c, wheels) -> (a, alpha, hw')``: the rigid body's own (:func:`rigid_rates`, no wheels:
-# ``hw`` stays the constant zeros, whose arithmetic the compiler drops as unused) or a
-# gyrostat's (:func:`rigid_env.core.wheels.gyrostat`). The registry's per-body step is the flow
-# of the rigid rates.
-ZERO4 = (0.0, 0.0, 0.0, 0.0)
-"""No wheels' momenta: a constant the compiler folds."""
-
-
-@kernel
-def rigid_rates(x, v, q, w, hw, act, m, c, wheels):
-    """``(v', w', hw')`` of a body without wheels: its accelerations (Euler's gyroscopic term
-    included) and no wheel rates."""
-    a, alpha = accelerations(x, v, q, w, act, m, c, True)
-    return a, alpha, ZERO4
+# Each explicit method is written once as a flow ``flow(body, act, m, c, drive, h)`` of ``body =
+# (x, v, q, w, hw)``, ``hw`` the momenta of a body's reaction wheels (a 4-tuple), under the rates
+# ``rates(x, v, q, w, hw, act, m, c, drive) -> (a, alpha, hw')`` of rigid_env.core.wheels: the
+# rigid body's own where ``drive`` is None or the bodies carry no wheels (``hw`` then stays the
+# constant zeros, whose arithmetic the compiler drops as unused), else a gyrostat's. The world
+# step's passes step every world with the flow (rigid_env.core.stepping.integrate); the
+# registry's per-body step is the flow of the rigid body.
 
 
 @kernel
@@ -62,8 +55,8 @@ def axpy4(y, h, d):
     return (y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2], y[3] + h * d[3])
 
 
-@pass_kernel
-def explicit_euler_flow(f, body, act, m, c, wheels, h):
+@flow_kernel
+def explicit_euler_flow(body, act, m, c, drive, h):
     """Forward Euler, every derivative at the start of the step (``body = (x, v, q, w, hw)``):
 
         x1 = x + h v,  v1 = v + h a(y0),  q1 = q exp(h w / 2),  w1 = w + h alpha(y0),
@@ -71,38 +64,38 @@ def explicit_euler_flow(f, body, act, m, c, wheels, h):
 
     Torque-free it inflates the energy by ``O(h^2)`` a step (along the tangent of the orbit)."""
     x, v, q, w, hw = body
-    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     return (
         axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha),
-        axpy4(hw, h, rates),
+        axpy4(hw, h, dh),
     )  # fmt: skip
 
 
 @kernel
 def explicit_euler(x, v, q, w, act, m, c, h):
     """:func:`explicit_euler_flow` of the rigid body."""
-    x1, v1, q1, w1, _ = explicit_euler_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    x1, v1, q1, w1, _ = explicit_euler_flow((x, v, q, w, ZERO4), act, m, c, None, h)
     return x1, v1, q1, w1
 
 
-@pass_kernel
-def symplectic_euler_flow(f, body, act, m, c, wheels, h):
+@flow_kernel
+def symplectic_euler_flow(body, act, m, c, drive, h):
     """Semi-implicit (symplectic) Euler, the seed's "v then x" and MuJoCo's ``Euler``:
 
     v1 = v + h a(y0),  w1 = w + h alpha(y0),  hw1 = hw + h hw'(y0),
     x1 = x + h v1,  q1 = q exp(h w1 / 2)"""
     x, v, q, w, hw = body
-    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
-    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpy4(hw, h, rates)
+    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpy4(hw, h, dh)
 
 
 @kernel
 def symplectic_euler(x, v, q, w, act, m, c, h):
     """:func:`symplectic_euler_flow` of the rigid body."""
     body = (x, v, q, w, ZERO4)
-    x1, v1, q1, w1, _ = symplectic_euler_flow(rigid_rates, body, act, m, c, 0, h)
+    x1, v1, q1, w1, _ = symplectic_euler_flow(body, act, m, c, None, h)
     return x1, v1, q1, w1
 
 
@@ -155,8 +148,8 @@ def implicit_euler(x, v, q, w, act, m, c, h):
     return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1
 
 
-@pass_kernel
-def leapfrog_flow(f, body, act, m, c, wheels, h):
+@flow_kernel
+def leapfrog_flow(body, act, m, c, drive, h):
     """Leapfrog, drift-kick-drift (Strang splitting of drift and kick):
 
         x_h = x + h/2 v,                    q_h = q exp(h/4 w)
@@ -168,12 +161,12 @@ def leapfrog_flow(f, body, act, m, c, wheels, h):
     accelerations depend on velocity (the gyroscopic term, drag, the wheels)."""
     x, v, q, w, hw = body
     x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
-    a, alpha, rates = f(x_h, v, q_h, w, hw, act, m, c, wheels)
-    hw1 = axpy4(hw, h, rates)
+    a, alpha, dh = rates(x_h, v, q_h, w, hw, act, m, c, drive)
+    hw1 = axpy4(hw, h, dh)
     if c.velocity_dependent != 0.0 or m.isotropic == 0.0 or c.wheels != 0.0:
         v_m, w_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha)
-        a, alpha, rates = f(x_h, v_m, q_h, w_m, axpy4(hw, 0.5 * h, rates), act, m, c, wheels)
-        hw1 = axpy4(hw, h, rates)
+        a, alpha, dh = rates(x_h, v_m, q_h, w_m, axpy4(hw, 0.5 * h, dh), act, m, c, drive)
+        hw1 = axpy4(hw, h, dh)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
     return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1, hw1
@@ -182,32 +175,32 @@ def leapfrog_flow(f, body, act, m, c, wheels, h):
 @kernel
 def leapfrog(x, v, q, w, act, m, c, h):
     """:func:`leapfrog_flow` of the rigid body."""
-    x1, v1, q1, w1, _ = leapfrog_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    x1, v1, q1, w1, _ = leapfrog_flow((x, v, q, w, ZERO4), act, m, c, None, h)
     return x1, v1, q1, w1
 
 
-@pass_kernel
-def midpoint_flow(f, body, act, m, c, wheels, h):
+@flow_kernel
+def midpoint_flow(body, act, m, c, drive, h):
     """Explicit midpoint rule, the orientation moved on the group:
 
     y_m = y0 + h/2 f(y0)  (q_m = q exp(h/4 w)),   y1 = y0 + h f(y_m)  (q1 = q exp(h/2 w_m))"""
     x, v, q, w, hw = body
-    a, alpha, rates = f(x, v, q, w, hw, act, m, c, wheels)
+    a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     v_m = axpy(v, 0.5 * h, a)
     w_m = axpy(w, 0.5 * h, alpha)
-    hw_m = axpy4(hw, 0.5 * h, rates)
+    hw_m = axpy4(hw, 0.5 * h, dh)
     x_m, q_m = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
-    a, alpha, rates = f(x_m, v_m, q_m, w_m, hw_m, act, m, c, wheels)
+    a, alpha, dh = rates(x_m, v_m, q_m, w_m, hw_m, act, m, c, drive)
     return (
         axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha),
-        axpy4(hw, h, rates),
+        axpy4(hw, h, dh),
     )  # fmt: skip
 
 
 @kernel
 def midpoint(x, v, q, w, act, m, c, h):
     """:func:`midpoint_flow` of the rigid body."""
-    x1, v1, q1, w1, _ = midpoint_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    x1, v1, q1, w1, _ = midpoint_flow((x, v, q, w, ZERO4), act, m, c, None, h)
     return x1, v1, q1, w1
 
 
@@ -232,24 +225,24 @@ def _rk4_sum4(y, c, k1, k2, k3, k4):
     )
 
 
-@pass_kernel
-def rk4_flow(f, body, act, m, c, wheels, h):
+@flow_kernel
+def rk4_flow(body, act, m, c, drive, h):
     """Classical fourth-order Runge-Kutta on ``y = (x, v, q, w, hw)`` with ``q' = 1/2 q (x) (0,
     w)``:
 
     k1 = f(y0), k2 = f(y0 + h/2 k1), k3 = f(y0 + h/2 k2), k4 = f(y0 + h k3)
     y1 = y0 + h/6 (k1 + 2 k2 + 2 k3 + k4),  then q1 <- q1 / |q1|"""
     x, v, q, w, hw = body
-    a1, b1, r1 = f(x, v, q, w, hw, act, m, c, wheels)
+    a1, b1, r1 = rates(x, v, q, w, hw, act, m, c, drive)
     d1 = qdot(q, w)
     v2, q2, w2 = axpy(v, 0.5 * h, a1), axpy4(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    a2, b2, r2 = f(axpy(x, 0.5 * h, v), v2, q2, w2, axpy4(hw, 0.5 * h, r1), act, m, c, wheels)
+    a2, b2, r2 = rates(axpy(x, 0.5 * h, v), v2, q2, w2, axpy4(hw, 0.5 * h, r1), act, m, c, drive)
     d2 = qdot(q2, w2)
     v3, q3, w3 = axpy(v, 0.5 * h, a2), axpy4(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    a3, b3, r3 = f(axpy(x, 0.5 * h, v2), v3, q3, w3, axpy4(hw, 0.5 * h, r2), act, m, c, wheels)
+    a3, b3, r3 = rates(axpy(x, 0.5 * h, v2), v3, q3, w3, axpy4(hw, 0.5 * h, r2), act, m, c, drive)
     d3 = qdot(q3, w3)
     v4, q4, w4 = axpy(v, h, a3), axpy4(q, h, d3), axpy(w, h, b3)
-    a4, b4, r4 = f(axpy(x, h, v3), v4, q4, w4, axpy4(hw, h, r3), act, m, c, wheels)
+    a4, b4, r4 = rates(axpy(x, h, v3), v4, q4, w4, axpy4(hw, h, r3), act, m, c, drive)
     d4 = qdot(q4, w4)
     sixth = h / 6.0
     qv = _rk4_sum((q[1], q[2], q[3]), sixth, d1[1:], d2[1:], d3[1:], d4[1:])
@@ -267,7 +260,7 @@ def rk4_flow(f, body, act, m, c, wheels, h):
 @kernel
 def rk4(x, v, q, w, act, m, c, h):
     """:func:`rk4_flow` of the rigid body."""
-    x1, v1, q1, w1, _ = rk4_flow(rigid_rates, (x, v, q, w, ZERO4), act, m, c, 0, h)
+    x1, v1, q1, w1, _ = rk4_flow((x, v, q, w, ZERO4), act, m, c, None, h)
     return x1, v1, q1, w1
 
 
@@ -469,13 +462,13 @@ def yoshida4(x, v, q, w, act, m, c, h):
 @world_kernel
 def _explicit_euler(p, model, state, status, wrenches, command):
     return advance(
-        explicit_euler, p, model, (state, status, wrenches), command, (0, state.shape[1])
+        explicit_euler_flow, p, model, (state, status, wrenches), command, (0, state.shape[1])
     )
 
 
 @world_kernel
 def _explicit_euler_range(p, model, state, status, wrenches, command, start, stop):
-    return advance(explicit_euler, p, model, (state, status, wrenches), command, (start, stop))
+    return advance(explicit_euler_flow, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
@@ -486,13 +479,15 @@ def _explicit_euler_threads(world, start, stop, threads):
 @world_kernel
 def _symplectic_euler(p, model, state, status, wrenches, command):
     return advance(
-        symplectic_euler, p, model, (state, status, wrenches), command, (0, state.shape[1])
+        symplectic_euler_flow, p, model, (state, status, wrenches), command, (0, state.shape[1])
     )
 
 
 @world_kernel
 def _symplectic_euler_range(p, model, state, status, wrenches, command, start, stop):
-    return advance(symplectic_euler, p, model, (state, status, wrenches), command, (start, stop))
+    return advance(
+        symplectic_euler_flow, p, model, (state, status, wrenches), command, (start, stop)
+    )
 
 
 @threads_kernel
@@ -520,12 +515,12 @@ def _implicit_euler_threads(world, start, stop, threads):
 @world_kernel
 def _leapfrog(p, model, state, status, wrenches, command):
     every = (0, state.shape[1])
-    return advance(leapfrog, p, model, (state, status, wrenches), command, every)
+    return advance(leapfrog_flow, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
 def _leapfrog_range(p, model, state, status, wrenches, command, start, stop):
-    return advance(leapfrog, p, model, (state, status, wrenches), command, (start, stop))
+    return advance(leapfrog_flow, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
@@ -536,12 +531,12 @@ def _leapfrog_threads(world, start, stop, threads):
 @world_kernel
 def _midpoint(p, model, state, status, wrenches, command):
     every = (0, state.shape[1])
-    return advance(midpoint, p, model, (state, status, wrenches), command, every)
+    return advance(midpoint_flow, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
 def _midpoint_range(p, model, state, status, wrenches, command, start, stop):
-    return advance(midpoint, p, model, (state, status, wrenches), command, (start, stop))
+    return advance(midpoint_flow, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
@@ -552,12 +547,12 @@ def _midpoint_threads(world, start, stop, threads):
 @world_kernel
 def _rk4(p, model, state, status, wrenches, command):
     every = (0, state.shape[1])
-    return advance(rk4, p, model, (state, status, wrenches), command, every)
+    return advance(rk4_flow, p, model, (state, status, wrenches), command, every)
 
 
 @world_kernel
 def _rk4_range(p, model, state, status, wrenches, command, start, stop):
-    return advance(rk4, p, model, (state, status, wrenches), command, (start, stop))
+    return advance(rk4_flow, p, model, (state, status, wrenches), command, (start, stop))
 
 
 @threads_kernel
@@ -676,6 +671,10 @@ class IntegratorInfo:
             a world warns once when a body goes beyond it.
         error_control: whether the method controls its error to the world's ``rtol`` and
             ``atol`` by substeps of its own inside each step (``dop853``).
+        flow: the method's flow of a body and its reaction wheels' momenta
+            (:func:`rigid_env.core.jit.flow_kernel`), what its entries step every world with;
+            None: the method steps no wheels, for the reason ``no_wheels`` (one line).
+        no_wheels: why a method without a ``flow`` refuses reaction wheels.
     """
 
     name: str
@@ -687,6 +686,8 @@ class IntegratorInfo:
     world_step_threads: Callable | None
     stability: float | None = None
     error_control: bool = False
+    flow: Callable | None = None
+    no_wheels: str = ""
 
 
 INTEGRATORS: dict[str, IntegratorInfo] = {
@@ -700,6 +701,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_explicit_euler,
             world_step_range=_explicit_euler_range,
             world_step_threads=_explicit_euler_threads,
+            flow=explicit_euler_flow,
         ),
         IntegratorInfo(
             name="implicit_euler",
@@ -709,6 +711,10 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_implicit_euler,
             world_step_range=_implicit_euler_range,
             world_step_threads=_implicit_euler_threads,
+            no_wheels=(
+                "its Newton iteration solves the rigid body's I w' = tau - w x I w, "
+                "without the wheels' momentum"
+            ),
         ),
         IntegratorInfo(
             name="symplectic_euler",
@@ -718,6 +724,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_symplectic_euler,
             world_step_range=_symplectic_euler_range,
             world_step_threads=_symplectic_euler_threads,
+            flow=symplectic_euler_flow,
         ),
         IntegratorInfo(
             name="leapfrog",
@@ -727,6 +734,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_leapfrog,
             world_step_range=_leapfrog_range,
             world_step_threads=_leapfrog_threads,
+            flow=leapfrog_flow,
         ),
         IntegratorInfo(
             name="midpoint",
@@ -736,6 +744,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_midpoint,
             world_step_range=_midpoint_range,
             world_step_threads=_midpoint_threads,
+            flow=midpoint_flow,
         ),
         IntegratorInfo(
             name="rk4",
@@ -745,6 +754,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_rk4,
             world_step_range=_rk4_range,
             world_step_threads=_rk4_threads,
+            flow=rk4_flow,
         ),
         IntegratorInfo(
             name="implicit_gyro",
@@ -754,6 +764,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step=_implicit_gyro,
             world_step_range=_implicit_gyro_range,
             world_step_threads=_implicit_gyro_threads,
+            no_wheels=("its Newton step is taken on the rigid body's gyroscopic term alone"),
         ),
         IntegratorInfo(
             name="splitting",
@@ -764,6 +775,10 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step_range=_splitting_range,
             world_step_threads=_splitting_threads,
             stability=SPLITTING_STABLE,
+            no_wheels=(
+                "its exact flows are the free rigid body's; with wheels the free motion is a "
+                "gyrostat's (Volterra), which it does not solve"
+            ),
         ),
         IntegratorInfo(
             name="yoshida4",
@@ -774,6 +789,10 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step_range=_yoshida4_range,
             world_step_threads=_yoshida4_threads,
             stability=SPLITTING_STABLE / abs(YOSHIDA_C0),
+            no_wheels=(
+                "it composes splitting, whose exact flows are the free rigid body's, not a "
+                "gyrostat's"
+            ),
         ),
         IntegratorInfo(
             name="exact_free",
@@ -784,6 +803,7 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step_range=None,
             world_step_threads=None,
             stability=EXACT_PHASE_LIMIT,
+            no_wheels=("its elliptic-function flow is the free rigid body's, not a gyrostat's"),
         ),
         IntegratorInfo(
             name="dop853",
@@ -794,10 +814,36 @@ INTEGRATORS: dict[str, IntegratorInfo] = {
             world_step_range=_dop853_range,
             world_step_threads=_dop853_threads,
             error_control=True,
+            no_wheels=(
+                "its error control runs on the state of a body without internal momentum "
+                "(x, v, q, w)"
+            ),
         ),
     )
 }
 """The integrators by name, each row naming its per-body function and its entries."""
+
+
+WHEEL_STEPS = {name: m.flow for name, m in INTEGRATORS.items() if m.flow is not None}
+"""The integrators that step reaction wheels, each with its flow of the body and its wheels."""
+NO_WHEELS = {name: m.no_wheels for name, m in INTEGRATORS.items() if m.flow is None}
+"""The integrators that refuse reaction wheels, and why."""
+
+
+def wheel_integrators() -> tuple[str, ...]:
+    """The names of the integrators that step reaction wheels (:data:`WHEEL_STEPS`)."""
+    return tuple(WHEEL_STEPS)
+
+
+def check_wheels(name: str) -> None:
+    """Nothing if integrator ``name`` steps reaction wheels, else a one-line ``ValueError``
+    saying why not and which do."""
+    if name not in WHEEL_STEPS:
+        reason = NO_WHEELS.get(name, "it has no step with wheels")
+        raise ValueError(
+            f"integrator: {name!r} does not step reaction wheels ({reason}); choose one of: "
+            f"{', '.join(WHEEL_STEPS)}"
+        )
 
 
 def get_integrator(name: str) -> IntegratorInfo:

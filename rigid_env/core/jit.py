@@ -45,6 +45,24 @@ pass_kernel = njit(cache=True, nogil=True, error_model="numpy", inline="always")
 entry compiles it with its own per-body function."""
 
 
+_FLOWS: set = set()
+
+
+def flow_kernel(function):
+    """The decorator of an explicit method's flow ``flow(body, act, m, c, drive, h)``: one step
+    of ``body = (x, v, q, w, hw)``, a body and its reaction wheels' momenta
+    (:mod:`rigid_env.core.integrators`). A :data:`kernel` that the world step's passes know as
+    a flow (:func:`is_flow`): they step every world with it, the wheels' momenta riding through
+    it where the bodies carry wheels."""
+    _FLOWS.add(function)
+    return kernel(function)
+
+
+def is_flow(step) -> bool:
+    """Whether the per-body function ``step`` (compiled or not) is a :func:`flow_kernel`."""
+    return getattr(step, "py_func", step) in _FLOWS
+
+
 class NoAliasCompiler(Compiler):
     """Numba's compiler with its ``noalias`` flag set: the arrays a function gets do not
     overlap (the flag Numba sets itself for the body of a ``prange`` loop). Without the

@@ -29,6 +29,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import types
 from numba.core import cgutils
+from numba.cpython.unsafe.tuple import tuple_setitem
 from numba.extending import intrinsic, overload, register_jitable
 from numpy.typing import NDArray
 
@@ -87,8 +88,9 @@ _TAIL = (
     ("residual_dipole_x", "the body's own dipole where magnetorquers act, body frame [A m^2]"),
     ("residual_dipole_y", "its y component"),
     ("residual_dipole_z", "its z component"),
-    ("wheels", "number K of reaction wheels (0: none; rigid_env.core.wheels)"),
-    ("wheel_rows", "offset of the wheels' rows (WHEEL_WIDTH each) in the parameter array"),
+    ("wheels", "flag: the bodies carry reaction wheels (rigid_env.core.wheels)"),
+    ("wheel_count", "number K of them (1 to MAX_WHEELS)"),
+    ("wheel_rows", "offset of the wheels' rows (a Wheel record each) in the parameter array"),
 )
 EFFECTS = load_effects()
 """The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""
@@ -114,12 +116,17 @@ MODEL_WIDTH = len(Body._fields)
 actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH + 6 a`` ..
 ``+ 5`` hold component ``a``'s ``(force, torque)`` at ``|u| = 1`` (body frame), as the rows of
 :data:`MAPS` do for all bodies."""
-WRENCH_WIDTH = 13
+WRENCH_WIDTH = 17
 """Rows of the world step's scratch columns ``wrenches`` (WRENCH_WIDTH, N): each body's
 actuator force (0:3) and torque (3:6), body frame, held over the world step, its
-:data:`REACH`, and where magnetorquers act (``Params.magnetorquers``) its dipole (7:10, body
+:data:`REACH`, where magnetorquers act (``Params.magnetorquers``) its dipole (7:10, body
 frame) and the field (10:13, world frame): the four parts of an actuation ``act``
-(:func:`rigid_env.core.dynamics.wrench`)."""
+(:func:`rigid_env.core.dynamics.wrench`); and where the bodies carry reaction wheels each
+wheel's motor torque (from :data:`MOTORS`)."""
+MOTORS = 13
+"""First row of ``wrenches`` holding each reaction wheel's motor torque ``u_k max_torque_k``
+[N m] of the body's command, :data:`MAX_WHEELS` rows (:mod:`rigid_env.core.wheels`), written
+before the vectorised passes (which then read no command)."""
 REACH = 6
 """Row of ``wrenches`` holding each body's force reach for the guard
 (:func:`rigid_env.core.stepping.force_reach`), computed once per world step."""
@@ -147,13 +154,29 @@ THRUSTER_WIDTH = len(Thruster._fields)
 MAX_WHEELS = 4
 """The most reaction wheels a body carries (a pyramid of four is the usual most): their momenta
 ride through the integrators as one 4-tuple, zeros past the last (:mod:`rigid_env.core.wheels`)."""
-WHEEL_WIDTH = 9
-"""Numbers of a reaction wheel's row in the parameter array (from ``Params.wheel_rows``):
-its axis (3, body frame), axial inertia [kg m^2], max torque [N m], max speed [rad/s], viscous
-[N m s/rad] and Coulomb [N m] friction, and its command component (:mod:`rigid_env.core.wheels`)."""
+
+
+class Wheel(NamedTuple):
+    """A reaction wheel's numbers (:mod:`rigid_env.core.wheels`), one row each from
+    ``Params.wheel_rows`` on in the parameter array (:func:`wheel`)."""
+
+    axis_x: float  # spin axis, a unit vector, body frame
+    axis_y: float
+    axis_z: float
+    inertia: float  # axial inertia J [kg m^2]
+    max_torque: float  # motor torque at |u| = 1 [N m]
+    max_speed: float  # speed limit relative to the body [rad/s]
+    viscous: float  # viscous friction [N m s/rad]
+    coulomb: float  # Coulomb friction [N m]
+    action: float  # its command component (an index)
+
+
+WHEEL_WIDTH = len(Wheel._fields)
+"""Numbers of a reaction wheel's row in the parameter array (a :class:`Wheel`)."""
 _PARAMS0 = Params(*([0.0] * MAPS))
 _BODY0 = Body(*([0.0] * MODEL_WIDTH))
 _THRUSTER0 = Thruster(*([0.0] * THRUSTER_WIDTH))
+_WHEEL0 = Wheel(*([0.0] * WHEEL_WIDTH))
 
 # ---- a body's status and the code of a world step -------------------------------------------
 HEALTHY, FROZEN, FAILED = 0, 1, 2
@@ -245,6 +268,28 @@ def _thruster(p, actions, a):
     return lambda p, actions, a: _read(p, MAPS + 6 * actions + THRUSTER_WIDTH * a, _THRUSTER0)
 
 
+def wheel(p: FloatArray, c: Params, k: int) -> Wheel:
+    """Reaction wheel ``k``'s numbers, from row ``k`` after ``c.wheel_rows``."""
+    j = int(c.wheel_rows) + WHEEL_WIDTH * k
+    return Wheel(*p[j : j + WHEEL_WIDTH].tolist())
+
+
+@overload(wheel, inline="always")
+def _wheel(p, c, k):
+    return lambda p, c, k: _read(p, int(c.wheel_rows) + WHEEL_WIDTH * k, _WHEEL0)
+
+
+def with_item(t: tuple, k: int, value: float) -> tuple:
+    """The tuple ``t`` with item ``k`` replaced by ``value`` (a loop over a tuple's slots
+    builds one this way; compiled, the unrolled loop keeps the items in registers)."""
+    return (*t[:k], value, *t[k + 1 :])
+
+
+@overload(with_item, inline="always")
+def _with_item(t, k, value):
+    return lambda t, k, value: tuple_setitem(t, k, value)
+
+
 @kernel
 def command_level(command, r, a):
     """Component ``a`` of row ``r`` of the command (N | 1, A), clipped to ``[-1, 1]`` (full
@@ -323,6 +368,8 @@ def store_wrench(wrenches, i, act, c):
 
 ZERO3 = (0.0, 0.0, 0.0)
 """The zero 3-vector, a constant the compiler folds."""
+ZERO4 = (0.0, 0.0, 0.0, 0.0)
+"""No wheels' momenta (a body without reaction wheels): a constant the compiler folds."""
 
 
 @kernel

@@ -23,9 +23,16 @@ from rigid_env.core.compose import (
     any_potential,
     common,
     rare,
+    wheeled,
 )
-from rigid_env.core.dynamics import ZERO_WRENCH, accelerations, kick, kinetic_energy, wrench
-from rigid_env.core.jit import kernel, pass_kernel
+from rigid_env.core.dynamics import (
+    ZERO_WRENCH,
+    accelerations,
+    kick,
+    kinetic_energy,
+    wrench,
+)
+from rigid_env.core.jit import is_flow, kernel, pass_kernel
 from rigid_env.core.layout import (
     BAD_COMMAND,
     FAILED,
@@ -44,6 +51,18 @@ from rigid_env.core.layout import (
 from rigid_env.core.maths import norm
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
+from rigid_env.core.wheels import (
+    gyrostat,
+    load_drive,
+    load_wheels,
+    motor_torques,
+    store_motors,
+    store_wheels,
+    wheel_drive,
+    wheel_reach,
+    wheel_records,
+    wheel_row,
+)
 
 
 # ---- one body ---------------------------------------------------------------------------------
@@ -178,20 +197,28 @@ def beyond(w, c, ok):
     return 1 if ok & fast & (c.stable_speed != 0.0) else 0
 
 
-def integrate(step, body, act, m, c, h, counts, i):
-    """``step`` of body ``i``, ``body = (x, v, q, w)``, over ``h``. ``counts`` None: a
-    fixed-step integrator, whose step returns ``(x, v, q, w)``; else (2, N): an error-controlled
-    one, whose step takes ``(h, counts[1, i])``, the substep to try first (0: its own guess),
-    and returns the substeps it took, added to ``counts[0, i]``, and the substep the next should
-    try first, into ``counts[1, i]``. Compiled, the choice is made by the type of ``counts``
-    (the overload below), so a fixed-step integrator's loop is unchanged."""
-    x, v, q, w = body
+def integrate(step, body, act, m, c, h, counts, i, drive):
+    """``step`` of body ``i``, ``body = (x, v, q, w, hw)`` (``hw``: its wheels' momenta, a
+    4-tuple), over ``h``; returns the same five. ``step`` is an explicit method's flow
+    (:func:`rigid_env.core.jit.flow_kernel`), which advances the wheels too under the
+    gyrostat's rates where the bodies carry wheels (``drive``: their numbers and motor
+    torques, :func:`rigid_env.core.wheels.wheel_drive`), else the rigid body's; or a per-body step
+    of ``(x, v, q, w)`` that leaves ``hw`` as it is (a world with wheels refuses it). Then
+    ``counts`` None: a fixed-step integrator, whose step returns ``(x, v, q, w)``; else (2, N):
+    an error-controlled one, whose step takes ``(h, counts[1, i])``, the substep to try first
+    (0: its own guess), and returns the substeps it took, added to ``counts[0, i]``, and the
+    substep the next should try first, into ``counts[1, i]``. Compiled, the choice is made by
+    the types of ``step`` and ``counts`` (the overload below), so a fixed-step integrator's
+    loop is unchanged."""
+    if is_flow(step):
+        return step(body, act, m, c, drive, h)
+    x, v, q, w, hw = body
     if counts is None:
-        return step(x, v, q, w, act, m, c, h)
+        return (*step(x, v, q, w, act, m, c, h), hw)
     x, v, q, w, n, first = step(x, v, q, w, act, m, c, (h, counts[1, i]))
     counts[0, i] += n
     counts[1, i] = first
-    return x, v, q, w
+    return x, v, q, w, hw
 
 
 def clear_counts(counts, bodies):
@@ -205,21 +232,29 @@ def _none(counts):
 
 
 @overload(integrate, inline="always")
-def _integrate(step, body, act, m, c, h, counts, i):
+def _integrate(step, body, act, m, c, h, counts, i, drive):
+    if is_flow(step.dispatcher):
+
+        def flow(step, body, act, m, c, h, counts, i, drive):
+            return step(body, act, m, c, drive, h)
+
+        return flow
+
     if _none(counts):
 
-        def fixed(step, body, act, m, c, h, counts, i):
-            x, v, q, w = body
-            return step(x, v, q, w, act, m, c, h)
+        def fixed(step, body, act, m, c, h, counts, i, drive):
+            x, v, q, w, hw = body
+            x1, v1, q1, w1 = step(x, v, q, w, act, m, c, h)
+            return x1, v1, q1, w1, hw
 
         return fixed
 
-    def counted(step, body, act, m, c, h, counts, i):
-        x, v, q, w = body
+    def counted(step, body, act, m, c, h, counts, i, drive):
+        x, v, q, w, hw = body
         x1, v1, q1, w1, n, first = step(x, v, q, w, act, m, c, (h, counts[1, i]))
         counts[0, i] += n
         counts[1, i] = first
-        return x1, v1, q1, w1
+        return x1, v1, q1, w1, hw
 
     return counted
 
@@ -239,39 +274,61 @@ def _clear_counts(counts, bodies):
 @kernel
 def begin_substep(state, model, i, c):
     """The first stages of a substep of body ``i``, shared by both passes: its state before
-    (``old``), its model, and its ``w`` under the speed limit."""
+    (``old``), its model, its ``w`` under the speed limit and its wheels' momenta (the constant
+    zeros without wheels)."""
     old = load(state, i)
-    return old, body_model(model, i), limit_speed(old[3], c)
+    hw = load_wheels(state, wheel_row(c), i, c)
+    return old, body_model(model, i), limit_speed(old[3], c), hw
+
+
+@kernel
+def command_row(command, i):
+    """The row of the command (N | 1, A) that body ``i`` reads (of ``i``'s integer type)."""
+    return i if command.shape[0] > 1 else i - i
 
 
 @kernel
 def end_substep(state, status, i, states, m, reach, c, last):
     """The last stages of a substep of body ``i``, shared by both passes: on the ``last``
-    substep :func:`step_maps`, then the :func:`guard` of ``states = (new, old)`` with the
-    ``reach``. Returns ``(failed, beyond)``, each 0 or 1."""
-    (x, v, q, w), old = states
+    substep :func:`step_maps`, then the :func:`guard` of ``states = (new, old)``, each ``(x, v,
+    q, w, hw)``, with the ``reach`` (a non-finite wheel momentum fails the body as a
+    non-finite ``x`` would), and the wheels' momenta where the body took its new state.
+    Returns ``(failed, beyond)``, each 0 or 1."""
+    (x, v, q, w, hw), (x0, v0, q0, w0, hw0) = states
     if last:
         v, w = step_maps(v, w, c)
-    ok, failed = guard(state, status, i, (x, v, q, w), old, m, reach)
+    if c.wheels != 0.0:
+        total = hw[0] + hw[1] + hw[2] + hw[3]
+        x = x if total - total == 0.0 else (math.nan, math.nan, math.nan)  # an inf or NaN
+    ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reach)
+    store_wheels(state, wheel_row(c), i, c, hw if ok else hw0)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
 @pass_kernel
-def substep(step, c, model, wrenches, state, status, at, counts):
+def substep(step, c, wheels, world, at, counts):
     """One integrator step of body ``i`` in place on its column of ``state``, after the speed
     limit (if set); on the ``last`` substep also :func:`step_maps`. Then the :func:`guard`.
-    ``at = (i, last, actuated)``: without actuators (``actuated`` False, the same for every
-    body of the pass) the wrench is the constant zero and the reach gravity's, and ``wrenches``
-    is not read. Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps
-    each body took (:func:`integrate`)."""
+    ``wheels``: the wheel records (:func:`rigid_env.core.wheels.wheel_records`, read before
+    the pass; their motor torques are in ``wrenches``, :data:`rigid_env.core.layout.MOTORS`),
+    ``world = (model, wrenches, state, status)``, ``at = (i, last, actuated)``:
+    without actuators (``actuated`` False, the same for every body of the pass) the wrench is
+    the constant zero and the reach gravity's, and ``wrenches`` is not read. Where the bodies
+    carry wheels (``c.wheels``, a constant of the pass) their momenta ride through the step.
+    Returns ``(failed, beyond)``, each 0 or 1. ``counts``: None, or the substeps each body took
+    (:func:`integrate`)."""
+    model, wrenches, state, status = world
     i, last, actuated = at
-    old, m, w = begin_substep(state, model, i, c)
+    old, m, w, hw = begin_substep(state, model, i, c)
     x0, v0, q0, _ = old
     act = load_wrench(wrenches, i, c) if actuated else ZERO_WRENCH
     forces = wrenches[REACH, i] if actuated else force_reach(ZERO_WRENCH, m, c)
+    drive = load_drive(wheels, wrenches, i, c)
+    if c.wheels != 0.0:
+        forces += wheel_reach(w, hw, drive, c, m)
     reach = (start_energy(x0, v0, w, m, c), held_reach(c.h, forces))
-    new = integrate(step, (x0, v0, q0, w), act, m, c, c.h, counts, i)
-    return end_substep(state, status, i, (new, old), m, reach, c, last)
+    new = integrate(step, (x0, v0, q0, w, hw), act, m, c, c.h, counts, i, drive)
+    return end_substep(state, status, i, (new, (*old, hw)), m, reach, c, last)
 
 
 @pass_kernel
@@ -279,29 +336,38 @@ def body_substep(step, p, model, command, world, when, i, counts):
     """:func:`substep` ``k`` of body ``i``, every effect included (:func:`body_advance`): the
     speed limit, then one ``step`` per segment of the substep ``[k h, (k + 1) h]`` (with
     thrusters as hardware, :mod:`rigid_env.core.thrusters`, split at the on/off switch times
-    inside it; else one segment), each with the thrusters' wrench held over it; on the
-    ``last`` substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
+    inside it; else one segment of ``h``), each with the thrusters' wrench held over it (and
+    the wheels' momenta riding through it where the bodies carry wheels); on the ``last``
+    substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
     ``world = (state, status)``, ``when = (k, last)``; ``counts`` as :func:`integrate`'s.
     Returns ``(failed, beyond)``."""
     state, status = world
     k, last = when
     c = unpack(p)
-    old, m, w = begin_substep(state, model, i, c)
+    old, m, w, hw0 = begin_substep(state, model, i, c)
+    hw = hw0
     x, v, q, _ = old
     start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
+    drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
     while t < t1:
         if c.hardware != 0.0:
             end = next_switch(p, c, command, i, t, t1)
             act = segment_wrench(p, c, model, command, state, i, t, end - t)
+            h = end - t
         else:
             end = t1
             act = wrench(p, c, model, command, i)
-        span += held_reach(end - t, force_reach(act, m, c))
-        x, v, q, w = integrate(step, (x, v, q, w), act, m, c, end - t, counts, i)
+            h = c.h
+        forces = force_reach(act, m, c)
+        if c.wheels != 0.0:
+            forces += wheel_reach(w, hw, drive, c, m)
+        span += held_reach(h, forces)
+        x, v, q, w, hw = integrate(step, (x, v, q, w, hw), act, m, c, h, counts, i, drive)
         t = end
-    return end_substep(state, status, i, ((x, v, q, w), old), m, (start, span), c, last)
+    new = (x, v, q, w, hw)
+    return end_substep(state, status, i, (new, (*old, hw0)), m, (start, span), c, last)
 
 
 @pass_kernel
@@ -332,7 +398,9 @@ def advance(step, p, model, world, command, bodies, counts=None):
     any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`). These
     passes see the flags of the rarely used effects (:data:`rigid_env.core.compose.RARE`) as the
     constant 0, so a disabled one adds nothing to their loops; a world that has one is stepped
-    body by body instead (:func:`body_advance`), every effect included.
+    body by body instead (:func:`body_advance`), every effect included. Where the bodies carry
+    reaction wheels the passes are those compiled with the wheels' flag the constant 1
+    (:func:`vector_passes`); a world without them runs passes with no wheel code.
 
     The world's arrays must not overlap (:data:`rigid_env.core.jit.world_kernel` compiles on
     that promise); the entries take them one by one (a tuple from Python would cost atomic
@@ -356,21 +424,60 @@ def advance(step, p, model, world, command, bodies, counts=None):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
                 return BAD_COMMAND
+    state, status, _ = world
+    if rare(unpack(p)):
+        return body_advance(step, p, model, (state, status), command, bodies, counts)
+    return vector_passes(step, p, model, world, command, bodies, counts)
+
+
+def vector_passes(step, p, model, world, command, bodies, counts):
+    """:func:`passes` with the wheels' flag of ``p`` as a constant: 1 where the bodies carry
+    wheels and ``step`` is a flow that steps them (:func:`integrate`), else 0. Compiled, the
+    choice is made by the type of ``step`` (the overload below): a method that steps no wheels
+    compiles its passes once, without them (a world refuses wheels for it)."""
+    c = unpack(p)
+    if c.wheels != 0.0 and is_flow(step):
+        return passes(step, wheeled(c), p, model, world, command, bodies, counts)
+    return passes(step, common(c), p, model, world, command, bodies, counts)
+
+
+@overload(vector_passes, inline="always")
+def _vector_passes(step, p, model, world, command, bodies, counts):
+    if is_flow(step.dispatcher):
+
+        def both(step, p, model, world, command, bodies, counts):
+            c = unpack(p)
+            if c.wheels != 0.0:
+                return passes(step, wheeled(c), p, model, world, command, bodies, counts)
+            return passes(step, common(c), p, model, world, command, bodies, counts)
+
+        return both
+
+    def plain(step, p, model, world, command, bodies, counts):
+        return passes(step, common(unpack(p)), p, model, world, command, bodies, counts)
+
+    return plain
+
+
+@pass_kernel
+def passes(step, c, p, model, world, command, bodies, counts):
+    """The vectorised passes of :func:`advance` under the named parameters ``c`` (whose rare
+    flags are constants): each body's wrench and reach into ``wrenches``, then the ``substeps``
+    passes of :func:`substep`. Returns the step's code."""
     start, stop = bodies
     state, status, wrenches = world
-    c = unpack(p)
-    if rare(c):
-        return body_advance(step, p, model, (state, status), command, bodies, counts)
-    c = common(c)
     actuated = command.shape[1] > 0
+    wheels = wheel_records(p, c)  # read once, not per body: the loop keeps its vector form
     if actuated:
-        for i in range(start, stop):  # each body's wrench and its reach into its column
+        for i in range(start, stop):  # each body's wrench, its reach and its wheels' motors
             act = wrench(p, c, model, command, i)
             store_wrench(wrenches, i, act, c)
             wrenches[REACH, i] = force_reach(act, body_model(model, i), c)
+            store_motors(wrenches, i, motor_torques(wheels, c, command, command_row(command, i)), c)
     clear_counts(counts, bodies)
     failures = over = 0
     substeps = int(c.substeps)
+    arrays = (model, wrenches, state, status)
     for k in range(substeps):
         last = k == substeps - 1
         for i in range(start, stop):
@@ -378,7 +485,7 @@ def advance(step, p, model, world, command, bodies, counts=None):
             # keep the compiler from vectorising the loop.
             j = np.uint64(i)
             at = (j, last, actuated)
-            failed, past = substep(step, c, model, wrenches, state, status, at, counts)
+            failed, past = substep(step, c, wheels, arrays, at, counts)
             failures += failed
             over += past
     return step_code(failures, min(over, 1))
@@ -504,11 +611,19 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
 def derivatives(p, model, state, command, out):
     """``(v', w')`` of every body's state column into ``out`` (N, 6): the linear (world) and
     angular (body, Euler's equations included) accelerations of
-    :func:`rigid_env.core.dynamics.accelerations`, the right-hand side a reference solver needs."""
+    :func:`rigid_env.core.dynamics.accelerations`, the gyrostat's
+    (:func:`rigid_env.core.wheels.gyrostat`) at the wheels' momenta in the state columns where
+    the bodies carry wheels: the right-hand side a reference solver needs."""
     c = unpack(p)
     for i in range(state.shape[1]):
         act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
-        a, alpha = accelerations(x, v, q, w, act, body_model(model, i), c, True)
+        m = body_model(model, i)
+        if c.wheels != 0.0:
+            drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
+            hw = load_wheels(state, wheel_row(c), i, c)
+            a, alpha, _ = gyrostat(x, v, q, w, hw, act, m, c, drive)
+        else:
+            a, alpha = accelerations(x, v, q, w, act, m, c, True)
         out[i, 0], out[i, 1], out[i, 2] = a
         out[i, 3], out[i, 4], out[i, 5] = alpha

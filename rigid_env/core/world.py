@@ -27,11 +27,12 @@ from rigid_env.core.effects import (
     Thrusters,
     pack,
 )
-from rigid_env.core.integrators import get_integrator
+from rigid_env.core.integrators import NO_WHEELS, check_wheels, get_integrator
 from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
+    MAX_WHEELS,
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
@@ -54,7 +55,6 @@ from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
-from rigid_env.core.wheels import NO_WHEELS, wheel_derivatives, with_wheels
 
 __all__ = [
     "DEFAULT_ATOL",
@@ -239,9 +239,9 @@ class World:
         # then the wheels' momenta (rigid_env.core.wheels), each body's own.
         self._wheels = next((e for e in plan.effects if isinstance(e, ReactionWheels)), None)
         if self._wheels is not None:
-            self._integrator = with_wheels(self._integrator)
+            check_wheels(self._integrator.name)
         lagged = self.action_dim if hw.lagged != 0.0 else 0
-        width = STATE_WIDTH + lagged + int(hw.wheels)
+        width = STATE_WIDTH + lagged + (MAX_WHEELS if self._wheels is not None else 0)
         self._cols = cols = np.zeros((width, self._n))
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
@@ -418,7 +418,9 @@ class World:
     def wheel_momentum(self) -> FloatArray | None:
         """(N, K) each reaction wheel's axial angular momentum ``h_k = J_k (a_k . w + Omega_k)``
         [N m s] (a view: editable, part of the state); None without wheels."""
-        return None if self._wheels is None else self._cols[-self._wheels.axes.shape[0] :].T
+        if self._wheels is None:
+            return None
+        return self._cols[THRUST : THRUST + self._wheels.axes.shape[0]].T
 
     @property
     def wheel_speed(self) -> FloatArray | None:
@@ -600,8 +602,6 @@ class World:
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._integrator = get_integrator(state["_integrator"])
-        if self._wheels is not None:
-            self._integrator = with_wheels(self._integrator)
         self._plan = replace(self._plan, integrator=self._integrator)
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
@@ -875,10 +875,8 @@ class World:
         if self._wheels is not None:  # at the wheels' momenta now
             if n != self._n:
                 raise ValueError(f"x, v, q, w: each body has its wheels, give {self._n} rows")
-            cols = np.vstack([cols, self._cols[STATE_WIDTH:]])
-            wheel_derivatives(self.params, model, cols, u, out)
-        else:
-            derivatives(self.params, model, cols, u, out)
+            cols = np.ascontiguousarray(np.vstack([cols, self._cols[STATE_WIDTH:]]))
+        derivatives(self.params, model, cols, u, out)
         return out[:, 0:3], out[:, 3:6]
 
     # ---------------------------------------------------------------------------------------
