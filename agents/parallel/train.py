@@ -29,6 +29,7 @@ import yaml
 from ..bar import BarEvaluation, evaluation_env_kwargs
 from ..callbacks import DurableEvaluation, save_snapshot, warn, write_atomic
 from ..config import TrainConfig
+from ..meaning import stamp
 from .learner import from_sb3, make_runner, ppo_arguments, to_sb3
 
 Stop = Callable[[DurableEvaluation, float], bool]
@@ -53,16 +54,18 @@ def _snapshot(runner: Any, model: Any, zip_path: Path, norm: Path, meta: dict[st
 def train_parallel(
     cfg: TrainConfig,
     run_dir: Path,
-    start: tuple[Any, Any, Any] | None,
+    start: tuple[Any, Any, Any, list[str]] | None,
     trained: bool,
     progress: bool = True,
     stop: Stop | None = None,
 ) -> Path:
     """Train ``cfg`` (``learner: rsl_rl``) in ``run_dir`` from ``start`` (``(model, env,
-    snapshot)`` of :func:`agents.train._resume_point`, or None: from nothing); the caller
+    snapshot, skipped)`` of :func:`agents.train._resume_point`, or None: from nothing); the caller
     (:func:`agents.train.train`) holds the folder's lock and has made the resume checks."""
     if start is not None:
-        model, venv, snap = start
+        model, venv, snap, skipped = start
+        for problem in skipped:
+            warn(f"{run_dir}: {problem}; falling back to the previous checkpoint")
         steps = snap.steps
     else:
         from ..train import _new_model, make_vec_env
@@ -82,6 +85,7 @@ def train_parallel(
             runner.alg.learning_rate = runner.alg.optimizer.param_groups[0]["lr"]  # adaptive
         else:
             warn(f"{run_dir}: {optim.name} is missing; Adam starts afresh from {snap.model.name}")
+    stamp(model, cfg.env_id, cfg.env_kwargs)  # what its actions mean, saved inside every zip
     run_dir.mkdir(parents=True, exist_ok=True)
     config_text = yaml.safe_dump(cfg.to_dict(), sort_keys=False)
     write_atomic({run_dir / "config.yaml": lambda p: p.write_text(config_text)})

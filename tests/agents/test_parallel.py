@@ -126,6 +126,9 @@ def test_train_command_runs_resumes_and_evaluates(tmp_path: Path) -> None:
     side = json.loads((run / "model.json").read_text())
     assert side["num_timesteps"] == 2048 and side["vecnormalize"] == "vecnormalize.pkl"
     assert (run / "model.optim.pt").exists() and (run / "eval" / "evaluations.npz").exists()
+    from agents.meaning import recorded_meaning
+
+    assert recorded_meaning(run / "model.zip") is not None  # what its actions mean, inside it
     again = train("--resume", "--total-timesteps", "3072")
     assert again.returncode == 0, again.stderr
     assert json.loads((run / "model.json").read_text())["num_timesteps"] == 3072
