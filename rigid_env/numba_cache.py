@@ -234,13 +234,26 @@ def _file_key(py_file: str) -> str | None:
 
 class ModuleKeyedLocator(_SourceFileBackedLocatorMixin, _CacheLocator):
     """Numba's cache locator for the kernels of our modules and of modules that use them: the
-    folder ``<cache root>/<module key>/<Numba's folder of the file>`` (:func:`module_key`).
-    Within it Numba checks the file's own source as ever."""
+    folder ``<cache root>/<module key>/<folder of the file>`` (:func:`module_key`). Within it
+    Numba checks the file's own source as ever (a hash of its bytes).
+
+    The folder of a file of the package is named by its place in the package (``core``,
+    ``envs``), not by where the package lies, so every copy of the same code shares its kernels:
+    a wheel installed beside a checkout, or a second checkout, loads what the first compiled (the
+    key and the bytes of the file agree, so the kernels are the same). A file of its own keeps
+    Numba's folder, named by the file's place on disk."""
 
     def __init__(self, py_func, py_file: str, folder: Path) -> None:
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
         self._cache_path = str(folder / self.get_suitable_cache_subpath(py_file))
+
+    @classmethod
+    def get_suitable_cache_subpath(cls, py_file: str) -> str:
+        path = Path(py_file).resolve()
+        if path.is_relative_to(PACKAGE):
+            return "_".join(path.parent.relative_to(PACKAGE.parent).parts)  # rigid_env_core
+        return super().get_suitable_cache_subpath(py_file)
 
     def get_cache_path(self) -> str:
         return self._cache_path

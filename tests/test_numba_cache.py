@@ -161,3 +161,25 @@ def test_the_pass_parts_that_take_a_tasks_evaluate_stay_off_the_disk() -> None:
     assert isinstance(kernels._env._cache, NullCache)
     assert isinstance(kernels._envs._cache, NullCache)
     assert not isinstance(kernels.fine_spin._cache, NullCache)  # the task-free parts are cached
+
+
+def test_a_copy_of_the_package_shares_the_kernels_of_the_same_code(tmp_path: Path) -> None:
+    """A copy of the package elsewhere (a wheel installed beside the checkout) names the same
+    cache folder for the same code, so it loads the kernels the checkout compiled (Numba then
+    checks the bytes of the file, equal in a copy)."""
+    import subprocess
+    import sys
+    import sysconfig
+
+    from rigid_env.core.maths import cross
+
+    shutil.copytree(Path(numba_cache.PACKAGE), tmp_path / "rigid_env",
+                    ignore=shutil.ignore_patterns("__pycache__"))  # fmt: skip
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    env["PYTHONPATH"] = os.pathsep.join([str(tmp_path), sysconfig.get_paths()["purelib"]])
+    code = "import rigid_env.core.maths as m; print(m.__file__); print(m.cross._cache.cache_path)"
+    run = subprocess.run([sys.executable, "-S", "-c", code], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=120, check=True)  # fmt: skip
+    where, folder = run.stdout.split()
+    assert Path(where).is_relative_to(tmp_path)  # the copy, not the checkout
+    assert folder == cross._cache.cache_path
