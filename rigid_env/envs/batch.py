@@ -48,7 +48,8 @@ from rigid_env.envs.sampling import (
     random_thrust,
     sensor_noise,
 )
-from rigid_env.envs.sensors import RowNormals, SensorSuite
+from rigid_env.envs.sensing import SensorSuite
+from rigid_env.envs.sensors import RowNormals
 from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
 from rigid_env.resources import scene_path
