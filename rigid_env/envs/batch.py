@@ -48,7 +48,7 @@ from rigid_env.envs.sampling import (
     random_thrust,
     sensor_noise,
 )
-from rigid_env.envs.sensing import SensorSuite
+from rigid_env.envs.sensing import SensorSuite, own_columns
 from rigid_env.envs.sensors import RowNormals
 from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
@@ -208,9 +208,11 @@ class TaskBatch:
         )
         self.action_dim = self.world.action_dim
         self.w_scale = self.angular_velocity_scale()
+        self._sensor_columns = own_columns(settings.sensors)
         self.obs_slices = self._observation_slices()
         """Where each observed quantity lies in an observation: ``orientation``, ``w`` (over
-        :attr:`w_scale`), ``fine_w`` and each of :attr:`extra_observations` by name."""
+        :attr:`w_scale`), ``fine_w``, each of :attr:`extra_observations` and each column of a
+        sensor that adds its own by name."""
         self.single_observation_space = self._observation_space()
         self.obs_dim = self.single_observation_space.shape[0]
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
@@ -389,6 +391,7 @@ class TaskBatch:
                 np.full(3, K.W_OBS_BOUND),
                 np.ones(3),
                 np.full(len(self.extra_observations), self.extra_bound),
+                np.array([b for _, b in self._sensor_columns]),
                 np.full(int(period), PERIOD_BOUND),
             ]
         ).astype(np.float32)
@@ -401,10 +404,11 @@ class TaskBatch:
         rot = 4 if self.rotation_repr == "quaternion" else 6
         out = {"orientation": slice(0, rot), "w": slice(rot, rot + 3)}
         out["fine_w"] = slice(rot + 3, rot + 6)
-        for k, name in enumerate(self.extra_observations):
+        names = [*self.extra_observations, *(name for name, _ in self._sensor_columns)]
+        for k, name in enumerate(names):
             out[name] = slice(rot + 6 + k, rot + 7 + k)
         if self.settings.observe_control_period:
-            end = rot + 6 + len(self.extra_observations)
+            end = rot + 6 + len(names)
             out["control_period"] = slice(end, end + 1)
         return out
 

@@ -4,9 +4,10 @@
 that are on.
 
 The registry (:data:`SENSORS`) holds the sensors of :data:`BUILT_IN` (modules, each with a
-sequence ``SENSORS``), then those of the modules named in the environment variable
-``RIGID_ENV_SENSORS`` (comma-separated), read once at import: the ``sensors`` keyword's model is
-made from it, one optional field per sensor by its key, then ``delay``.
+sequence ``SENSORS``, and optionally a mapping ``TRUTHS`` of further truths by new names), then
+those of the modules named in the environment variable ``RIGID_ENV_SENSORS`` (comma-separated),
+read once at import: the ``sensors`` keyword's model is made from it, one optional field per
+sensor by its key, then ``delay``.
 
 The observation is assembled from the declarations right after the task's compiled pass (which
 observes the truth): each sensor that is on measures its envs from the truths it reads by name
@@ -46,12 +47,15 @@ BUILT_IN = ("rigid_env.envs.sensors",)
 """The modules of the shipped sensors, each with a sequence ``SENSORS``."""
 
 
-def _registry() -> tuple[Sensor, ...]:
-    """The sensors of :data:`BUILT_IN` and of the modules named in :data:`ENV_VAR`."""
+def _registry() -> tuple[tuple[Sensor, ...], dict[str, Any]]:
+    """The sensors of :data:`BUILT_IN` and of the modules named in :data:`ENV_VAR`, and the
+    further truths those modules read."""
     names = [*BUILT_IN, *(m.strip() for m in os.environ.get(ENV_VAR, "").split(",") if m.strip())]
     out: list[Sensor] = []
+    truths: dict[str, Any] = {}
     for module in names:
-        declared = getattr(importlib.import_module(module), "SENSORS", None)
+        loaded = importlib.import_module(module)
+        declared = getattr(loaded, "SENSORS", None)
         if declared is None:
             raise ImportError(f"{ENV_VAR}: module {module} has no SENSORS; declare a sequence")
         for sensor in declared:
@@ -61,10 +65,15 @@ def _registry() -> tuple[Sensor, ...]:
                     "rigid_env.envs.sensor, under a key no other sensor has)"
                 )
             out.append(sensor)
-    return tuple(out)
+        for name, read in getattr(loaded, "TRUTHS", {}).items():
+            if name in truths or name in ("w", "q", "field"):
+                raise ImportError(f"{module}.TRUTHS: {name!r} is read already; give a new name")
+            truths[name] = read
+    return tuple(out), truths
 
 
-SENSORS: tuple[Sensor, ...] = _registry()
+_DECLARED = _registry()
+SENSORS: tuple[Sensor, ...] = _DECLARED[0]
 """Every sensor, in the order their noise is drawn."""
 BY_KEY: dict[str, Sensor] = {s.key: s for s in SENSORS}
 """The sensors by their key in the ``sensors`` keyword."""
@@ -121,6 +130,7 @@ TRUTHS: dict[str, Callable[[Any, NDArray[np.int64]], FloatArray | None]] = {
     "w": _w,
     "q": _q,
     "field": _field,
+    **_DECLARED[1],
 }
 """The truths a sensor reads, by name: ``(task, rows) -> (K, d)`` of the envs ``rows``, or None
 where the task has no such thing (:mod:`rigid_env.envs.sensor` gives their frames and units)."""
@@ -160,6 +170,17 @@ ENCODINGS: dict[str, Callable[[Any, FloatArray], dict[str, FloatArray]]] = {
 FIRST_COLUMN = {"w": "w", "orientation": "orientation", "field": "field_x"}
 """The first observation column of each quantity of :data:`ENCODINGS` (a task that has it
 observes that quantity)."""
+
+
+def own_columns(settings: BaseModel) -> list[tuple[str, float]]:
+    """The observation columns of the sensors of ``settings`` (a :data:`Sensors`) that add their
+    own, each with its bound, in registry order (after the task's own observations)."""
+    out: list[tuple[str, float]] = []
+    for sensor in SENSORS:
+        given = getattr(settings, sensor.key)
+        if sensor.on(given):
+            out += [(name, sensor.bound) for name in sensor.column_names(given)]
+    return out
 
 
 def refusal(sensor: Sensor, settings: BaseModel, task: TaskBatch) -> str | None:
@@ -288,7 +309,7 @@ class SensorSuite:
             measured, state = self.read(sensor, settings, task, rows, draws)
             if sensor.state_width:
                 self.state[sensor.key][rows] = state
-            self.write(sensor, task, rows, measured)
+            self.write(sensor, task, rows, measured, settings)
 
     def read(
         self,
@@ -307,14 +328,23 @@ class SensorSuite:
         return measured, state
 
     @staticmethod
-    def write(sensor: Sensor, task: TaskBatch, rows: NDArray[np.int64], measured: FloatArray):
-        """The observation columns of ``sensor`` in the envs ``rows``: its quantity encoded as
-        the pass encodes the truth, or its own columns clipped into +-its bound."""
+    def write(
+        sensor: Sensor,
+        task: TaskBatch,
+        rows: NDArray[np.int64],
+        measured: FloatArray,
+        settings: BaseModel | None = None,
+    ) -> None:
+        """The observation columns of ``sensor`` (under ``settings``, needed for its own
+        columns) in the envs ``rows``: its quantity encoded as the pass encodes the truth, or
+        its own columns clipped into +-its bound."""
         obs, cols = task.obs, task.obs_slices
         if sensor.observes is not None:
             parts = ENCODINGS[sensor.observes](task, measured)
         else:
-            parts = {sensor.columns[0]: np.clip(measured, -sensor.bound, sensor.bound)}
+            assert settings is not None
+            first = sensor.column_names(settings)[0]
+            parts = {first: np.clip(measured, -sensor.bound, sensor.bound)}
         for first, values in parts.items():
             start = cols[first].start
             obs[rows, start : start + values.shape[1]] = values

@@ -20,8 +20,8 @@ declaration the framework derives, naming no sensor anywhere else:
 
 Truths a sensor may read, by name (:data:`rigid_env.envs.sensing.TRUTHS`): ``w`` the body rate
 (N, 3) body frame [rad/s]; ``q`` the attitude (N, 4) (w, x, y, z) body -> world; ``field`` the
-magnetic field at the body (N, 3) body frame [T]; ``sun`` the unit vector to the Sun (N, 3) body
-frame; ``light`` the fraction of the Sun's light past the Earth (N, 1) in [0, 1].
+magnetic field at the body (N, 3) body frame [T]; and those a sensor module adds (a mapping
+``TRUTHS`` beside its ``SENSORS``, by new names: the sun sensor's ``sun`` and ``light``).
 """
 
 from __future__ import annotations
@@ -78,7 +78,8 @@ class Sensor:
         noise: its noise terms, in the order ``measure`` (and ``reset``) take them.
         observes: the task's quantity it measures in place of the truth (:data:`OBSERVED`), or
             ``None``: it adds its own ``columns``.
-        columns: the names of its own observation columns (``observes`` None).
+        columns: the names of its own observation columns (``observes`` None), or a function
+            of the settings giving them (a count chosen in the settings).
         bound: its own columns are clipped into +-this by the framework.
         state_width: numbers of per-env state it carries (a gyro's bias: 3).
         reset: ``(settings, normals, k) -> (k, state_width)``: the state of k envs starting an
@@ -94,7 +95,7 @@ class Sensor:
     measure: Callable[..., tuple[FloatArray, FloatArray]]
     noise: tuple[Noise, ...] = ()
     observes: str | None = None
-    columns: tuple[str, ...] = ()
+    columns: tuple[str, ...] | Callable[[Any], tuple[str, ...]] = ()
     bound: float = 1.0
     state_width: int = 0
     reset: Callable[..., FloatArray] | None = None
@@ -124,6 +125,11 @@ class Sensor:
         if settings is None:
             return False
         return bool(self.columns) or any(t.count(settings) for t in self.noise)
+
+    def column_names(self, settings: BaseModel) -> tuple[str, ...]:
+        """The names of its own observation columns under ``settings`` (none for a sensor of a
+        quantity the task observes)."""
+        return self.columns if isinstance(self.columns, tuple) else tuple(self.columns(settings))
 
     def quiet(self, settings: BaseModel) -> BaseModel:
         """``settings`` with every noise term's scale at 0 (the truth, nothing drawn)."""
