@@ -14,7 +14,7 @@ import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -55,6 +55,9 @@ from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
+
+if TYPE_CHECKING:
+    from rigid_env.core.geomagnetic import OrbitField
 
 __all__ = [
     "DEFAULT_ATOL",
@@ -408,6 +411,11 @@ class World:
         """(N, A) each command component's thrust now, in units of its ``max_force`` (signed),
         where the thrusters lag (a view: editable, part of the state); else None."""
         return self._cols[THRUST : THRUST + self.action_dim].T if self._lagged else None
+
+    @property
+    def orbit(self) -> OrbitField | None:
+        """The orbit the bodies' field follows (its clock :attr:`orbit_time`), or None."""
+        return self._orbit
 
     @property
     def wheels(self) -> ReactionWheels | None:
