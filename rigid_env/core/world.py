@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.actuator import state_rows
 from rigid_env.core.effects import (
     ForceEffect,
     Magnetorquers,
@@ -32,7 +33,6 @@ from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
-    MAX_WHEELS,
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
@@ -243,8 +243,7 @@ class World:
         self._wheels = next((e for e in plan.effects if isinstance(e, ReactionWheels)), None)
         if self._wheels is not None:
             check_wheels(self._integrator.name)
-        lagged = self.action_dim if hw.lagged != 0.0 else 0
-        width = STATE_WIDTH + lagged + (MAX_WHEELS if self._wheels is not None else 0)
+        width = STATE_WIDTH + state_rows(plan.effects)
         self._cols = cols = np.zeros((width, self._n))
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has

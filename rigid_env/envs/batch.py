@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigid_env import knobs
 from rigid_env.core import threads
+from rigid_env.core.actuator import fuel_per_unit, specs
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
@@ -199,13 +200,11 @@ class TaskBatch:
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
         self.base_model = self.world.model
-        # Per-component force at |u| = 1 [N] (a coil's dipole [A m^2]), for the fuel measure:
-        # the impulse spent [N s] (a coil's dipole-time [A m^2 s], its charge and energy's
-        # measure).
-        actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
-        self.max_force = np.concatenate(
-            [np.linalg.norm(getattr(a, "dipole_map", a.force_map), axis=1) for a in actuators]
-        )
+        # What each component spends per second at |u| = 1, as its actuator declares
+        # (rigid_env.core.actuator: a thruster's force [N], spent as impulse [N s]; a coil's
+        # dipole [A m^2], as dipole-time [A m^2 s], its charge and energy's measure).
+        actuators = specs(self.world.force_effects)
+        self.max_force = fuel_per_unit(self.world.force_effects)
         self.action_dim = self.world.action_dim
         self.w_scale = self.angular_velocity_scale()
         self._sensor_columns = own_columns(settings.sensors)
@@ -253,7 +252,6 @@ class TaskBatch:
         """(N,) each env's thruster fault in its episode (``randomization.thruster_faults``) as a
         :data:`~rigid_env.envs.hardware.FAULT_ROW` (:data:`~rigid_env.envs.hardware.NO_FAULT`:
         none); :attr:`faults` by env."""
-        self._thrusters = [e for e in self.world.force_effects if isinstance(e, Thrusters)]
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
