@@ -43,7 +43,7 @@ FloatArray = NDArray[np.float64]
 
 ENV_VAR = "RIGID_ENV_SENSORS"
 """The environment variable naming modules of further sensors (comma-separated)."""
-BUILT_IN = ("rigid_env.envs.sensors",)
+BUILT_IN = ("rigid_env.envs.sensors", "rigid_env.envs.sun_sensor")
 """The modules of the shipped sensors, each with a sequence ``SENSORS``."""
 
 
