@@ -134,6 +134,8 @@ TRUTHS: dict[str, Callable[[Any, NDArray[np.int64]], FloatArray | None]] = {
 }
 """The truths a sensor reads, by name: ``(task, rows) -> (K, d)`` of the envs ``rows``, or None
 where the task has no such thing (:mod:`rigid_env.envs.sensor` gives their frames and units)."""
+TRUTH_WORDS = {"w": "angular velocity", "q": "attitude", "field": "magnetic field"}
+"""What a refusal calls a truth the task lacks (else its name)."""
 
 
 def _encode_w(task: TaskBatch, measured: FloatArray) -> dict[str, FloatArray]:
@@ -193,7 +195,7 @@ def refusal(sensor: Sensor, settings: BaseModel, task: TaskBatch) -> str | None:
         return f"{name} {reason}"
     for truth in sensor.reads:
         if TRUTHS[truth](task, np.arange(0)) is None:
-            return f"{name} observes no {truth} for a {sensor.key} to read"
+            return f"{name} observes no {TRUTH_WORDS.get(truth, truth)} for a {sensor.key} to read"
     if sensor.observes is not None and FIRST_COLUMN[sensor.observes] not in task.obs_slices:
         return f"{name} observes no {sensor.observes} for a {sensor.key} to measure"
     return sensor.refuse(settings, task) if sensor.refuse is not None else None
