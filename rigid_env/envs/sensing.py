@@ -85,6 +85,12 @@ DELAY_DOC = (
     "1000 (a reset fills the history with the episode's first observation; None or 0: none)."
 )
 
+
+def _summary(sensor: Sensor) -> str:
+    """The first paragraph of a sensor's settings docstring, on one line."""
+    return " ".join((sensor.settings.__doc__ or sensor.key).split("\n\n")[0].split())
+
+
 Sensors: type[BaseModel] = create_model(
     "Sensors",
     __config__=ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True),
@@ -95,10 +101,7 @@ Sensors: type[BaseModel] = create_model(
         "nothing drawn)."
     ),
     **{
-        s.key: (
-            s.settings | None,
-            Field(None, description=f"{(s.settings.__doc__ or '').split(chr(10))[0]} (None: off)"),
-        )
+        s.key: (s.settings | None, Field(None, description=f"{_summary(s)} (None: off)"))
         for s in SENSORS
     },
     delay=(DelaySteps | None, Field(None, description=DELAY_DOC)),
