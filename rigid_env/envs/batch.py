@@ -230,10 +230,7 @@ class TaskBatch:
         """(N, TARGET_WIDTH) each env's target (its first :attr:`target_dim` numbers used)."""
         reads = self.world.wheels is not None or type(self).before_pass is not TaskBatch.before_pass
         self._world_data = np.zeros((n if reads else 1, K.WORLD_WIDTH))
-        self.world_data = K.WorldData.of(self._world_data)
-        """Each env's world data by name (the field, the wheels' momentum), what ``evaluate``
-        reads as ``body.field`` and ``body.h_wheels``: read from the world before every pass
-        (one shared row of zeros where the world has neither)."""
+        """(N | 1, WORLD_WIDTH) the pass's world data (:attr:`world_data` names its columns)."""
         self.thrust_scale: FloatArray | None = None
         """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
         (None before: every actuator as in the scene)."""
@@ -827,6 +824,18 @@ class TaskBatch:
         error-controlled integrator also the substeps each env's body took in the last step."""
         info = self._info(self._columns, self.world.failed, self._fault_infos(), self._substeps())
         return {key: value.copy() for key, value in info.items()}
+
+    @property
+    def world_data(self) -> K.WorldData:
+        """Each env's world data by name (the field, the wheels' momentum), what ``evaluate``
+        reads as ``body.field`` and ``body.h_wheels``: read from the world before every pass
+        (one shared row of zeros where the world has neither). Views, made once per buffer
+        (again after unpickling, where they would be copies)."""
+        views = self.__dict__.get("_world_views")
+        if views is None or views.field.base is not self._world_data:
+            views = K.WorldData.of(self._world_data)
+            self._world_views = views
+        return views
 
     @property
     def _columns(self) -> K.EnvRecord:

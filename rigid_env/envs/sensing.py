@@ -43,7 +43,7 @@ FloatArray = NDArray[np.float64]
 
 ENV_VAR = "RIGID_ENV_SENSORS"
 """The environment variable naming modules of further sensors (comma-separated)."""
-BUILT_IN = ("rigid_env.envs.sensors",)
+BUILT_IN = ("rigid_env.envs.sensors", "rigid_env.envs.sun_sensor")
 """The modules of the shipped sensors, each with a sequence ``SENSORS``."""
 
 
@@ -85,6 +85,12 @@ DELAY_DOC = (
     "1000 (a reset fills the history with the episode's first observation; None or 0: none)."
 )
 
+
+def _summary(sensor: Sensor) -> str:
+    """The first paragraph of a sensor's settings docstring, on one line."""
+    return " ".join((sensor.settings.__doc__ or sensor.key).split("\n\n")[0].split())
+
+
 Sensors: type[BaseModel] = create_model(
     "Sensors",
     __config__=ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True),
@@ -95,10 +101,7 @@ Sensors: type[BaseModel] = create_model(
         "nothing drawn)."
     ),
     **{
-        s.key: (
-            s.settings | None,
-            Field(None, description=f"{(s.settings.__doc__ or '').split(chr(10))[0]} (None: off)"),
-        )
+        s.key: (s.settings | None, Field(None, description=f"{_summary(s)} (None: off)"))
         for s in SENSORS
     },
     delay=(DelaySteps | None, Field(None, description=DELAY_DOC)),
@@ -134,6 +137,8 @@ TRUTHS: dict[str, Callable[[Any, NDArray[np.int64]], FloatArray | None]] = {
 }
 """The truths a sensor reads, by name: ``(task, rows) -> (K, d)`` of the envs ``rows``, or None
 where the task has no such thing (:mod:`rigid_env.envs.sensor` gives their frames and units)."""
+TRUTH_WORDS = {"w": "angular velocity", "q": "attitude", "field": "magnetic field"}
+"""What a refusal calls a truth the task lacks (else its name)."""
 
 
 def _encode_w(task: TaskBatch, measured: FloatArray) -> dict[str, FloatArray]:
@@ -193,7 +198,7 @@ def refusal(sensor: Sensor, settings: BaseModel, task: TaskBatch) -> str | None:
         return f"{name} {reason}"
     for truth in sensor.reads:
         if TRUTHS[truth](task, np.arange(0)) is None:
-            return f"{name} observes no {truth} for a {sensor.key} to read"
+            return f"{name} observes no {TRUTH_WORDS.get(truth, truth)} for a {sensor.key} to read"
     if sensor.observes is not None and FIRST_COLUMN[sensor.observes] not in task.obs_slices:
         return f"{name} observes no {sensor.observes} for a {sensor.key} to measure"
     return sensor.refuse(settings, task) if sensor.refuse is not None else None

@@ -14,6 +14,12 @@ the declarations alone (a sensor added to the registry is picked up here without
 
 from __future__ import annotations
 
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -214,3 +220,23 @@ def test_a_task_it_does_not_suit_refuses_it_in_one_line(case):
 
 def test_suite_is_none_without_sensors():
     assert SensorSuite.of(TASKS[ENV_IDS[0]].settings.sensors, TASKS[ENV_IDS[0]]) is None
+
+
+@pytest.mark.slow
+def test_a_sensor_registered_from_outside_gets_the_generic_tests():
+    """A spin-rate meter the package has never seen (``outside_sensor.py``), registered through
+    ``RIGID_ENV_SENSORS`` in a fresh process, passes every generic test above for every task it
+    suits (all: each observes ``w``), with no edit here."""
+    if "spin_meter" in {s.key for s in SENSORS}:
+        pytest.skip("this process registered it already: the tests above ran it")
+    here = Path(__file__).parent
+    env = os.environ | {
+        "RIGID_ENV_SENSORS": "outside_sensor",
+        "PYTHONPATH": os.pathsep.join([str(here), *sys.path]),
+    }
+    args = [sys.executable, "-m", "pytest", str(Path(__file__)), "-q", "-o", "addopts=",
+            "-p", "no:cacheprovider", "-k", "spin_meter"]  # fmt: skip
+    run = subprocess.run(args, env=env, capture_output=True, text=True, timeout=1800, check=False)
+    assert run.returncode == 0, run.stdout[-3000:] + run.stderr[-2000:]
+    passed = re.search(r"(\d+) passed", run.stdout)
+    assert passed is not None and int(passed.group(1)) >= 4 * len(ENV_IDS), run.stdout[-2000:]
