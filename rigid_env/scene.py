@@ -54,11 +54,7 @@ from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, FieldError, number, read_yaml, validate
 from rigid_env.core.effects import (
     ForceEffect,
-    Magnetorquers,
-    PointForces,
-    ReactionWheels,
     StepMap,
-    Thrusters,
 )
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.integrators import INTEGRATORS, NO_WHEELS, WHEEL_STEPS
@@ -270,60 +266,7 @@ class Scene(Spec):
         return [*forces, *self._actuator_effects(), *maps]
 
     def _actuator_effects(self) -> list[ForceEffect]:
-        act = self.actuators
-        out: list[ForceEffect] = []
-        if act.thrusters:
-            out.append(
-                Thrusters(
-                    self.point_to_body([t.point for t in act.thrusters]),
-                    self.direction_to_body([t.direction for t in act.thrusters]),
-                    np.array([t.max_force for t in act.thrusters]),
-                    lag=np.array([t.lag for t in act.thrusters]),
-                    min_impulse=np.array([t.min_impulse for t in act.thrusters]),
-                    on_off=np.array([t.mode == "on_off" for t in act.thrusters]),
-                    noise=np.array([t.noise for t in act.thrusters]),
-                )
-            )
-        pf = act.point_forces
-        if pf is not None:
-            points = self.point_to_body(pf.points)
-            if np.array_equal(self.frame_axes, np.eye(3)):
-                out.append(PointForces(points, pf.max_force))
-            else:
-                # Components along the shape axes e_j, which are A^T e_j (row j of A) in body
-                # coordinates: three thrusters per point, the same linear map as PointForces.
-                k = points.shape[0]
-                out.append(
-                    Thrusters(
-                        np.repeat(points, 3, axis=0),
-                        np.tile(self.frame_axes, (k, 1)),
-                        np.full(3 * k, pf.max_force),
-                    )
-                )
-        coils = act.magnetorquers
-        if coils is not None:
-            out.append(
-                Magnetorquers(
-                    coils.max_dipole,
-                    self.direction_to_body(coils.axes),
-                    residual=self.direction_to_body(coils.residual),  # a free vector, as axes
-                    field=np.zeros(3) if coils.field is None else np.array(coils.field),
-                    orbit=None if coils.orbit is None else coils.orbit.field(),
-                )
-            )
-        wheels = act.reaction_wheels
-        if wheels is not None:
-            out.append(
-                ReactionWheels(
-                    self.direction_to_body(wheels.axes),
-                    inertia=wheels.inertia,
-                    max_torque=wheels.max_torque,
-                    max_speed=wheels.max_speed,
-                    viscous=wheels.viscous,
-                    coulomb=wheels.coulomb,
-                )
-            )
-        return out
+        return self.actuators.actuators(self)
 
     def initial_state(self, n: int = 1) -> State:
         """``n`` copies of the initial state in the body frame (see the module docstring)."""

@@ -29,6 +29,12 @@ def _alone(found: list) -> None:
             )
 
 
+def _momentum(world) -> np.ndarray:
+    """(N, 3) ``h = sum_k h_k a_k``, body frame [N m s], each body's row alone (no matrix
+    product, whose blocking would round a batch's rows otherwise than a single body's)."""
+    return np.sum(world.wheel_momentum[:, :, None] * world.wheels.axes[None], axis=1)
+
+
 def _bound(spec, field=None) -> tuple[float, float]:
     """The motors' and friction's torque at the speed limit (:func:`rigid_env.core.wheels.
     wheel_reach`, whose relative speed is at least the limit)."""
@@ -62,7 +68,7 @@ REACTION_WHEELS = Actuator(
     state_rows=lambda specs, actions: MAX_WHEELS,
     check_world=_alone,
     rates="rigid_env.core.wheels:gyrostat",
-    internal_momentum=lambda world: world.wheel_momentum @ world.wheels.axes,
+    internal_momentum=_momentum,
     accepts=_accepts,
 )
 """The reaction wheels' declaration."""
