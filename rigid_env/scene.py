@@ -52,12 +52,13 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, FieldError, number, read_yaml, validate
+from rigid_env.core.actuator import Actuator, named
 from rigid_env.core.effects import (
     ForceEffect,
     StepMap,
 )
 from rigid_env.core.inertia import MassProperties
-from rigid_env.core.integrators import INTEGRATORS, NO_WHEELS, WHEEL_STEPS
+from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -90,7 +91,7 @@ class SceneError(ConfigFileError):
 
     Attributes:
         file: the scene file (or the name given for a dict).
-        path: the field, e.g. ``actuators.thrusters[1].direction`` (empty for the whole file).
+        path: the field, e.g. ``body.inertia[1]`` (empty for the whole file).
         problem: what is wrong, with the value found.
         fix: what to do about it.
     """
@@ -171,14 +172,21 @@ class Scene(Spec):
         _ = self._frame  # the mass properties are computed (and checked) when loading
         self.effects_spec.check(self)
         self.actuators.check(self.dt)
-        if self.actuators.reaction_wheels is not None and self.integrator in NO_WHEELS:
-            raise FieldError(
-                "integrator",
-                f"{self.integrator!r} does not step reaction wheels ({NO_WHEELS[self.integrator]})",
-                f"choose one of: {', '.join(WHEEL_STEPS)}",
-            )
+        for kind in self._actuator_kinds():
+            if not kind.accepts(self.integrator):
+                steps = [name for name in INTEGRATORS if kind.accepts(name)]
+                raise FieldError(
+                    "integrator",
+                    f"{self.integrator!r} does not step {kind.noun}s "
+                    f"({kind.why_not(self.integrator)})",
+                    f"choose one of: {', '.join(steps)}",
+                )
         self._error_controlled()
         return self
+
+    def _actuator_kinds(self) -> list[Actuator]:
+        """The declarations of the listed actuators (:mod:`rigid_env.core.actuator`)."""
+        return [named(key) for key, _ in self.actuators.listed()]
 
     def _error_controlled(self) -> None:
         """Refuse tolerances given to a fixed-step integrator, naming only the error-controlled
@@ -186,9 +194,9 @@ class Scene(Spec):
         given = [k for k in ("rtol", "atol") if getattr(self, k) is not None]
         if not given or INTEGRATORS[self.integrator].error_control:
             return
-        wheels = self.actuators.reaction_wheels is not None
+        kinds = self._actuator_kinds()
         controlled = [n for n, i in INTEGRATORS.items() if i.error_control]
-        usable = [n for n in controlled if not (wheels and n in NO_WHEELS)]
+        usable = [n for n in controlled if all(kind.accepts(n) for kind in kinds)]
         fix = (
             f"leave them out, or choose integrator: {usable[0]}"
             if usable
@@ -330,9 +338,7 @@ class Scene(Spec):
             atol=scene.atol,
             **world,
         )
-        wheels = scene.actuators.reaction_wheels
-        if wheels is not None and wheels.speeds:
-            built.set_wheel_speed(wheels.speeds)
+        scene.actuators.start(built)
         return built
 
     # ---- variants and serialisation --------------------------------------------------------
@@ -377,18 +383,8 @@ class Scene(Spec):
             + (f" x{self.substeps}" if self.substeps > 1 else ""),
             "effects: " + (", ".join(effects) if effects else "none"),
         ]
-        if self.actuators.thrusters:
-            k = len(self.actuators.thrusters)
-            parts.append(f"{k} thruster{'s' if k > 1 else ''}")
-        if self.actuators.point_forces is not None:
-            k = len(self.actuators.point_forces.points)
-            parts.append(f"{k} point force{'s' if k > 1 else ''}")
-        if self.actuators.magnetorquers is not None:
-            k = len(self.actuators.magnetorquers.axes)
-            parts.append(f"{k} magnetorquer{'s' if k > 1 else ''}")
-        if self.actuators.reaction_wheels is not None:
-            k = len(self.actuators.reaction_wheels.axes)
-            parts.append(f"{k} reaction wheel{'s' if k > 1 else ''}")
+        for kind, k in zip(self._actuator_kinds(), self.actuators.units(), strict=True):
+            parts.append(f"{k} {kind.noun}{'s' if k > 1 else ''}")
         return "; ".join(parts)
 
 

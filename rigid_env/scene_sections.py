@@ -601,6 +601,11 @@ class PointForcesSpec(Spec):
         """Command components: three per point."""
         return 3 * len(self.points)
 
+    @property
+    def units(self) -> int:
+        """Point forces listed: one per point."""
+        return len(self.points)
+
     def actuator(self, scene: Any) -> PointForces | Thrusters:
         """The point forces as a core spec, body frame (``scene``: the whole scene)."""
         points = scene.point_to_body(self.points)
@@ -675,6 +680,11 @@ class MagnetorquersSpec(Spec):
         """Command components: one per coil."""
         return len(self.axes)
 
+    @property
+    def units(self) -> int:
+        """Coils listed."""
+        return len(self.axes)
+
     def actuator(self, scene: Any) -> Magnetorquers:
         """The coils as a core spec, body frame."""
         return Magnetorquers(
@@ -729,6 +739,16 @@ class ReactionWheelsSpec(Spec):
         """Command components: one per wheel."""
         return len(self.axes)
 
+    @property
+    def units(self) -> int:
+        """Wheels listed."""
+        return len(self.axes)
+
+    def start(self, world: Any) -> None:
+        """Set the wheels' speeds at the start in a world just built (none given: at rest)."""
+        if self.speeds:
+            world.set_wheel_speed(self.speeds)
+
     def actuator(self, scene: Any) -> ReactionWheels:
         """The wheels as a core spec, body frame."""
         return ReactionWheels(
@@ -775,6 +795,22 @@ class ActuatorsSpec(Spec):
         return sum(
             type(v[0]).width_of(v) if isinstance(v, tuple) else v.width for _, v in self.listed()
         )
+
+    def units(self) -> list[int]:
+        """How many units each listed section has (thrusters, points, coils, ...): a list's
+        items, or the section's ``units`` (its width if it says none)."""
+        return [
+            len(v) if isinstance(v, tuple) else getattr(v, "units", v.width)
+            for _, v in self.listed()
+        ]
+
+    def start(self, world: Any) -> None:
+        """Set each listed section's state at the start (``start(world)``, where it has one:
+        the wheels' speeds) in a world just built from the scene."""
+        for _, section in self.listed():
+            start = getattr(section, "start", None)
+            if start is not None:
+                start(world)
 
     def actuators(self, scene: Any) -> list[ForceEffect]:
         """The listed actuators as core specs, body frame, in action order (``scene``: the

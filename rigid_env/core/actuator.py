@@ -169,6 +169,8 @@ class Actuator:
             (the wheels'), or None.
         world_input: the world data it reads (``"field"``: the magnetic field), or None.
         accepts: ``integrator name -> bool``: the integrators that step it.
+        why_not: ``integrator name -> str``: why one it refuses does not step it (a few words,
+            for the scene's error).
         tilted: ``(spec, tilt) -> (force (K, 3), torque (K, 3))``: its map rows with its
             directions turned by ``tilt`` (``(K, 3) -> (K, 3)``, a misalignment drawn by the
             env), or None: nothing of it tilts.
@@ -203,6 +205,7 @@ class Actuator:
     internal_momentum: Callable[[Any], FloatArray] | None = None
     world_input: str | None = None
     accepts: Callable[[str], bool] = _everywhere
+    why_not: Callable[[str], str] = lambda integrator: "it does not"
     tilted: Callable[[Any, Callable], tuple[FloatArray, FloatArray]] | None = None
     fails: bool = False
 
@@ -259,6 +262,14 @@ def listed(effects: Sequence[Any]) -> list[tuple[Actuator, Any]]:
 def specs(effects: Sequence[Any]) -> list[Any]:
     """The actuator specs among ``effects``, in command order."""
     return [spec for _, spec in listed(effects)]
+
+
+def named(name: str) -> Actuator:
+    """The declaration of the actuator whose scene key is ``name``."""
+    for a in actuators():
+        if a.name == name:
+            return a
+    raise KeyError(f"no actuator {name!r} is registered; known: {[a.name for a in actuators()]}")
 
 
 def where(effects: Sequence[Any], test: Callable[[Actuator], bool]) -> list[Any]:

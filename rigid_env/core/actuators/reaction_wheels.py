@@ -18,6 +18,12 @@ def _accepts(integrator: str) -> bool:
     return integrator not in NO_WHEELS
 
 
+def _why_not(integrator: str) -> str:
+    from rigid_env.core.integrators import NO_WHEELS
+
+    return NO_WHEELS[integrator]
+
+
 def _alone(found: list) -> None:
     """Refuse thrusters with hardware beside the wheels (their per-component rows and lagged
     levels are stepped by the per-body hardware path, the wheels by the integrators' flows)."""
@@ -70,5 +76,6 @@ REACTION_WHEELS = Actuator(
     rates="rigid_env.core.wheels:gyrostat",
     internal_momentum=_momentum,
     accepts=_accepts,
+    why_not=_why_not,
 )
 """The reaction wheels' declaration."""
