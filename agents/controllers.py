@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import LinearActuator, Magnetorquers, QuadraticDrag
+from rigid_env.core.actuator import specs, where
+from rigid_env.core.effects import QuadraticDrag
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -206,7 +207,7 @@ class PDController:
         self.law = law
         self.k_p = self.law.k_p if k_p is None else float(k_p)
         self.k_d = self.law.k_d if k_d is None else float(k_d)
-        actuators = [e for e in self.task.world.force_effects if isinstance(e, LinearActuator)]
+        actuators = specs(self.task.world.force_effects)
         self.allocate = BoundedAllocator(np.concatenate([a.torque_map for a in actuators]))
         self.modulate = PulseModulator(actuators, self.task.dt)
         """The hardware it is told about (the scene's on/off thrusters and their minimum
@@ -262,7 +263,7 @@ class BdotController:
 
     def __init__(self, env: Any, gain: float | None = None) -> None:
         self.task = task_of(env)
-        coils = [e for e in self.task.world.force_effects if isinstance(e, Magnetorquers)]
+        coils = where(self.task.world.force_effects, lambda a: a.world_input == "field")
         if not coils or coils[0].orbit is None or "field_x" not in self.task.obs_slices:
             raise KeyError(
                 f"BdotController: task {type(self.task).__name__} observes no magnetometer on "

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import Magnetorquers
+from rigid_env.core.actuator import where
 from rigid_env.core.rotation import cross, quat_to_rotvec
 from rigid_env.envs.wheel_pointing import FIELD_SCALE, WheelPointingTask
 
@@ -68,7 +68,7 @@ class WheelPDController:
                 "point with (WheelPointing has)"
             )
         self.gains, self.k_m = (float(k_p), float(k_d)), float(k_m)
-        coils = next(e for e in self.task.world.force_effects if isinstance(e, Magnetorquers))
+        coils = where(self.task.world.force_effects, lambda a: a.world_input == "field")[0]
         self.max_dipole = coils.max_dipole
         self.wheels = self.task.wheels
 

@@ -52,16 +52,13 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, FieldError, number, read_yaml, validate
+from rigid_env.core.actuator import Actuator, named
 from rigid_env.core.effects import (
     ForceEffect,
-    Magnetorquers,
-    PointForces,
-    ReactionWheels,
     StepMap,
-    Thrusters,
 )
 from rigid_env.core.inertia import MassProperties
-from rigid_env.core.integrators import INTEGRATORS, NO_WHEELS, WHEEL_STEPS
+from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -94,7 +91,7 @@ class SceneError(ConfigFileError):
 
     Attributes:
         file: the scene file (or the name given for a dict).
-        path: the field, e.g. ``actuators.thrusters[1].direction`` (empty for the whole file).
+        path: the field, e.g. ``body.inertia[1]`` (empty for the whole file).
         problem: what is wrong, with the value found.
         fix: what to do about it.
     """
@@ -175,14 +172,21 @@ class Scene(Spec):
         _ = self._frame  # the mass properties are computed (and checked) when loading
         self.effects_spec.check(self)
         self.actuators.check(self.dt)
-        if self.actuators.reaction_wheels is not None and self.integrator in NO_WHEELS:
-            raise FieldError(
-                "integrator",
-                f"{self.integrator!r} does not step reaction wheels ({NO_WHEELS[self.integrator]})",
-                f"choose one of: {', '.join(WHEEL_STEPS)}",
-            )
+        for kind in self._actuator_kinds():
+            if not kind.accepts(self.integrator):
+                steps = [name for name in INTEGRATORS if kind.accepts(name)]
+                raise FieldError(
+                    "integrator",
+                    f"{self.integrator!r} does not step {kind.noun}s "
+                    f"({kind.why_not(self.integrator)})",
+                    f"choose one of: {', '.join(steps)}",
+                )
         self._error_controlled()
         return self
+
+    def _actuator_kinds(self) -> list[Actuator]:
+        """The declarations of the listed actuators (:mod:`rigid_env.core.actuator`)."""
+        return [named(key) for key, _ in self.actuators.listed()]
 
     def _error_controlled(self) -> None:
         """Refuse tolerances given to a fixed-step integrator, naming only the error-controlled
@@ -190,9 +194,9 @@ class Scene(Spec):
         given = [k for k in ("rtol", "atol") if getattr(self, k) is not None]
         if not given or INTEGRATORS[self.integrator].error_control:
             return
-        wheels = self.actuators.reaction_wheels is not None
+        kinds = self._actuator_kinds()
         controlled = [n for n, i in INTEGRATORS.items() if i.error_control]
-        usable = [n for n in controlled if not (wheels and n in NO_WHEELS)]
+        usable = [n for n in controlled if all(kind.accepts(n) for kind in kinds)]
         fix = (
             f"leave them out, or choose integrator: {usable[0]}"
             if usable
@@ -270,60 +274,7 @@ class Scene(Spec):
         return [*forces, *self._actuator_effects(), *maps]
 
     def _actuator_effects(self) -> list[ForceEffect]:
-        act = self.actuators
-        out: list[ForceEffect] = []
-        if act.thrusters:
-            out.append(
-                Thrusters(
-                    self.point_to_body([t.point for t in act.thrusters]),
-                    self.direction_to_body([t.direction for t in act.thrusters]),
-                    np.array([t.max_force for t in act.thrusters]),
-                    lag=np.array([t.lag for t in act.thrusters]),
-                    min_impulse=np.array([t.min_impulse for t in act.thrusters]),
-                    on_off=np.array([t.mode == "on_off" for t in act.thrusters]),
-                    noise=np.array([t.noise for t in act.thrusters]),
-                )
-            )
-        pf = act.point_forces
-        if pf is not None:
-            points = self.point_to_body(pf.points)
-            if np.array_equal(self.frame_axes, np.eye(3)):
-                out.append(PointForces(points, pf.max_force))
-            else:
-                # Components along the shape axes e_j, which are A^T e_j (row j of A) in body
-                # coordinates: three thrusters per point, the same linear map as PointForces.
-                k = points.shape[0]
-                out.append(
-                    Thrusters(
-                        np.repeat(points, 3, axis=0),
-                        np.tile(self.frame_axes, (k, 1)),
-                        np.full(3 * k, pf.max_force),
-                    )
-                )
-        coils = act.magnetorquers
-        if coils is not None:
-            out.append(
-                Magnetorquers(
-                    coils.max_dipole,
-                    self.direction_to_body(coils.axes),
-                    residual=self.direction_to_body(coils.residual),  # a free vector, as axes
-                    field=np.zeros(3) if coils.field is None else np.array(coils.field),
-                    orbit=None if coils.orbit is None else coils.orbit.field(),
-                )
-            )
-        wheels = act.reaction_wheels
-        if wheels is not None:
-            out.append(
-                ReactionWheels(
-                    self.direction_to_body(wheels.axes),
-                    inertia=wheels.inertia,
-                    max_torque=wheels.max_torque,
-                    max_speed=wheels.max_speed,
-                    viscous=wheels.viscous,
-                    coulomb=wheels.coulomb,
-                )
-            )
-        return out
+        return self.actuators.actuators(self)
 
     def initial_state(self, n: int = 1) -> State:
         """``n`` copies of the initial state in the body frame (see the module docstring)."""
@@ -387,9 +338,7 @@ class Scene(Spec):
             atol=scene.atol,
             **world,
         )
-        wheels = scene.actuators.reaction_wheels
-        if wheels is not None and wheels.speeds:
-            built.set_wheel_speed(wheels.speeds)
+        scene.actuators.start(built)
         return built
 
     # ---- variants and serialisation --------------------------------------------------------
@@ -434,18 +383,8 @@ class Scene(Spec):
             + (f" x{self.substeps}" if self.substeps > 1 else ""),
             "effects: " + (", ".join(effects) if effects else "none"),
         ]
-        if self.actuators.thrusters:
-            k = len(self.actuators.thrusters)
-            parts.append(f"{k} thruster{'s' if k > 1 else ''}")
-        if self.actuators.point_forces is not None:
-            k = len(self.actuators.point_forces.points)
-            parts.append(f"{k} point force{'s' if k > 1 else ''}")
-        if self.actuators.magnetorquers is not None:
-            k = len(self.actuators.magnetorquers.axes)
-            parts.append(f"{k} magnetorquer{'s' if k > 1 else ''}")
-        if self.actuators.reaction_wheels is not None:
-            k = len(self.actuators.reaction_wheels.axes)
-            parts.append(f"{k} reaction wheel{'s' if k > 1 else ''}")
+        for kind, k in zip(self._actuator_kinds(), self.actuators.units(), strict=True):
+            parts.append(f"{k} {kind.noun}{'s' if k > 1 else ''}")
         return "; ".join(parts)
 
 

@@ -23,6 +23,7 @@ from pydantic import (
     ConfigDict,
     Field,
     GetCoreSchemaHandler,
+    create_model,
     field_validator,
     model_validator,
 )
@@ -30,6 +31,9 @@ from pydantic_core import CoreSchema, core_schema
 
 from rigid_env.config_files import FieldError, number, vector
 from rigid_env.core import inertia as mass_props
+from rigid_env.core.actuator import actuators as registered_actuators
+from rigid_env.core.actuator import kernel as named_object
+from rigid_env.core.actuators.couple import ThrusterCouples
 from rigid_env.core.effects import (
     AngularDamping,
     ForceEffect,
@@ -37,8 +41,12 @@ from rigid_env.core.effects import (
     GravityGradient,
     LinearDamping,
     MagneticDipole,
+    Magnetorquers,
+    PointForces,
     QuadraticDrag,
+    ReactionWheels,
     StepMap,
+    Thrusters,
 )
 from rigid_env.core.geomagnetic import CircularOrbit, OrbitField
 from rigid_env.core.inertia import MassProperties
@@ -516,6 +524,69 @@ class ThrusterSpec(Spec):
             raise ValueError("is zero; give a non-zero direction vector (it is normalised)")
         return d
 
+    @staticmethod
+    def width_of(items: tuple[ThrusterSpec, ...]) -> int:
+        """Command components of the listed thrusters: one each."""
+        return len(items)
+
+    @staticmethod
+    def actuator_of(items: tuple[ThrusterSpec, ...], scene: Any) -> Thrusters:
+        """The listed thrusters as one core spec, body frame (``scene``: the whole scene)."""
+        return Thrusters(
+            scene.point_to_body([t.point for t in items]),
+            scene.direction_to_body([t.direction for t in items]),
+            np.array([t.max_force for t in items]),
+            lag=np.array([t.lag for t in items]),
+            min_impulse=np.array([t.min_impulse for t in items]),
+            on_off=np.array([t.mode == "on_off" for t in items]),
+            noise=np.array([t.noise for t in items]),
+        )
+
+
+class ThrusterCoupleSpec(Spec):
+    """A thruster couple: two opposed thrusters fired as one action component ``u`` in [-1, 1]
+    (:mod:`rigid_env.core.actuators.couple`), the first at ``points[0]`` along ``direction``,
+    its partner at ``points[1]`` along ``-direction``, each with force ``u max_force``: a pure
+    torque ``(p0 - p1) x u max_force d``; it spends the impulse of both thrusters."""
+
+    points: tuple[Position, Position]
+    """The two thrusters' points [[x, y, z], [x, y, z]], shape frame [m] (apart)."""
+    direction: Direction
+    """The first thruster's thrust direction, shape frame (non-zero; normalised); the
+    partner's is its opposite."""
+    max_force: Newtons
+    """Force of each thruster at ``|u| = 1`` [N], >= 0."""
+
+    @field_validator("direction")
+    @classmethod
+    def _non_zero(cls, d: tuple[float, float, float]) -> tuple[float, float, float]:
+        if not any(d):
+            raise ValueError("is zero; give a non-zero direction vector (it is normalised)")
+        return d
+
+    @model_validator(mode="after")
+    def _apart(self) -> ThrusterCoupleSpec:
+        if self.points[0] == self.points[1]:
+            raise ValueError(
+                "points: both thrusters sit at one point (no couple); give two points apart"
+            )
+        return self
+
+    @staticmethod
+    def width_of(items: tuple[ThrusterCoupleSpec, ...]) -> int:
+        """Command components of the listed couples: one each."""
+        return len(items)
+
+    @staticmethod
+    def actuator_of(items: tuple[ThrusterCoupleSpec, ...], scene: Any) -> ThrusterCouples:
+        """The listed couples as one core spec, body frame."""
+        return ThrusterCouples(
+            scene.point_to_body([c.points[0] for c in items]),
+            scene.point_to_body([c.points[1] for c in items]),
+            scene.direction_to_body([c.direction for c in items]),
+            np.array([c.max_force for c in items]),
+        )
+
 
 class PointForcesSpec(Spec):
     """General actuation: a free 3-D force at each point, three action components per point."""
@@ -524,6 +595,30 @@ class PointForcesSpec(Spec):
     """Application points [[x, y, z], ...], shape frame [m] (at least one)."""
     max_force: Newtons
     """Force per component at ``|u| = 1`` [N], >= 0."""
+
+    @property
+    def width(self) -> int:
+        """Command components: three per point."""
+        return 3 * len(self.points)
+
+    @property
+    def units(self) -> int:
+        """Point forces listed: one per point."""
+        return len(self.points)
+
+    def actuator(self, scene: Any) -> PointForces | Thrusters:
+        """The point forces as a core spec, body frame (``scene``: the whole scene)."""
+        points = scene.point_to_body(self.points)
+        if np.array_equal(scene.frame_axes, np.eye(3)):
+            return PointForces(points, self.max_force)
+        # Components along the shape axes e_j, which are A^T e_j (row j of A) in body
+        # coordinates: three thrusters per point, the same linear map as PointForces.
+        k = points.shape[0]
+        return Thrusters(
+            np.repeat(points, 3, axis=0),
+            np.tile(scene.frame_axes, (k, 1)),
+            np.full(3 * k, self.max_force),
+        )
 
 
 Degrees = Annotated[float, Field(ge=-360, le=360, allow_inf_nan=False), Quantity("deg")]
@@ -580,6 +675,26 @@ class MagnetorquersSpec(Spec):
             )
         return self
 
+    @property
+    def width(self) -> int:
+        """Command components: one per coil."""
+        return len(self.axes)
+
+    @property
+    def units(self) -> int:
+        """Coils listed."""
+        return len(self.axes)
+
+    def actuator(self, scene: Any) -> Magnetorquers:
+        """The coils as a core spec, body frame."""
+        return Magnetorquers(
+            self.max_dipole,
+            scene.direction_to_body(self.axes),
+            residual=scene.direction_to_body(self.residual),  # a free vector, as axes
+            field=np.zeros(3) if self.field is None else np.array(self.field),
+            orbit=None if self.orbit is None else self.orbit.field(),
+        )
+
 
 NewtonMeters = Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("N m")]
 
@@ -619,10 +734,38 @@ class ReactionWheelsSpec(Spec):
             )
         return self
 
+    @property
+    def width(self) -> int:
+        """Command components: one per wheel."""
+        return len(self.axes)
+
+    @property
+    def units(self) -> int:
+        """Wheels listed."""
+        return len(self.axes)
+
+    def start(self, world: Any) -> None:
+        """Set the wheels' speeds at the start in a world just built (none given: at rest)."""
+        if self.speeds:
+            world.set_wheel_speed(self.speeds)
+
+    def actuator(self, scene: Any) -> ReactionWheels:
+        """The wheels as a core spec, body frame."""
+        return ReactionWheels(
+            scene.direction_to_body(self.axes),
+            inertia=self.inertia,
+            max_torque=self.max_torque,
+            max_speed=self.max_speed,
+            viscous=self.viscous,
+            coulomb=self.coulomb,
+        )
+
 
 class ActuatorsSpec(Spec):
-    """Actuators, read from the action vector: thrusters first, then point forces, then
-    magnetorquers."""
+    """Actuators, read from the action vector in the order of the registry
+    (:mod:`rigid_env.core.actuator`): thrusters first, then point forces, thruster couples,
+    magnetorquers and reaction wheels. Each section builds its core spec (``actuator(scene)``,
+    or ``actuator_of(items, scene)`` for a list) and says its width."""
 
     thrusters: tuple[ThrusterSpec, ...] = ()
     """Thrusters in action order: [{point, direction, max_force}, ...]."""
@@ -630,6 +773,8 @@ class ActuatorsSpec(Spec):
         PointForcesSpec | None, _present("{points: [[x, y, z], ...], max_force: F}")
     ] = None
     """Optional general point forces."""
+    thruster_couples: tuple[ThrusterCoupleSpec, ...] = ()
+    """Thruster couples in action order: [{points: [p0, p1], direction, max_force}, ...]."""
     magnetorquers: Annotated[
         MagnetorquersSpec | None, _present("{max_dipole: A m^2, field: [Bx, By, Bz]}")
     ] = None
@@ -640,13 +785,40 @@ class ActuatorsSpec(Spec):
     ] = None
     """Optional reaction wheels (momentum exchange inside the body)."""
 
+    def listed(self) -> list[tuple[str, Any]]:
+        """``(key, section)`` of each listed actuator, in action order."""
+        return [(key, value) for key, value in self if value not in (None, ())]
+
     @property
     def action_dim(self) -> int:
-        """Number of action components."""
-        pf = 0 if self.point_forces is None else 3 * len(self.point_forces.points)
-        coils = 0 if self.magnetorquers is None else len(self.magnetorquers.axes)
-        wheels = 0 if self.reaction_wheels is None else len(self.reaction_wheels.axes)
-        return len(self.thrusters) + pf + coils + wheels
+        """Number of action components (each listed section's width)."""
+        return sum(
+            type(v[0]).width_of(v) if isinstance(v, tuple) else v.width for _, v in self.listed()
+        )
+
+    def units(self) -> list[int]:
+        """How many units each listed section has (thrusters, points, coils, ...): a list's
+        items, or the section's ``units`` (its width if it says none)."""
+        return [
+            len(v) if isinstance(v, tuple) else getattr(v, "units", v.width)
+            for _, v in self.listed()
+        ]
+
+    def start(self, world: Any) -> None:
+        """Set each listed section's state at the start (``start(world)``, where it has one:
+        the wheels' speeds) in a world just built from the scene."""
+        for _, section in self.listed():
+            start = getattr(section, "start", None)
+            if start is not None:
+                start(world)
+
+    def actuators(self, scene: Any) -> list[ForceEffect]:
+        """The listed actuators as core specs, body frame, in action order (``scene``: the
+        whole scene, for its frame)."""
+        return [
+            type(v[0]).actuator_of(v, scene) if isinstance(v, tuple) else v.actuator(scene)
+            for _, v in self.listed()
+        ]
 
     def check(self, dt: float) -> None:
         """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one
@@ -668,3 +840,21 @@ class ActuatorsSpec(Spec):
                     f"(max_force dt = {t.max_force * dt:g} N s)",
                     "lower it, raise max_force or lengthen dt",
                 )
+
+
+def _with_outside_sections(base: type[ActuatorsSpec]) -> type[ActuatorsSpec]:
+    """``base`` with a field for each actuator registered from outside
+    (``RIGID_ENV_ACTUATORS``) that names its section (:attr:`rigid_env.core.actuator.Actuator.
+    section`), after the built-in ones."""
+    extra: dict[str, Any] = {}
+    for a in registered_actuators():
+        if a.section is None or a.name in base.model_fields:
+            continue
+        section = named_object(a.section)
+        extra[a.name] = (section | None, None)
+    if not extra:
+        return base
+    return create_model("ActuatorsSpec", __base__=base, __module__=__name__, **extra)
+
+
+ActuatorsSpec = _with_outside_sections(ActuatorsSpec)  # type: ignore[misc]

@@ -85,6 +85,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
+from rigid_env.core.actuator import specs
 from rigid_env.core.effects import GravityGradient, ReactionWheels
 from rigid_env.core.threads import THREAD_MIN_BODIES
 from rigid_env.envs import ENV_IDS
@@ -446,7 +447,7 @@ def bench_vec(cfg: Config, res: Results) -> None:
 def detumble_thrusters() -> Thrusters:
     """Detumble's six thrusters (``configs/scenes/detumble.yaml``)."""
     effects = load_scene(scene_path("detumble")).effects()
-    return next(e for e in effects if isinstance(e, Thrusters))
+    return specs(effects)[0]  # its only actuator
 
 
 def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:

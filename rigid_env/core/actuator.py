@@ -29,7 +29,7 @@ and torque at ``|u| = 1``, :class:`rigid_env.core.effects.LinearActuator`): it n
 the world's parameters. Its scene section is named by :attr:`Actuator.section` and joins the
 scene's ``actuators`` mapping (:mod:`rigid_env.scene_sections`).
 
-Adding an actuator (the checklist, :doc:`/extending/actuator`):
+Adding an actuator (the checklist; the manual's page ``docs/extending/actuator.md``):
 
 1. its spec, a :class:`~rigid_env.core.effects.LinearActuator` (validated numbers, its maps);
 2. its declaration, an :class:`Actuator` with an :attr:`~Actuator.example`, in a module of
@@ -169,6 +169,12 @@ class Actuator:
             (the wheels'), or None.
         world_input: the world data it reads (``"field"``: the magnetic field), or None.
         accepts: ``integrator name -> bool``: the integrators that step it.
+        why_not: ``integrator name -> str``: why one it refuses does not step it (a few words,
+            for the scene's error).
+        tilted: ``(spec, tilt) -> (force (K, 3), torque (K, 3))``: its map rows with its
+            directions turned by ``tilt`` (``(K, 3) -> (K, 3)``, a misalignment drawn by the
+            env), or None: nothing of it tilts.
+        fails: whether a unit of it may fail for an episode (the envs' faults).
     """
 
     name: str
@@ -199,6 +205,9 @@ class Actuator:
     internal_momentum: Callable[[Any], FloatArray] | None = None
     world_input: str | None = None
     accepts: Callable[[str], bool] = _everywhere
+    why_not: Callable[[str], str] = lambda integrator: "it does not"
+    tilted: Callable[[Any, Callable], tuple[FloatArray, FloatArray]] | None = None
+    fails: bool = False
 
 
 def plugin_modules() -> list[str]:
@@ -253,6 +262,33 @@ def listed(effects: Sequence[Any]) -> list[tuple[Actuator, Any]]:
 def specs(effects: Sequence[Any]) -> list[Any]:
     """The actuator specs among ``effects``, in command order."""
     return [spec for _, spec in listed(effects)]
+
+
+def named(name: str) -> Actuator:
+    """The declaration of the actuator whose scene key is ``name``."""
+    for a in actuators():
+        if a.name == name:
+            return a
+    raise KeyError(f"no actuator {name!r} is registered; known: {[a.name for a in actuators()]}")
+
+
+def where(effects: Sequence[Any], test: Callable[[Actuator], bool]) -> list[Any]:
+    """The actuator specs among ``effects`` whose declaration passes ``test`` (a part chosen
+    by what it does, ``lambda a: a.world_input == "field"``, never by its class)."""
+    return [spec for a, spec in listed(effects) if test(a)]
+
+
+def component_column(effects: Sequence[Any], record: type, name: str) -> FloatArray:
+    """(A,) column ``name`` of the per-component table whose record is ``record`` (a
+    :class:`Table`'s), each component's own row, zeros where its actuator has no such table."""
+    parts = []
+    for a, spec in listed(effects):
+        table = a.table
+        if table is not None and table.record is record:
+            parts.append(np.asarray(table.rows(spec))[:, record._fields.index(name)])
+        else:
+            parts.append(np.zeros(spec.action_dim))
+    return np.concatenate(parts) if parts else np.zeros(0)
 
 
 def action_dim(effects: Sequence[Any]) -> int:

@@ -16,7 +16,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from rigid_env.core.effects import ForceEffect, ReactionWheels, StepMap
+from rigid_env.core.actuator import where
+from rigid_env.core.effects import ForceEffect, StepMap
 from rigid_env.core.integrators import IntegratorInfo, get_integrator
 from rigid_env.core.state import State
 
@@ -214,7 +215,7 @@ class StepPlan:
         if unknown:
             raise TypeError(f"effects: {unknown[0]!r} is neither a ForceEffect nor a StepMap")
         entry = get_integrator(integrator)
-        wheels = any(isinstance(e, ReactionWheels) for e in effects)
+        wheels = bool(where(effects, lambda a: a.internal_momentum is not None))
         checked = check_tolerances(integrator, *tolerances, wheels=wheels)
         return cls(entry, tuple(effects), dt, substeps, max_angular_speed, on_error, checked,
                    bool(adaptive))  # fmt: skip

@@ -19,13 +19,11 @@ from typing import TYPE_CHECKING, Any, Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.actuator import state_rows
+from rigid_env.core.actuator import component_column, state_rows, where
 from rigid_env.core.effects import (
     ForceEffect,
-    Magnetorquers,
     ReactionWheels,
     StepMap,
-    Thrusters,
     pack,
 )
 from rigid_env.core.integrators import NO_WHEELS, check_wheels, get_integrator
@@ -38,6 +36,7 @@ from rigid_env.core.layout import (
     THRUST,
     WRENCH_WIDTH,
     Params,
+    Thruster,
     decode,
     unpack,
 )
@@ -240,7 +239,8 @@ class World:
         hw = self.parameters
         # The thrusters' levels are state where they lag (rows THRUST + a, zero: valves closed),
         # then the wheels' momenta (rigid_env.core.wheels), each body's own.
-        self._wheels = next((e for e in plan.effects if isinstance(e, ReactionWheels)), None)
+        wheels = where(plan.effects, lambda a: a.internal_momentum is not None)
+        self._wheels = wheels[0] if wheels else None
         if self._wheels is not None:
             check_wheels(self._integrator.name)
         width = STATE_WIDTH + state_rows(plan.effects)
@@ -249,8 +249,8 @@ class World:
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
         self._noisy = hw.noisy != 0.0
-        self._magnetic = hw.magnetorquers != 0.0
-        coils = [e for e in plan.effects if isinstance(e, Magnetorquers)]
+        coils = where(plan.effects, lambda a: a.world_input == "field")
+        self._magnetic = bool(coils)
         self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
         """(N, 3) the field ``B`` each body's coils see in the next :meth:`step`, world frame
         [T], held over the step: set it between steps, or give the coils an ``orbit`` and the
@@ -452,13 +452,7 @@ class World:
     @property
     def thrust_noise(self) -> FloatArray:
         """(A,) each command component's noise ``SIGMA`` (0 for an ideal one)."""
-        out = np.zeros(self.action_dim)
-        k = 0
-        for e in self.force_effects:
-            if isinstance(e, Thrusters):
-                out[k : k + e.noise.shape[0]] = e.noise
-            k += getattr(e, "force_map", np.zeros((0, 3))).shape[0]
-        return out
+        return component_column(self.force_effects, Thruster, "noise")
 
     def draw_thrust_factors(self, rng: np.random.Generator, rows: ArrayLike | None = None) -> None:
         """Draw the next step's :attr:`thrust_factors` ``max(0, 1 + SIGMA xi)``, ``xi`` standard

@@ -18,8 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigid_env import knobs
 from rigid_env.core import threads
-from rigid_env.core.actuator import fuel_per_unit, specs
-from rigid_env.core.effects import LinearActuator, Thrusters
+from rigid_env.core.actuator import fuel_per_unit, listed, specs
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
 from rigid_env.core.world import World
@@ -31,7 +30,6 @@ from rigid_env.envs.hardware import (
     Fault,
     Hardware,
     apply_faults,
-    cross,
     draw_fault,
     misaligned,
     with_preset,
@@ -800,15 +798,12 @@ class TaskBatch:
             self.world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])
         maps = self.world.body_maps
         k = 0
-        for effect in self.world.force_effects:
-            if not isinstance(effect, LinearActuator):
-                continue
-            rows = effect.force_map.shape[0]
-            if isinstance(effect, Thrusters):
-                d = misaligned(effect.directions, rng, degrees)
-                force = d * effect.max_force[:, None]
+        for a, spec in listed(self.world.force_effects):
+            rows = spec.action_dim
+            if a.tilted is not None:  # its directions turned, as it declares
+                force, torque = a.tilted(spec, lambda d: misaligned(d, rng, degrees))
                 maps[i, k : k + rows, :3] = force
-                maps[i, k : k + rows, 3:] = cross(effect.points, force)
+                maps[i, k : k + rows, 3:] = torque
             k += rows
 
     def observe(self, idx: NDArray[np.int64] | None = None) -> NDArray[np.float32]:

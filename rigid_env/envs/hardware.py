@@ -36,7 +36,8 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rigid_env import knobs
 from rigid_env.config_files import vector
-from rigid_env.core.effects import Thrusters
+from rigid_env.core.actuator import declaration
+from rigid_env.core.layout import Thruster
 from rigid_env.scene import Scene
 
 FloatArray = NDArray[np.float64]
@@ -259,7 +260,8 @@ class Hardware:
         k = 0
         for e in actuators:
             n = e.force_map.shape[0]
-            if isinstance(e, Thrusters):
+            kind = declaration(e)
+            if kind is not None and kind.table is not None and kind.table.record is Thruster:
                 lag[k : k + n], min_impulse[k : k + n] = e.lag, e.min_impulse
                 on_off[k : k + n], noise[k : k + n] = e.on_off, e.noise
             k += n

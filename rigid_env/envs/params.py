@@ -22,14 +22,11 @@ from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
+from rigid_env.core.actuator import declaration, listed
 from rigid_env.core.effects import (
     Gravity,
     GravityGradient,
-    LinearActuator,
     MagneticDipole,
-    Magnetorquers,
-    ReactionWheels,
-    Thrusters,
 )
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
@@ -156,9 +153,18 @@ class Randomization(BaseModel):
         return self.mass > 0.0 or self.inertia > 0.0
 
 
-MASS_BLIND = (Gravity, GravityGradient, MagneticDipole, Magnetorquers, ReactionWheels)
+MASS_BLIND = (Gravity, GravityGradient, MagneticDipole)
 """Force effects through which a body's mass acts on nothing: gravity's acceleration is ``g``
-whatever the mass, and the others make torques alone (their force maps are zero)."""
+whatever the mass, and the others make torques alone; so does an actuator whose force map is
+zero (coils, wheels, couples: :func:`_torque_alone`)."""
+
+
+def _torque_alone(effect: object) -> bool:
+    """Whether ``effect`` acts through the body's inertia alone: a :data:`MASS_BLIND` effect or
+    an actuator that pushes no net force (its force map zero)."""
+    if isinstance(effect, MASS_BLIND):
+        return True
+    return declaration(effect) is not None and not np.any(effect.force_map != 0.0)
 
 
 def refuse_idle_draws(r: Randomization, scene: str, effects: Sequence[Any]) -> None:
@@ -173,10 +179,10 @@ def refuse_idle_draws(r: Randomization, scene: str, effects: Sequence[Any]) -> N
     Raises:
         ValueError: ``randomization.<key>: problem; fix``.
     """
-    actuators = [e for e in effects if isinstance(e, LinearActuator)]
-    kinds = ", ".join(dict.fromkeys(a.name for a in actuators)) or "none"
-    forces = any(np.any(a.force_map != 0.0) for a in actuators)
-    thrusters = any(isinstance(a, Thrusters) for a in actuators)
+    found = listed(effects)
+    kinds = ", ".join(dict.fromkeys(a.name for _, a in found)) or "none"
+    forces = any(np.any(a.force_map != 0.0) for _, a in found)
+    thrusters = any(kind.fails for kind, _ in found)  # a unit that may fail: a thruster
     if r.thruster_misalignment > 0.0 and not forces:
         raise ValueError(
             f"randomization.thruster_misalignment: tilts the thrusters' directions, and scene "
@@ -187,7 +193,7 @@ def refuse_idle_draws(r: Randomization, scene: str, effects: Sequence[Any]) -> N
             f"randomization.thruster_faults: fails one thruster per episode, and scene {scene!r} "
             f"has none (its actuators: {kinds}); leave thruster_faults out"
         )
-    if r.mass > 0.0 and all(isinstance(e, MASS_BLIND) for e in effects):
+    if r.mass > 0.0 and all(_torque_alone(e) for e in effects):
         raise ValueError(
             f"randomization.mass: nothing in scene {scene!r} acts on the body in a way its mass "
             f"changes (its actuators, {kinds}, make torques alone; gravity, if any, accelerates "

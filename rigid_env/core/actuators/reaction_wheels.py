@@ -18,6 +18,12 @@ def _accepts(integrator: str) -> bool:
     return integrator not in NO_WHEELS
 
 
+def _why_not(integrator: str) -> str:
+    from rigid_env.core.integrators import NO_WHEELS
+
+    return NO_WHEELS[integrator]
+
+
 def _alone(found: list) -> None:
     """Refuse thrusters with hardware beside the wheels (their per-component rows and lagged
     levels are stepped by the per-body hardware path, the wheels by the integrators' flows)."""
@@ -27,6 +33,12 @@ def _alone(found: list) -> None:
                 f"reaction_wheels: {a.name} with a hardware model (lag, min_impulse, on_off, "
                 f"noise) do not step with wheels; make the {a.name} ideal or leave the wheels out"
             )
+
+
+def _momentum(world) -> np.ndarray:
+    """(N, 3) ``h = sum_k h_k a_k``, body frame [N m s], each body's row alone (no matrix
+    product, whose blocking would round a batch's rows otherwise than a single body's)."""
+    return np.sum(world.wheel_momentum[:, :, None] * world.wheels.axes[None], axis=1)
 
 
 def _bound(spec, field=None) -> tuple[float, float]:
@@ -62,7 +74,8 @@ REACTION_WHEELS = Actuator(
     state_rows=lambda specs, actions: MAX_WHEELS,
     check_world=_alone,
     rates="rigid_env.core.wheels:gyrostat",
-    internal_momentum=lambda world: world.wheel_momentum @ world.wheels.axes,
+    internal_momentum=_momentum,
     accepts=_accepts,
+    why_not=_why_not,
 )
 """The reaction wheels' declaration."""

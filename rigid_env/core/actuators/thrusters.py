@@ -11,6 +11,7 @@ from rigid_env.core.actuator import Actuator, Command, Table
 from rigid_env.core.actuators.linear import force_fuel, map_bound, map_torque
 from rigid_env.core.effects import Thrusters
 from rigid_env.core.layout import THRUSTER_WIDTH, Thruster
+from rigid_env.core.rotation import cross
 
 
 def _ideal(spec) -> np.ndarray:
@@ -30,6 +31,12 @@ def _flags(table: np.ndarray) -> dict[str, float]:
 
 def _draw(spec):
     return spec.points, spec.directions
+
+
+def _tilted(spec, tilt):
+    """The map rows with each thruster's direction turned by ``tilt``."""
+    force = tilt(spec.directions) * spec.max_force[:, None]
+    return force, cross(spec.points, force)
 
 
 def _example() -> Thrusters:
@@ -68,5 +75,7 @@ THRUSTERS = Actuator(
     # the lagged levels: one row per component of the world (THRUST + a) where one lags
     state_rows=lambda specs, actions: actions if any(np.any(s.lag > 0.0) for s in specs) else 0,
     rates="rigid_env.core.thrusters:segment_wrench",
+    tilted=_tilted,
+    fails=True,
 )
 """The thrusters' declaration."""
