@@ -23,10 +23,11 @@ from rigid_env.core.layout import EFFECTS, Params
 inline = njit(inline="always", error_model="numpy")
 """A link of a chain: inlined into the compiled function that calls it."""
 
-RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers")
+RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers", "orbit")
 """The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
 rare effects', the thrusters' hardware (its switch times split a substep per body) and the
-magnetorquers (the actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`). The
+magnetorquers (the actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`) and
+the orbit (:mod:`rigid_env.core.orbit_state`: where each body is, read per substep). The
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
 of a branch inside a vectorised loop)."""
