@@ -170,7 +170,7 @@ class TaskBatch:
         self.settings: EnvSettings = settings
         self.scene: Scene = with_preset(
             load_scene(
-                settings.scene if settings.scene is not None else scene_path(self.scene_name)
+                settings.scene if settings.scene is not None else scene_path(self.version_scene())
             ),
             settings.thrusters,
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
@@ -295,6 +295,16 @@ class TaskBatch:
     def sample(self, rng: np.random.Generator) -> tuple[FloatArray, ...]:
         """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
         raise NotImplementedError
+
+    version_scenes: ClassVar[dict[int, str]] = {}
+    """The scene stems of the task's later versions, by the version they start at (a version
+    plays the newest one at or below it; :attr:`scene_name` before the first)."""
+
+    def version_scene(self) -> str:
+        """The stem of the scene this env's version plays (:attr:`version_scenes`)."""
+        version = int(getattr(self.params, "version", 0))
+        starts = [k for k in self.version_scenes if k <= version]
+        return self.version_scenes[max(starts)] if starts else self.scene_name
 
     def before_pass(self, rows: NDArray[np.int64] | slice, reset: bool) -> None:
         """Before the task's pass over the envs ``rows`` (after their world step, or their

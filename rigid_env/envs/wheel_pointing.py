@@ -18,7 +18,8 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import canonical, safe_norm
-from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight
+from rigid_env.envs.orbit_draws import draw_orbit_start, place_on_orbit
+from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.sampling import random_quaternion, random_tumble
 from rigid_env.render import TaskView
 
@@ -52,6 +53,9 @@ class WheelPointingParams(TaskParams):
     initial_wheel_speed: Fraction = 0.3
     """Each wheel starts at a speed uniform in +-this fraction of its limit (momentum stored by
     earlier manoeuvres), in [0, 1)."""
+    version: task_version(newest=1) = 0  # type: ignore[valid-type]
+    """The task's version, 0 or 1 (see the env's Version History); gym.make sets it from the
+    id. From 1 the body moves on its orbit (the scene ``wheel_pointing_orbit``)."""
 
 
 @kernel
@@ -99,10 +103,13 @@ class WheelPointingTask(TaskBatch):
     ``sum_k a_k h_k`` (body frame, over their capacity ``J max_speed``; rows 4-6) and the field
     (world frame, over :data:`FIELD_SCALE`; rows 7-9), both written before every pass. At a
     reset rows 4-6 carry the drawn wheel speeds (over their limit) and row 7 the time along the
-    orbit the episode starts at, which :meth:`before_pass` puts in the world."""
+    orbit the episode starts at, which :meth:`before_pass` puts in the world. From v1 the orbit
+    is world state: at a reset row 7 carries the drawn orbit phase (mean anomaly at the epoch)
+    [rad] and row 8 the Earth's rotation angle at the epoch [rad] instead."""
 
     params_model = WheelPointingParams
     scene_name = "wheel_pointing"
+    version_scenes: ClassVar[dict[int, str]] = {1: "wheel_pointing_orbit"}
     task_pass = wheel_pointing_pass
     extra_observations = (
         "error_w", "error_x", "error_y", "error_z",
@@ -111,7 +118,7 @@ class WheelPointingTask(TaskBatch):
         "field_x", "field_y", "field_z",
     )  # fmt: skip
     extra_bound = 2.0
-    target_dim = 8
+    target_dim = 9
     refused_sensors: ClassVar[dict[str, str]] = {
         "star_tracker": "observes its error quaternion (error_w..error_z) from the true "
         "attitude, which gives away the attitude a star tracker's noise would hide"
@@ -125,8 +132,12 @@ class WheelPointingTask(TaskBatch):
         target = canonical_quat(random_quaternion(rng))
         k = self.wheels.axes.shape[0]
         speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
+        if self.orbit is None:  # v1: the orbit phase and the Earth's angle, each uniform
+            phase, angle = draw_orbit_start(rng)
+            drawn = np.concatenate([target, speeds[:k], [phase, angle]])
+            return np.zeros(3), np.zeros(3), q, w, drawn
         start = rng.uniform(0.0, self.orbit.orbit.period)
-        drawn = np.concatenate([target, speeds[:k], [start]])
+        drawn = np.concatenate([target, speeds[:k], [start, 0.0]])  # row 8: unused in v0
         return self.position.copy(), np.zeros(3), q, w, drawn
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
@@ -135,9 +146,15 @@ class WheelPointingTask(TaskBatch):
         world, wheels = self.world, self.wheels
         if reset:
             world.set_wheel_speed(self.target[rows, 4:7] * wheels.max_speed, rows)
-            world.orbit_time[rows] = self.target[rows, 7]
+            if self.orbit is None:
+                place_on_orbit(world, rows, self.target[rows, 7], self.target[rows, 8])
+            else:
+                world.orbit_time[rows] = self.target[rows, 7]
         self.target[rows, 4:7] = world.wheel_momentum[rows] @ wheels.axes / self.capacity
-        self.target[rows, 7:10] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
+        if self.orbit is None:  # v1: the field where the body is on its orbit
+            self.target[rows, 7:10] = world.orbit_field(rows) / FIELD_SCALE
+        else:
+            self.target[rows, 7:10] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (its magnetometer's truth), observed over
@@ -162,20 +179,29 @@ class WheelPointingTask(TaskBatch):
         effects = self.world.force_effects
         wheels = [e for e in effects if isinstance(e, ReactionWheels)]
         coils = [e for e in effects if isinstance(e, Magnetorquers)]
-        if len(wheels) != 1 or wheels[0].axes.shape[0] != 3 or not coils or not coils[0].orbit:
+        on_orbit = self.world.orbit_field(slice(0, 0)) is not None  # the field is world state
+        if (
+            len(wheels) != 1
+            or wheels[0].axes.shape[0] != 3
+            or not coils
+            or not (coils[0].orbit or on_orbit)
+        ):
             raise ValueError(
                 "scene: WheelPointing needs three reaction wheels (actuators.reaction_wheels "
-                "with three axes) and magnetorquers on an orbit (actuators.magnetorquers: "
-                "{max_dipole: A m^2, orbit: {altitude: m, inclination: deg}})"
+                "with three axes) and magnetorquers on an orbit (the scene's orbit: and field: "
+                "sections, or actuators.magnetorquers: {max_dipole: A m^2, orbit: {altitude: m, "
+                "inclination: deg}})"
             )
         self.wheels: ReactionWheels = wheels[0]
         """The scene's wheels."""
         self.capacity = float(np.max(self.wheels.inertia * self.wheels.max_speed))
         """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
-        self.orbit: OrbitField = coils[0].orbit
-        """The orbit the coils' field follows (the scene's)."""
+        self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
+        """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the
+        orbit is world state (the scene's ``orbit:`` and ``field:``: v1)."""
         self.position = self.scene.initial_state(1).x[0]
-        """Where the body stays [m] (the scene's: the gravity gradient's distance)."""
+        """Where the body stays [m] (v0's scene: the gravity gradient's distance); from v1 the
+        body moves on its orbit."""
 
 
 class WheelPointingEnv(RigidBodyEnv):
@@ -216,7 +242,8 @@ class WheelPointingEnv(RigidBodyEnv):
 
     Orientation and target uniform on SO(3); |w| uniform on [0, ``max_initial_spin``] (1
     deg/s); each wheel's speed uniform in +-``initial_wheel_speed`` (0.3) of its limit; a
-    time along the orbit uniform over its period.
+    time along the orbit uniform over its period (from v1: the orbit phase and the Earth's
+    rotation angle, each uniform).
 
     ## Episode End
 
@@ -239,6 +266,14 @@ class WheelPointingEnv(RigidBodyEnv):
 
     ## Version History
 
+    * v1: the body moves on its orbit (``configs/scenes/wheel_pointing_orbit.yaml``: 500 km above
+      the equatorial radius 6378.137 km, 97.4 deg, J2's drift on, from the epoch 2025.0), the
+      orbit being world state advanced inside the compiled step, so the gravity-gradient
+      torque's direction turns with it (v0's body sat at one inertial point, (6878 km, 0, 0),
+      while its field was taken along a 6871.2 km orbit: the two directions were 84 deg apart
+      in the median); the coils act in the IGRF-14 field to degree 13 where the body is,
+      evaluated each 0.05 s substep. Each episode draws its orbit phase and the Earth's
+      rotation angle, each uniform. The shipped policy was trained on v0.
     * v0: initial version.
     """
 
