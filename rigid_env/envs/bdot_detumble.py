@@ -3,6 +3,7 @@ field along its orbit."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any, ClassVar, Literal
 
@@ -81,15 +82,38 @@ def torque_dipoles(
         to_commands: (3, K) the coils' commands per body-frame dipole [1 / (A m^2)].
         unit: the dipole [A m^2] of a wanted torque of ``|B|`` (one coil's limit).
     """
-    size = np.linalg.norm(field, axis=1, keepdims=True)
-    across = np.divide(field, size, out=np.zeros_like(field), where=size > 0.0)
-    # across x action, written out: np.cross's products and differences in its order (the same
-    # numbers) without its axis handling, two thirds of a single env's step
-    a0, a1, a2 = across[:, 0], across[:, 1], across[:, 2]
-    t0, t1, t2 = action[:, 0], action[:, 1], action[:, 2]
-    cross = np.stack([a1 * t2 - a2 * t1, a2 * t0 - a0 * t2, a0 * t1 - a1 * t0], axis=1)
-    commands = (cross * unit) @ to_commands
-    return commands / np.maximum(1.0, np.abs(commands).max(axis=1, keepdims=True))
+    wanted = np.empty((field.shape[0], 3))
+    _across_torque(np.ascontiguousarray(action, dtype=np.float64),
+                   np.ascontiguousarray(field, dtype=np.float64), float(unit), wanted)  # fmt: skip
+    commands = wanted @ to_commands  # NumPy's (BLAS's) products, as published: not a loop's
+    _within_limits(commands)
+    return commands
+
+
+@kernel
+def _across_torque(action, field, unit, out):
+    """Rows of ``out`` (N, 3): ``unit (B / |B|) x action`` (zero for a zero field), in the
+    operations and order of NumPy's ``norm``, ``divide`` and ``cross`` (the same numbers, one
+    compiled call in place of a dozen: most of a single env's step)."""
+    for r in range(field.shape[0]):
+        b0, b1, b2 = field[r, 0], field[r, 1], field[r, 2]
+        size = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
+        a0, a1, a2 = (b0 / size, b1 / size, b2 / size) if size > 0.0 else (0.0, 0.0, 0.0)
+        t0, t1, t2 = action[r, 0], action[r, 1], action[r, 2]
+        out[r, 0] = (a1 * t2 - a2 * t1) * unit
+        out[r, 1] = (a2 * t0 - a0 * t2) * unit
+        out[r, 2] = (a0 * t1 - a1 * t0) * unit
+
+
+@kernel
+def _within_limits(commands):
+    """Each row of ``commands`` scaled down as a whole where a coil passes its limit (1)."""
+    for r in range(commands.shape[0]):
+        most = 1.0
+        for k in range(commands.shape[1]):
+            most = max(most, abs(commands[r, k]))
+        for k in range(commands.shape[1]):
+            commands[r, k] = commands[r, k] / most
 
 
 @kernel
