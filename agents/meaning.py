@@ -25,14 +25,15 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.core.effects import LinearActuator
+from rigid_env.core.actuator import meaning_keys, meaning_rows, specs
 
 ATTRIBUTE = "action_meaning"
 """The model attribute (and key of the zip's ``data`` JSON) that holds the record."""
 
-COMMAND_KEYS = ("command",)
-"""A task's keywords that change how an action becomes its actuators' commands (not its shape):
-BdotDetumble's ``command``."""
+COMMAND_KEYS = meaning_keys()
+"""A task's keywords that change how an action becomes its actuators' commands (not its shape),
+as the actuators declare them (:attr:`rigid_env.core.actuator.Actuator.meaning_keys`: the
+magnetorquers' ``command``, BdotDetumble's)."""
 
 RTOL = 1.0e-9
 """Relative tolerance of two records' numbers: both are derived by the same float64 arithmetic
@@ -41,32 +42,18 @@ same values agrees to a few ulps (1e-15); 1e-9 leaves a million-fold margin and 
 change a user would make (a limit or an axis off by 1e-9 does not change a policy's play)."""
 
 
-def _per_unit(actuator: LinearActuator) -> dict[str, Any]:
-    """What one command component of ``actuator`` does at ``u = 1``: each row one component,
-    in the units its key names (the body frame)."""
-    rows: dict[str, Any] = {}
-    if hasattr(actuator, "dipole_map"):  # magnetorquers: a dipole, whose torque the field sets
-        rows["dipole [A m^2]"] = actuator.dipole_map
-    elif hasattr(actuator, "max_torque"):  # reaction wheels: a motor torque about each axis
-        rows["motor torque [N m]"] = actuator.axes * np.asarray(actuator.max_torque)[:, None]
-    else:  # thrusters, point forces: a force at a point
-        rows["force [N]"] = actuator.force_map
-        rows["torque [N m]"] = actuator.torque_map
-    return {key: np.asarray(value, dtype=np.float64).tolist() for key, value in rows.items()}
-
-
 def meaning_of(env: Any) -> dict[str, Any]:
     """The record of what ``env``'s actions mean (a JSON mapping): the action's width, each
     actuator in the order of its components (kind, count, what a unit command does) and the
     task's :data:`COMMAND_KEYS` it sets. ``env`` is a single or vector env of this package (or
     a wrapper of one)."""
     task = env.unwrapped.task
-    actuators = [e for e in task.world.force_effects if isinstance(e, LinearActuator)]
+    actuators = specs(task.world.force_effects)
     params = task.params
     return {
         "action_dim": int(task.action_dim),
         "actuators": [
-            {"kind": a.name, "count": int(a.action_dim), **_per_unit(a)} for a in actuators
+            {"kind": a.name, "count": int(a.action_dim), **meaning_rows(a)} for a in actuators
         ],
         **{key: getattr(params, key) for key in COMMAND_KEYS if hasattr(params, key)},
     }

@@ -10,9 +10,11 @@ editing one task module recompiles that task's kernels only; an edit of ``core/m
 recompiles everything that reaches it. The registry ``rigid_env/envs/__init__.py`` holds nothing
 compiled and is left out of every key, so adding a task's row there recompiles nothing.
 
-The registry of effects (:mod:`rigid_env.core.effect`) is composed into every kernel that reaches
-it, so the code of the modules of effects registered from outside (``RIGID_ENV_EFFECTS``) is part
-of those kernels' keys: a world of other effects compiles under another key, never from stale code.
+The registries of effects (:mod:`rigid_env.core.effect`) and of actuators
+(:mod:`rigid_env.core.actuator`) are composed into every kernel that reaches them, so the code of
+the modules of effects and actuators registered from outside (``RIGID_ENV_EFFECTS``,
+``RIGID_ENV_ACTUATORS``) is part of those kernels' keys: a world of other parts compiles under
+another key, never from stale code.
 
 A module outside the package whose kernels use ours (a task of your own, in a file of its own) is
 keyed the same way: its code and the ``rigid_env`` modules it reaches. Such a module must be
@@ -50,8 +52,9 @@ PACKAGE = Path(__file__).resolve().parent
 KEYED = ("core", "envs")
 """The package's folders whose code a key covers: the only ones that define kernels."""
 UNKEYED = ("envs/__init__.py",)
-REGISTRY = "core/effect.py"
-"""The module whose registry of effects is composed into every kernel that reaches it."""
+REGISTRIES = ("core/effect.py", "core/actuator.py")
+"""The modules whose registries (effects, actuators) are composed into every kernel that reaches
+them."""
 """Files of those folders that are followed but left out of every key (the task registry)."""
 STALE_AFTER_S = 24 * 3600.0
 """A key folder that no process has used for this long is removed (other checkouts of other
@@ -170,17 +173,19 @@ def module_key(path: str | Path, package: Path = PACKAGE) -> str | None:
         digest.update(f"{name}\0{_file_facts(p, package)[0]}\n".encode())
     if _keyed(path, package) is None:  # a module of its own: its code too
         digest.update(f"own\0{_file_facts(path, package)[0]}\n".encode())
-    if any(name == REGISTRY for name, _ in keyed):  # the effects composed into its kernels
-        for effects in _effect_modules():
-            digest.update(f"effects\0{effects}\0{_file_facts(effects, package)[0]}\n".encode())
+    if any(name in REGISTRIES for name, _ in keyed):  # the parts composed into its kernels
+        for var, kind in (("RIGID_ENV_EFFECTS", "effects"), ("RIGID_ENV_ACTUATORS", "actuators")):
+            for path in _plugin_modules(var):
+                digest.update(f"{kind}\0{path}\0{_file_facts(path, package)[0]}\n".encode())
     return digest.hexdigest()[:16]
 
 
-def _effect_modules() -> list[Path]:
-    """The source files of the modules named in ``RIGID_ENV_EFFECTS``
-    (:mod:`rigid_env.core.effect`), found without importing them (their parents are)."""
+def _plugin_modules(variable: str) -> list[Path]:
+    """The source files of the modules named in the environment ``variable``
+    (``RIGID_ENV_EFFECTS``, :mod:`rigid_env.core.effect`; ``RIGID_ENV_ACTUATORS``,
+    :mod:`rigid_env.core.actuator`), found without importing them (their parents are)."""
     paths = []
-    for name in os.environ.get("RIGID_ENV_EFFECTS", "").split(","):
+    for name in os.environ.get(variable, "").split(","):
         spec = importlib.util.find_spec(name.strip()) if name.strip() else None
         if spec is not None and spec.origin and spec.origin.endswith(".py"):
             paths.append(Path(spec.origin).resolve())

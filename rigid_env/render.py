@@ -44,7 +44,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.effects import ForceEffect, LinearActuator
+from rigid_env.core.actuator import drawn
+from rigid_env.core.effects import ForceEffect
 from rigid_env.core.rotation import quat_to_matrix
 from rigid_env.scene import Scene
 
@@ -251,25 +252,12 @@ def body_box_size(scene: Scene) -> FloatArray:
 def actuator_layout(effects: Sequence[ForceEffect]) -> tuple[FloatArray, FloatArray]:
     """Body point (A, 3) [m] and unit direction (A, 3) of each action component.
 
-    Read from the actuators among ``effects`` (body frame), in action order; a
-    ``point_forces`` point gives three components, along its three force directions; a
-    magnetorquer sits at the centre of mass along its coil's axis (its arrow: the dipole).
+    Read from the actuators among ``effects`` (body frame), in action order, each as its
+    declaration draws it (:func:`rigid_env.core.actuator.drawn`): a ``point_forces`` point
+    gives three components, along its three force directions; a magnetorquer sits at the centre
+    of mass along its coil's axis (its arrow: the dipole).
     """
-    points, dirs = [], []
-    for eff in effects:
-        if not isinstance(eff, LinearActuator):
-            continue
-        fmap = np.asarray(eff.force_map, dtype=np.float64)
-        p = np.asarray(getattr(eff, "points", np.zeros((1, 3))), dtype=np.float64).reshape(-1, 3)
-        points.append(np.repeat(p, fmap.shape[0] // p.shape[0], axis=0))
-        d = getattr(eff, "directions", getattr(eff, "axes", None))
-        if d is None or np.shape(d) != fmap.shape:
-            norm = np.linalg.norm(fmap, axis=1, keepdims=True)
-            d = np.divide(fmap, norm, out=np.zeros_like(fmap), where=norm > 0.0)
-        dirs.append(np.asarray(d, dtype=np.float64))
-    if not points:
-        return np.zeros((0, 3)), np.zeros((0, 3))
-    return np.concatenate(points), np.concatenate(dirs)
+    return drawn(effects)
 
 
 def _mix(a: Any, b: Any, s: float) -> Color:

@@ -18,16 +18,18 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
+from rigid_env.core.actuator import actuators, rare_flags
 from rigid_env.core.layout import EFFECTS, Params
 
 inline = njit(inline="always", error_model="numpy")
 """A link of a chain: inlined into the compiled function that calls it."""
 
-RARE = (*(e.name for e in EFFECTS if e.rare), "hardware", "magnetorquers", "orbit")
+RARE = (*(e.name for e in EFFECTS if e.rare), *rare_flags(), "orbit")
 """The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
-rare effects', the thrusters' hardware (its switch times split a substep per body) and the
-magnetorquers (the actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`) and
-the orbit (:mod:`rigid_env.core.orbit_state`: where each body is, read per substep). The
+rare effects' and the rare actuators' (:attr:`rigid_env.core.actuator.Actuator.rare`: the
+thrusters' hardware, whose switch times split a substep per body, and the magnetorquers, the
+actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`), and the orbit
+(:mod:`rigid_env.core.orbit_state`: where each body is, read per substep). The
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
 of a branch inside a vectorised loop)."""
@@ -76,6 +78,14 @@ def _links(attribute: str) -> list[tuple[int, Callable]]:
 
 
 _terms = _chain(_links("apply"), _terms_link)
+_actuator_torques = _chain(
+    [
+        (Params._fields.index(a.flags[0]), a.torque_bound)
+        for a in actuators()
+        if a.torque_bound is not None
+    ],
+    _bound_link,
+)
 _forces = _chain(_links("force_bound"), _bound_link)
 _torques = _chain(_links("torque_bound"), _bound_link)
 _potentials = _chain(_links("potential_bound"), _bound_link)
@@ -99,6 +109,13 @@ def add_force_bounds(force, m, c):
 def add_torque_bounds(torque, m, c):
     """``torque`` [N m] plus the most torque the listed effects supply."""
     return _torques(c, (m,), torque)
+
+
+@inline
+def add_actuator_torque_bounds(torque, act, c):
+    """``torque`` [N m] plus what each listed actuator's wrench ``act`` adds to ``|tau|`` beyond
+    its map rows' torque (its declared ``torque_bound``: the coils' ``|m_b| |B|``)."""
+    return _actuator_torques(c, (act,), torque)
 
 
 @inline

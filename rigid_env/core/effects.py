@@ -27,7 +27,6 @@ from rigid_env.core.layout import (
     EFFECTS,
     MAPS,
     MAX_WHEELS,
-    THRUSTER_WIDTH,
     WHEEL_WIDTH,
     Params,
     Thruster,
@@ -602,37 +601,48 @@ def pack(
     no limit, an error-controlled integrator's ``(rtol, atol, max_substeps, adaptive)``, None:
     a fixed-step one; the world step ``dt``, default ``h substeps``), then from
     :data:`rigid_env.core.layout.MAPS` on the actuators' maps, one row ``(force (3,), torque
-    (3,))`` per command component in scene order, then, where some thruster has a hardware
-    model, one :class:`rigid_env.core.layout.Thruster` row per component.
+    (3,))`` per command component in scene order, then each declared per-component table
+    that an actuator of the world needs (:class:`rigid_env.core.actuator.Table`, in the
+    registry's order: the thrusters' hardware rows where one has a hardware model, the coils'
+    dipoles), one row per component, then each declared block of per-unit rows (the wheels',
+    its offset in the field :attr:`~rigid_env.core.actuator.Actuator.rows_at` names). Every
+    actuator's part comes from its declaration (:mod:`rigid_env.core.actuator`).
 
     Raises:
         TypeError: if an effect names a parameter that :class:`Params` does not declare.
-        ValueError: for a minimum impulse bit above ``max_force dt``.
+        ValueError: for rows an actuator's declaration refuses (a minimum impulse bit above
+            ``max_force dt``, one listed twice, two that do not step together).
     """
-    actuators = [e for e in effects if isinstance(e, LinearActuator)]
+    from rigid_env.core.actuator import actuators as registry
+    from rigid_env.core.actuator import listed
+
+    found = listed(effects)
+    actuators = [spec for _, spec in found]
     rows = [np.hstack([a.force_map, a.torque_map]) for a in actuators]
     maps = np.vstack(rows) if rows else np.zeros((0, 6))
     forces = [e for e in effects if isinstance(e, ForceEffect)]
     dt = h * substeps if dt is None else dt
     named = dict.fromkeys(Params._fields, 0.0) | {"h": h, "substeps": float(substeps), "dt": dt}
-    hardware = [a for a in actuators if isinstance(a, Thrusters) and a.hardware]
+    for kind in registry():
+        mine = [spec for a, spec in found if a is kind]
+        if kind.single and len(mine) > 1:
+            raise ValueError(
+                f"{kind.name}: listed twice; give every {kind.noun} of the body in one list"
+            )
+        if mine and kind.check_world is not None:
+            kind.check_world([(a, spec) for a, spec in found if a is not kind])
     tail: list[FloatArray] = []
-    if hardware:  # each component's Thruster row after the maps (ideal ones: max_force alone)
-        for a in hardware:
-            a.check_step(dt)
-        for a in actuators:
-            if isinstance(a, Thrusters):
-                tail.append(a.hardware_rows())
-            else:
-                ideal = np.zeros((a.force_map.shape[0], THRUSTER_WIDTH))
-                ideal[:, Thruster._fields.index("max_force")] = np.linalg.norm(a.force_map, axis=1)
-                tail.append(ideal)
-        hw = np.vstack(tail)
-        named |= {
-            "hardware": 1.0,
-            "lagged": float(np.any(hw[:, Thruster._fields.index("inv_lag")] > 0.0)),
-            "noisy": float(np.any(hw[:, Thruster._fields.index("noise")] > 0.0)),
-        }
+    for kind in registry():  # each declared per-component table, every component a row
+        table = kind.table
+        mine = [spec for a, spec in found if a is kind]
+        if table is None or not any(table.needed(spec) for spec in mine):
+            continue
+        for spec in mine:
+            if table.needed(spec):
+                table.check(spec, dt)
+        rows_of = [table.rows(s) if a is kind else table.default(s) for a, s in found]
+        named |= table.flags(np.vstack(rows_of))
+        tail.extend(rows_of)
     for e in effects:
         named |= e.parameters()
     if max_angular_speed is not None:
@@ -643,23 +653,12 @@ def pack(
         rtol, atol, max_substeps, adaptive = control
         named |= {"rtol": rtol, "atol": atol, "max_substeps": float(max_substeps),
                   "adaptive": 1.0 if adaptive else 0.0}  # fmt: skip
-    magnetic = [a for a in actuators if isinstance(a, Magnetorquers)]
-    if len(magnetic) > 1:
-        raise ValueError("magnetorquers: listed twice; give every coil in one list of axes")
-    if magnetic:  # each component's dipole at |u| = 1 after the maps and hardware rows
-        tail.extend(getattr(a, "dipole_map", np.zeros((a.action_dim, 3))) for a in actuators)
-    wheels = [a for a in actuators if isinstance(a, ReactionWheels)]
-    if len(wheels) > 1:
-        raise ValueError("reaction_wheels: listed twice; give every wheel in one list of axes")
-    if wheels and hardware:
-        raise ValueError(
-            "reaction_wheels: thrusters with a hardware model (lag, min_impulse, on_off, noise) "
-            "do not step with wheels; make the thrusters ideal or leave the wheels out"
-        )
-    if wheels:  # the wheels' rows last, after the maps and every other tail
-        first = sum(a.action_dim for a in actuators[: actuators.index(wheels[0])])
-        named["wheel_rows"] = float(MAPS + maps.size + sum(t.size for t in tail))
-        tail.append(wheels[0].rows(first))
+    first = 0
+    for a, spec in found:  # each declared block of per-unit rows, last
+        if a.rows_at is not None:
+            named[a.rows_at] = float(MAPS + maps.size + sum(t.size for t in tail))
+            tail.append(a.unit_rows(spec, first))
+        first += spec.action_dim
     for e in effects:  # rows a spec declares (the field's coefficients), at a named offset
         extra = getattr(e, "parameter_rows", None)
         if extra is not None:

@@ -17,6 +17,7 @@ from numba import prange, types
 from numba.extending import overload
 
 from rigid_env.core.compose import (
+    add_actuator_torque_bounds,
     add_force_bounds,
     add_potential_roots,
     add_torque_bounds,
@@ -166,11 +167,10 @@ def within_reach(energy, reach):
 @kernel
 def force_reach(act, m, c):
     """``B sqrt(2)`` of :data:`EXPLOSION_FACTOR` for the wrench ``act`` and the listed effects'
-    force and torque bounds (:mod:`rigid_env.core.effect`): ``(|F| + sum B_F) / sqrt(m) +
-    (|tau| + sum B_tau) / sqrt(I_min)``."""
-    torque = norm(act[1])
-    if c.magnetorquers != 0.0:  # |m_b x R^T B| <= |m_b| |B|
-        torque += norm(act[2]) * norm(act[3])
+    force and torque bounds (:mod:`rigid_env.core.effect`) and the actuators' declared torque
+    bounds (:mod:`rigid_env.core.actuator`): ``(|F| + sum B_F) / sqrt(m) + (|tau| + sum B_tau)
+    / sqrt(I_min)``."""
+    torque = add_actuator_torque_bounds(norm(act[1]), act, c)
     forces = add_force_bounds(norm(act[0]), m, c)
     return forces * m.inv_sqrt_mass + add_torque_bounds(torque, m, c) * m.inv_sqrt_inertia
 

@@ -14,11 +14,12 @@ import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.actuator import state_rows
 from rigid_env.core.effects import (
     ForceEffect,
     Magnetorquers,
@@ -32,7 +33,6 @@ from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
-    MAX_WHEELS,
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
@@ -58,6 +58,9 @@ from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import EXPLOSION_FACTOR, derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
+
+if TYPE_CHECKING:
+    from rigid_env.core.geomagnetic import OrbitField
 
 __all__ = [
     "DEFAULT_ATOL",
@@ -243,8 +246,7 @@ class World:
         self._wheels = next((e for e in plan.effects if isinstance(e, ReactionWheels)), None)
         if self._wheels is not None:
             check_wheels(self._integrator.name)
-        lagged = self.action_dim if hw.lagged != 0.0 else 0
-        width = STATE_WIDTH + lagged + (MAX_WHEELS if self._wheels is not None else 0)
+        width = STATE_WIDTH + state_rows(plan.effects)
         # Then each body's orbit, Earth angle and clock where the bodies move on an orbit.
         self._motion = next((e for e in plan.effects if isinstance(e, OrbitMotion)), None)
         self._orbit_row = width
@@ -427,6 +429,11 @@ class World:
         """(N, A) each command component's thrust now, in units of its ``max_force`` (signed),
         where the thrusters lag (a view: editable, part of the state); else None."""
         return self._cols[THRUST : THRUST + self.action_dim].T if self._lagged else None
+
+    @property
+    def orbit(self) -> OrbitField | None:
+        """The orbit the bodies' field follows (its clock :attr:`orbit_time`), or None."""
+        return self._orbit
 
     @property
     def wheels(self) -> ReactionWheels | None:

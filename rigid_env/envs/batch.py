@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from rigid_env import knobs
 from rigid_env.core import threads
+from rigid_env.core.actuator import fuel_per_unit, specs
 from rigid_env.core.effects import LinearActuator, Thrusters
 from rigid_env.core.layout import MAPS
 from rigid_env.core.state import BodyModel
@@ -35,6 +36,7 @@ from rigid_env.envs.hardware import (
     misaligned,
     with_preset,
 )
+from rigid_env.envs.orbit_draws import place_on_orbit
 from rigid_env.envs.params import (
     EnvSettings,
     TaskParams,
@@ -48,7 +50,8 @@ from rigid_env.envs.sampling import (
     random_thrust,
     sensor_noise,
 )
-from rigid_env.envs.sensors import RowNormals, SensorSuite
+from rigid_env.envs.sensing import SensorSuite, own_columns
+from rigid_env.envs.sensors import RowNormals
 from rigid_env.envs.streams import EnvStreams
 from rigid_env.render import Frame, TaskView
 from rigid_env.resources import scene_path
@@ -110,6 +113,26 @@ def _array_of(action: Any) -> NDArray[Any]:
             f"action: expected an array of real numbers, got a {type(action).__name__} NumPy "
             f"cannot read ({reason})"
         ) from None
+
+
+def _start_orbit_time(world: World, rows: NDArray[np.int64], t: FloatArray) -> None:
+    world.orbit_time[rows] = t
+
+
+def _start_wheel_speed(world: World, rows: NDArray[np.int64], speed: FloatArray) -> None:
+    world.set_wheel_speed(speed, rows)
+
+
+WORLD_STARTS: dict[str, Callable[[World, NDArray[np.int64], FloatArray], None]] = {
+    "orbit_time": _start_orbit_time,
+    "orbit_start": place_on_orbit,
+    "wheel_speed": _start_wheel_speed,
+}
+"""Where an episode's world starts, by name, as a task's :meth:`TaskBatch.sample` may draw it:
+``orbit_time`` the time along the orbit [s] (K,); ``orbit_start`` the orbit phase and the
+Earth's rotation angle at the epoch [rad] (K, 2) where the orbit is world state
+(:func:`rigid_env.envs.orbit_draws.place_on_orbit`); ``wheel_speed`` each wheel's speed
+relative to the body [rad/s] (K, wheels)."""
 
 
 class TaskBatch:
@@ -181,18 +204,18 @@ class TaskBatch:
         self.rotation_repr = settings.rotation_repr
         self.randomization = settings.randomization
         self.base_model = self.world.model
-        # Per-component force at |u| = 1 [N] (a coil's dipole [A m^2]), for the fuel measure:
-        # the impulse spent [N s] (a coil's dipole-time [A m^2 s], its charge and energy's
-        # measure).
-        actuators = [e for e in self.world.force_effects if isinstance(e, LinearActuator)]
-        self.max_force = np.concatenate(
-            [np.linalg.norm(getattr(a, "dipole_map", a.force_map), axis=1) for a in actuators]
-        )
+        # What each component spends per second at |u| = 1, as its actuator declares
+        # (rigid_env.core.actuator: a thruster's force [N], spent as impulse [N s]; a coil's
+        # dipole [A m^2], as dipole-time [A m^2 s], its charge and energy's measure).
+        actuators = specs(self.world.force_effects)
+        self.max_force = fuel_per_unit(self.world.force_effects)
         self.action_dim = self.world.action_dim
         self.w_scale = self.angular_velocity_scale()
+        self._sensor_columns = own_columns(settings.sensors)
         self.obs_slices = self._observation_slices()
         """Where each observed quantity lies in an observation: ``orientation``, ``w`` (over
-        :attr:`w_scale`), ``fine_w`` and each of :attr:`extra_observations` by name."""
+        :attr:`w_scale`), ``fine_w``, each of :attr:`extra_observations` and each column of a
+        sensor that adds its own by name."""
         self.single_observation_space = self._observation_space()
         self.obs_dim = self.single_observation_space.shape[0]
         self.single_action_space = spaces.Box(-1.0, 1.0, shape=(self.action_dim,), dtype=np.float32)
@@ -209,6 +232,12 @@ class TaskBatch:
         self.steps = np.zeros(n, dtype=np.int64)
         self.target = np.zeros((n, K.TARGET_WIDTH))
         """(N, TARGET_WIDTH) each env's target (its first :attr:`target_dim` numbers used)."""
+        reads = self.world.wheels is not None or type(self).before_pass is not TaskBatch.before_pass
+        self._world_data = np.zeros((n if reads else 1, K.WORLD_WIDTH))
+        self.world_data = K.WorldData.of(self._world_data)
+        """Each env's world data by name (the field, the wheels' momentum), what ``evaluate``
+        reads as ``body.field`` and ``body.h_wheels``: read from the world before every pass
+        (one shared row of zeros where the world has neither)."""
         self.thrust_scale: FloatArray | None = None
         """(N, A) strength of each actuator relative to the scene's, once thrust is randomised
         (None before: every actuator as in the scene)."""
@@ -227,7 +256,6 @@ class TaskBatch:
         """(N,) each env's thruster fault in its episode (``randomization.thruster_faults``) as a
         :data:`~rigid_env.envs.hardware.FAULT_ROW` (:data:`~rigid_env.envs.hardware.NO_FAULT`:
         none); :attr:`faults` by env."""
-        self._thrusters = [e for e in self.world.force_effects if isinstance(e, Thrusters)]
         self._noisy = bool(self.world.parameters.noisy)
         self._no_noise = np.zeros((1, 3))
         self._sigma = self.randomization.sensor_noise
@@ -274,8 +302,10 @@ class TaskBatch:
         (the task's :meth:`demand`, thrust randomisation or faults); else they are one array."""
         self._threaded = threads.threaded(n)
         """Whether a pass over all the envs is split over the cores."""
-        self._reads_world = type(self).before_pass is not TaskBatch.before_pass
-        """Whether the task reads more of the world before its pass (:meth:`before_pass`)."""
+        self._reads_world = self.world.wheels is not None or (
+            type(self).before_pass is not TaskBatch.before_pass
+        )
+        """Whether the pass reads world data (:attr:`world_data`), read before every pass."""
         self._counts_commands = self._hardware.counts_commands
         """Whether the fuel is the pass's count of the commands (no thruster hardware)."""
         self._faulty = r.thruster_faults is not None
@@ -292,13 +322,21 @@ class TaskBatch:
         """Typical angular speed [rad/s] that the observation divides by."""
         raise NotImplementedError
 
-    def sample(self, rng: np.random.Generator) -> tuple[FloatArray, ...]:
-        """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``."""
+    def sample(self, rng: np.random.Generator) -> tuple[Any, ...]:
+        """One env's initial ``(x (3,), v (3,), q (4,), w_body (3,), target (target_dim,))``,
+        optionally followed by a dict of where its world starts, by the names of
+        :data:`WORLD_STARTS` (``{"orbit_time": t}``)."""
         raise NotImplementedError
 
     version_scenes: ClassVar[dict[int, str]] = {}
     """The scene stems of the task's later versions, by the version they start at (a version
     plays the newest one at or below it; :attr:`scene_name` before the first)."""
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled with :attr:`world_data` made views of its array again (pickling copies
+        views apart: the pass would read world data nobody writes)."""
+        self.__dict__.update(state)
+        self.world_data = K.WorldData.of(self._world_data)
 
     def version_scene(self) -> str:
         """The stem of the scene this env's version plays (:attr:`version_scenes`)."""
@@ -308,8 +346,16 @@ class TaskBatch:
 
     def before_pass(self, rows: NDArray[np.int64] | slice, reset: bool) -> None:
         """Before the task's pass over the envs ``rows`` (after their world step, or their
-        reset), read what else of the world ``evaluate`` needs into their :attr:`target` (the
-        field a magnetometer measures); nothing by default."""
+        reset), write what of the world the framework does not read itself into their
+        :attr:`world_data` by name (the field along the task's orbit); nothing by default."""
+
+    def _read_world(self, rows: NDArray[np.int64] | slice, reset: bool) -> None:
+        """The world data of the envs ``rows`` before their pass: the wheels' momentum, then the
+        task's (:meth:`before_pass`)."""
+        wheels = self.world.wheels
+        if wheels is not None:
+            self.world_data.h_wheels[rows] = self.world.wheel_momentum[rows] @ wheels.axes
+        self.before_pass(rows, reset)
 
     def observed_field(self, rows: NDArray[np.int64]) -> tuple[FloatArray, float] | None:
         """The magnetic field the task observes as ``field_x..field_z`` in the envs ``rows``
@@ -363,6 +409,7 @@ class TaskBatch:
                 np.full(3, K.W_OBS_BOUND),
                 np.ones(3),
                 np.full(len(self.extra_observations), self.extra_bound),
+                np.array([b for _, b in self._sensor_columns]),
                 np.full(int(period), PERIOD_BOUND),
             ]
         ).astype(np.float32)
@@ -375,10 +422,11 @@ class TaskBatch:
         rot = 4 if self.rotation_repr == "quaternion" else 6
         out = {"orientation": slice(0, rot), "w": slice(rot, rot + 3)}
         out["fine_w"] = slice(rot + 3, rot + 6)
-        for k, name in enumerate(self.extra_observations):
+        names = [*self.extra_observations, *(name for name, _ in self._sensor_columns)]
+        for k, name in enumerate(names):
             out[name] = slice(rot + 6 + k, rot + 7 + k)
         if self.settings.observe_control_period:
-            end = rot + 6 + len(self.extra_observations)
+            end = rot + 6 + len(names)
             out["control_period"] = slice(end, end + 1)
         return out
 
@@ -397,7 +445,8 @@ class TaskBatch:
         state = np.zeros((13, 1))
         state[6] = 1.0  # the identity orientation
         arrays = (state, self.world.model_columns[:, :1].copy(), np.zeros((1, self.action_dim)),
-                  np.zeros((1, K.TARGET_WIDTH)), self._no_noise, np.zeros(1, K.RECORD),
+                  np.zeros((1, K.TARGET_WIDTH)), np.zeros((1, K.WORLD_WIDTH)), self._no_noise,
+                  np.zeros(1, K.RECORD),
                   np.zeros((1, self.obs_dim), np.float32), self.max_force)  # fmt: skip
         given = type(self).task_pass((self.numbers, arrays, False), 1)
         if given < len(self.extra_observations):
@@ -575,9 +624,10 @@ class TaskBatch:
             rows = np.flatnonzero(~skip) if some else None
             noise = sensor_noise(self.streams, self._sigma, rows, self.n if some else 0)
         if self._reads_world:
-            self.before_pass(slice(None), reset=False)
+            self._read_world(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
-                                noise, self.record, self.obs), True, self._threaded)  # fmt: skip
+                                self._world_data, noise, self.record, self.obs), True,
+                                self._threaded)  # fmt: skip
         if not self._counts_commands:
             self._count_delivered()
         return failed
@@ -593,7 +643,7 @@ class TaskBatch:
         failed = self._advance_held(~stepping & ~self.world.failed)
         self._own_obs(keep=True)
         idx = np.flatnonzero(stepping)
-        self.before_pass(idx, reset=False)
+        self._read_world(idx, reset=False)
         self._pass_rows(idx, stepped=True)
         self._count_delivered(idx)
         return failed
@@ -639,14 +689,15 @@ class TaskBatch:
         noise = self._no_noise
         if self._sigma > 0.0:
             noise = sensor_noise(self.streams, self._sigma, idx)
-        arrays = self._arrays(cols, model, self.command[idx], self.target[idx],
+        world = self._world_data[idx] if self._reads_world else self._world_data
+        arrays = self._arrays(cols, model, self.command[idx], self.target[idx], world,
                               noise, record, obs)  # fmt: skip
         self._pass(arrays, stepped, threads.threaded(idx.size))
         self.record[idx], self.obs[idx] = record, obs
 
-    def _arrays(self, state, model, command, target, noise, record, obs) -> tuple[Any, ...]:
+    def _arrays(self, state, model, command, target, world, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
-        return (state, model, command, target, noise, record, obs, self.max_force)
+        return (state, model, command, target, world, noise, record, obs, self.max_force)
 
     def _pass(self, arrays: tuple[Any, ...], stepped: bool, threaded: bool) -> None:
         """The task's compiled pass over the envs of ``arrays``, split over the cores if
@@ -697,10 +748,13 @@ class TaskBatch:
             self.world.set_model(BodyModel(model.mass, model.inertia))
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
         if draws:
-            x, v, q, w, target = (np.array(c) for c in zip(*draws, strict=True))
+            x, v, q, w, target = (np.array(c) for c in zip(*(d[:5] for d in draws), strict=True))
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
             if self.target_dim:
                 self.target[idx, : self.target_dim] = target
+            if len(draws[0]) > 5:
+                for name in draws[0][5]:
+                    WORLD_STARTS[name](self.world, idx, np.array([d[5][name] for d in draws]))
         self.steps[idx] = 0
         self.record[idx] = 0
         self.last_action[idx] = 0.0
@@ -709,7 +763,7 @@ class TaskBatch:
         if idx.size == 0:
             return
         self._own_obs(keep=True)  # rows idx are written below, the others kept
-        self.before_pass(idx, reset=True)
+        self._read_world(idx, reset=True)
         if self._draws:
             self.streams.follow(rngs, idx)
         self._pass_rows(idx, stepped=False)

@@ -18,7 +18,7 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
-from rigid_env.envs.orbit_draws import draw_orbit_start, place_on_orbit
+from rigid_env.envs.orbit_draws import draw_orbit_start
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
@@ -119,12 +119,14 @@ def _within_limits(commands):
 @kernel
 def evaluate(body, effort, goal, memory, task, stepped):
     """BdotDetumble's reward, termination and success of one env, and its magnetometer: the
-    field its target carries (world frame, over FIELD_SCALE) turned into the body frame."""
+    field at the body (``body.field``, world frame) over FIELD_SCALE, turned into the body
+    frame."""
     speed = safe_norm(body.w)
     success = speed < task.success_threshold
     cost = spin_cost(speed, task.success_threshold, task.max_initial_spin)
     reward = -cost - task.effort_weight * effort + (task.success_bonus if success else 0.0)
-    field = rotate_inv(body.q, (goal[0], goal[1], goal[2]))
+    b = body.field
+    field = rotate_inv(body.q, (b[0] / FIELD_SCALE, b[1] / FIELD_SCALE, b[2] / FIELD_SCALE))
     return Outcome(reward, terminated=success, success=success, memory=memory, extra=field)
 
 
@@ -136,13 +138,9 @@ class BdotDetumbleTask(TaskBatch):
     """Task definition of :class:`BdotDetumbleEnv` (see there); its keyword arguments are
     :class:`BdotDetumbleParams`.
 
-    Target: the field at the env's time along the orbit (world frame, over
-    :data:`FIELD_SCALE`; rows 0-2, written before every pass), then the time along the orbit
-    the episode starts at [s] (row 3, drawn by :meth:`sample`). From v2 the orbit is world
-    state (the scene ``bdot_detumble_orbit``): at a reset row 3 carries the drawn orbit phase
-    (mean anomaly at the epoch) [rad] and row 0 the Earth's rotation angle at the epoch [rad],
-    which :meth:`before_pass` puts in the world's orbit rows; the field is then the one the
-    compiled step evaluates where the body is (:meth:`rigid_env.core.world.World.orbit_field`)."""
+    No target: ``evaluate`` reads the field at the env's time along the orbit by name
+    (``body.field``, written before every pass); :meth:`sample` draws the time along the orbit
+    the episode starts at."""
 
     params_model = BdotDetumbleParams
     scene_name = "bdot_detumble"
@@ -150,7 +148,6 @@ class BdotDetumbleTask(TaskBatch):
     task_pass = bdot_detumble_pass
     extra_observations = ("field_x", "field_y", "field_z")
     extra_bound = 2.0
-    target_dim = 4
 
     def angular_velocity_scale(self) -> float:
         return self.params.max_initial_spin
@@ -158,23 +155,19 @@ class BdotDetumbleTask(TaskBatch):
     def sample(self, rng: np.random.Generator):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         if self.orbit is None:  # v2: the orbit phase and the Earth's angle, each uniform
-            phase, angle = draw_orbit_start(rng)
-            return np.zeros(3), np.zeros(3), q, w, np.array([angle, 0.0, 0.0, phase])
+            start = np.array(draw_orbit_start(rng))
+            return np.zeros(3), np.zeros(3), q, w, np.zeros(0), {"orbit_start": start}
         start = rng.uniform(0.0, self.orbit.orbit.period)
-        return np.zeros(3), np.zeros(3), q, w, np.array([0.0, 0.0, 0.0, start])
+        return np.zeros(3), np.zeros(3), q, w, np.zeros(0), {"orbit_time": start}
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
-        """The magnetometer's field: each env's along the orbit at its time, the episode's
-        start time drawn by :meth:`sample` put on the world's clock at a reset."""
-        world = self.world
-        if self.orbit is None:  # v2: the orbit is world state
-            if reset:
-                place_on_orbit(world, rows, self.target[rows, 3], self.target[rows, 0])
-            self.target[rows, :3] = world.orbit_field(rows) / FIELD_SCALE
-            return
-        if reset:
-            world.orbit_time[rows] = self.target[rows, 3]
-        self.target[rows, :3] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
+        """The field along the orbit at each env's time (world frame [T]); from v2 the one the
+        compiled step evaluates where the body is on its orbit (:meth:`rigid_env.core.world.
+        World.orbit_field`)."""
+        if self.orbit is None:
+            self.world_data.field[rows] = self.world.orbit_field(rows)
+        else:
+            self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""
@@ -182,8 +175,8 @@ class BdotDetumbleTask(TaskBatch):
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (what its magnetometer measures), observed
-        over :data:`FIELD_SCALE`."""
-        field_world = self.target[rows, :3] * FIELD_SCALE
+        over :data:`FIELD_SCALE` (taken through that scale as the pass takes it)."""
+        field_world = self.world_data.field[rows] / FIELD_SCALE * FIELD_SCALE
         return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
 
     def demand(self, action: np.ndarray) -> np.ndarray:

@@ -55,10 +55,11 @@ W_OBS_BOUND = 5.0
 observation space says so)."""
 FINE_SPIN = 0.1
 """[rad/s] the scale of the fine-resolution observation ``tanh(w / FINE_SPIN)`` near rest."""
-TARGET_WIDTH = 10
-"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, what else of
-the world the task reads, or unused zeros): a task declares how many it uses
-(:attr:`rigid_env.envs.batch.TaskBatch.target_dim`)."""
+TARGET_WIDTH = 4
+"""The most numbers of a per-env target, ``evaluate``'s ``goal`` (a quaternion, or unused
+zeros): a task declares how many it uses (:attr:`rigid_env.envs.batch.TaskBatch.target_dim`).
+The goal holds the goal alone; what else of the world a task reads comes by name
+(:class:`WorldData`, ``body.field``, ``body.h_wheels``)."""
 MEMORY_WIDTH = 1
 """The most numbers of an env's task memory, ``evaluate``'s ``memory`` and ``Outcome.memory``
 (one float): a task declares how many it uses
@@ -81,6 +82,30 @@ class BodyState(NamedTuple):
     """Orientation body -> world, unit quaternion (w, x, y, z)."""
     w: tuple[float, float, float]
     """Angular velocity, body frame [rad/s]."""
+    field: tuple[float, float, float]
+    """The magnetic field at the body, world frame [T] (zeros where the world has none)."""
+    h_wheels: tuple[float, float, float]
+    """The wheels' momentum ``sum_k a_k h_k``, body frame [N m s] (zeros without wheels)."""
+
+
+class WorldData(NamedTuple):
+    """The world data a task reads beside the body's state, by name: (K, 3) views of one
+    (K, :data:`WORLD_WIDTH`) array, the pass's ``world`` (``evaluate`` sees env ``i``'s row as
+    ``body.field`` and ``body.h_wheels``)."""
+
+    field: NDArray[np.float64]
+    """(K, 3) the magnetic field at each body, world frame [T]."""
+    h_wheels: NDArray[np.float64]
+    """(K, 3) the wheels' momentum ``sum_k a_k h_k``, body frame [N m s]."""
+
+    @classmethod
+    def of(cls, data: NDArray[np.float64]) -> WorldData:
+        """The named views of a (K, :data:`WORLD_WIDTH`) array."""
+        return cls(data[:, 0:3], data[:, 3:6])
+
+
+WORLD_WIDTH = 6
+"""Numbers of :class:`WorldData` per env."""
 
 
 class Outcome(NamedTuple):
@@ -131,6 +156,9 @@ class EnvArrays(NamedTuple):
     """(N, A) the commands the bodies got, in [-1, 1]."""
     target: NDArray[np.float64]
     """(N, TARGET_WIDTH) each env's target."""
+    world: NDArray[np.float64]
+    """(N | 1, WORLD_WIDTH) each env's :class:`WorldData` (one shared row of zeros where the
+    task reads none)."""
     noise: NDArray[np.float64]
     """(N | 1, 3) sensor noise on the observed ``w`` [rad/s]."""
     record: NDArray[np.void]
@@ -197,7 +225,10 @@ def fine_spin(c, state, noise, obs, start, stop):
 @_per_task
 def _env(evaluate, c, a, stepped, i):
     """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
-    body = BodyState(*load(a.state, i))
+    jw = 0 if a.world.shape[0] == 1 else i
+    d = a.world
+    field = (d[jw, 0], d[jw, 1], d[jw, 2])
+    body = BodyState(*load(a.state, i), field, (d[jw, 3], d[jw, 4], d[jw, 5]))
     rec = a.record[i]
     effort = 0.0
     if stepped:
@@ -212,9 +243,7 @@ def _env(evaluate, c, a, stepped, i):
     j = 0 if a.noise.shape[0] == 1 else i
     start = observe_body(c, body, (a.noise[j, 0], a.noise[j, 1], a.noise[j, 2]), a.obs, i)
     t = a.target
-    goal = (
-        t[i, 0], t[i, 1], t[i, 2], t[i, 3], t[i, 4], t[i, 5], t[i, 6], t[i, 7], t[i, 8], t[i, 9],
-    )  # fmt: skip
+    goal = (t[i, 0], t[i, 1], t[i, 2], t[i, 3])
     out = evaluate(body, effort, goal, rec.memory, c, stepped)
     if stepped:
         rec.memory = out.memory

@@ -19,12 +19,13 @@ def draw_orbit_start(rng: np.random.Generator) -> tuple[float, float]:
     return float(phase), float(angle)
 
 
-def place_on_orbit(world: Any, rows: np.ndarray | slice, phase: np.ndarray, angle: np.ndarray
-                   ) -> None:  # fmt: skip
-    """Put the bodies ``rows`` at the epoch of their orbit (clock 0) with the mean anomaly
-    ``phase`` [rad] and the Earth's rotation angle ``angle`` [rad], and their ``x`` there: a
-    uniform phase and angle put the ground track's start at a uniform longitude."""
+def place_on_orbit(world: Any, rows: np.ndarray | slice, start: np.ndarray) -> None:
+    """Put the bodies ``rows`` at the epoch of their orbit (clock 0) with ``start`` (K, 2): the
+    mean anomaly and the Earth's rotation angle at the epoch [rad] (:func:`draw_orbit_start`),
+    and their ``x`` there: a uniform phase and angle put the ground track's start at a uniform
+    longitude."""
+    start = np.asarray(start, dtype=np.float64).reshape(-1, 2)
     orbit = world.orbit_rows
-    orbit[rows, OrbitRows._fields.index("mean_anomaly")] = phase
-    orbit[rows, OrbitRows._fields.index("earth_angle")] = angle
+    orbit[rows, OrbitRows._fields.index("mean_anomaly")] = start[:, 0]
+    orbit[rows, OrbitRows._fields.index("earth_angle")] = start[:, 1]
     world.state.x[rows] = world.orbit_position(rows)

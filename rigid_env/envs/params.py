@@ -18,7 +18,7 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, BeforeValidator, ConfigDict, ValidationError
 
 from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
@@ -33,25 +33,8 @@ from rigid_env.core.effects import (
 )
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
-from rigid_env.envs.sensors import MAX_DELAY
-from rigid_env.scene_sections import Quantity
-
-
-def _plain_number(value: Any) -> Any:
-    """A NumPy real scalar as the Python number it holds (the rest goes on unchanged)."""
-    if isinstance(value, np.integer | np.floating) and not isinstance(value, np.bool_):
-        return value.item()
-    return value
-
-
-NumPyReal = BeforeValidator(_plain_number)
-
-
-def quantity(unit: str, **bounds: float) -> Any:
-    """A finite number in ``unit`` with the range ``bounds`` (``gt``, ``ge``, ``lt``, ``le``) on
-    the field and the scene's magnitude rule; text and booleans refused."""
-    return Annotated[float, Field(allow_inf_nan=False, **bounds), Quantity(unit), NumPyReal]
-
+from rigid_env.envs.quantities import quantity
+from rigid_env.envs.sensing import Sensors
 
 Rate = quantity("rad/s", gt=0)
 """An angular speed [rad/s], > 0."""
@@ -69,16 +52,6 @@ NoiseRate = quantity("rad/s", ge=0)
 """A standard deviation of an angular speed [rad/s], >= 0."""
 TiltDegrees = quantity("deg", ge=0, le=90)
 """A tilt angle [deg] in [0, 90]."""
-AngleRandomWalk = quantity("rad/s^0.5", ge=0)
-"""A gyro's angle random walk, the density of its rate's white noise [rad/sqrt(s)], >= 0."""
-RateRandomWalk = quantity("rad/s^1.5", ge=0)
-"""A gyro's rate random walk, the density of its bias's driving noise [rad/s^(3/2)], >= 0."""
-FieldNoise = quantity("T", ge=0)
-"""A standard deviation of a magnetic field [T], >= 0."""
-AttitudeNoise = quantity("rad", ge=0, le=np.pi)
-"""A standard deviation of an attitude error per axis [rad] in [0, pi]."""
-DelaySteps = knobs.integer(ge=0, le=MAX_DELAY)
-"""A delay in control steps, an integer from 0 to 1000."""
 
 
 def _repeats(value: Any) -> Any:
@@ -222,76 +195,6 @@ def refuse_idle_draws(r: Randomization, scene: str, effects: Sequence[Any]) -> N
         )
 
 
-class GyroSettings(BaseModel):
-    """A rate gyro (:class:`rigid_env.envs.sensors.Gyro`): white noise and a random-walk bias on
-    the observed angular velocity, sampled at each world step ``dt``."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
-
-    arw: AngleRandomWalk = 0.0
-    """Angle random walk [rad/sqrt(s)], >= 0: white noise of standard deviation ``arw /
-    sqrt(dt)`` per axis and sample."""
-    rrw: RateRandomWalk = 0.0
-    """Rate random walk [rad/s^(3/2)], >= 0: the bias takes a step of standard deviation ``rrw
-    sqrt(dt)`` per axis and sample."""
-    bias0: NoiseRate = 0.0
-    """Standard deviation of each axis's bias at a reset [rad/s], >= 0 (redrawn per episode)."""
-
-    @property
-    def on(self) -> bool:
-        """Whether any of its noise is drawn (all 0: the gyro is off)."""
-        return self.arw > 0.0 or self.rrw > 0.0 or self.bias0 > 0.0
-
-
-class MagnetometerSettings(BaseModel):
-    """A three-axis magnetometer (:class:`rigid_env.envs.sensors.Magnetometer`): white noise on
-    the observed field (a task that observes one: BdotDetumble)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
-
-    sigma: FieldNoise = 0.0
-    """Standard deviation of the noise per axis [T], >= 0 (the Earth's field is 2e-5 to 6e-5 T
-    in low orbit)."""
-
-
-class StarTrackerSettings(BaseModel):
-    """A star tracker (:class:`rigid_env.envs.sensors.StarTracker`): the observed orientation
-    turned by a small random rotation about body axes."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
-
-    sigma: AttitudeNoise = 0.0
-    """Standard deviation of the error rotation per body axis [rad], in [0, pi]."""
-
-
-class Sensors(BaseModel):
-    """The sensors the observation passes through, each drawn at every step from the
-    environment's own generator; a sensor absent, None or with all its noise at 0 is off (the
-    true value observed, nothing drawn)."""
-
-    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
-
-    gyro: GyroSettings | None = None
-    """The observed angular velocity: a mapping of arw, rrw, bias0 (None: the true one)."""
-    magnetometer: MagnetometerSettings | None = None
-    """The observed magnetic field: a mapping of sigma (None: the true one)."""
-    star_tracker: StarTrackerSettings | None = None
-    """The observed orientation: a mapping of sigma (None: the true one)."""
-    delay: DelaySteps | None = None
-    """Observe each step the observation of ``delay`` control steps earlier, an integer from 0
-    to 1000 (a reset fills the history with the episode's first observation; None or 0: none)."""
-
-    @property
-    def on(self) -> bool:
-        """Whether any sensor changes the observation."""
-        return bool(
-            (self.gyro is not None and self.gyro.on)
-            or (self.magnetometer is not None and self.magnetometer.sigma > 0.0)
-            or (self.star_tracker is not None and self.star_tracker.sigma > 0.0)
-            or self.delay
-        )
-
-
 def _none_is_empty(value: Any) -> Any:
     return {} if value is None else value
 
@@ -331,7 +234,8 @@ class EnvSettings(BaseModel):
     thruster: on/off firing, a lag, a minimum impulse bit and thrust noise;
     :mod:`rigid_env.envs.hardware`)."""
     sensors: Annotated[Sensors, BeforeValidator(_none_is_empty)] = Sensors()
-    """The observation's sensors: a mapping of gyro, magnetometer, star_tracker, delay (None:
+    """The observation's sensors: a mapping of each registered sensor's key (gyro,
+    magnetometer, star_tracker, ...: :data:`rigid_env.envs.sensing.SENSORS`) and delay (None:
     none, the true state observed)."""
 
 

@@ -1,6 +1,7 @@
 """Spacecraft sensor models for a batch of N envs: rate gyro, magnetometer, star tracker and a
-measurement delay, each optional and vectorised over the leading env axis; and
-:class:`SensorSuite`, the sensors of a task's observation (the env keyword ``sensors``).
+measurement delay, each vectorised over the leading env axis; and the three sensors' declarations
+(:data:`SENSORS`, :class:`rigid_env.envs.sensor.Sensor`) with their settings, the ``sensors`` env
+keyword's ``gyro``, ``magnetometer`` and ``star_tracker``.
 
 Every random draw comes from the ``numpy.random.Generator`` passed in (an env's own), or from
 :class:`RowNormals`, whose row ``k`` of a batch was drawn from env ``k``'s own generator. A noise
@@ -17,25 +18,24 @@ from __future__ import annotations
 
 import math
 import operator
-from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from pydantic import BaseModel, ConfigDict
 
 from rigid_env.core.rotation import (
     canonical,
     quat_from_rotvec,
     quat_mul,
     quat_normalize,
-    quat_to_matrix,
 )
-from rigid_env.envs.kernels import FINE_SPIN, W_OBS_BOUND
+from rigid_env.envs.quantities import quantity
+from rigid_env.envs.sensor import Noise, Sensor
 
 if TYPE_CHECKING:
     from rigid_env.envs.batch import TaskBatch
-    from rigid_env.envs.params import Sensors
 
 FloatArray = NDArray[np.float64]
 EnvIndex = NDArray[np.bool_] | NDArray[np.intp] | slice | None
@@ -277,141 +277,124 @@ class RowNormals:
             )
 
 
-class SensorSuite:
-    """The sensors of a task's observation over its N envs (the env keyword ``sensors``,
-    :class:`~rigid_env.envs.params.Sensors`) and their per-env state: each env's gyro bias and
-    the delay's history. Build it with :meth:`of` (None when every sensor is off).
+# ---- the declarations ------------------------------------------------------------------------
+NoiseRate = quantity("rad/s", ge=0)
+"""A standard deviation of an angular speed [rad/s], >= 0."""
+AngleRandomWalk = quantity("rad/s^0.5", ge=0)
+"""A gyro's angle random walk, the density of its rate's white noise [rad/sqrt(s)], >= 0."""
+RateRandomWalk = quantity("rad/s^1.5", ge=0)
+"""A gyro's rate random walk, the density of its bias's driving noise [rad/s^(3/2)], >= 0."""
+FieldNoise = quantity("T", ge=0)
+"""A standard deviation of a magnetic field [T], >= 0."""
+AttitudeNoise = quantity("rad", ge=0, le=np.pi)
+"""A standard deviation of an attitude error per axis [rad] in [0, pi]."""
 
-    After each of the task's compiled passes, :meth:`measure` rewrites the rows the pass wrote:
-    the gyro's rate in place of the true body ``w`` (the ``w`` columns, over the task's
-    ``w_scale`` clipped to +-:data:`~rigid_env.envs.kernels.W_OBS_BOUND`, and ``fine_w``,
-    ``tanh(w / FINE_SPIN)``), the magnetometer's field in place of the true one
-    (``field_x..field_z``, over the task's scale clipped to +-``extra_bound``), the star
-    tracker's attitude in place of the true orientation (a canonical quaternion, or the first
-    two columns of its rotation). Once per control step :meth:`delay` puts in every row the
-    observation of ``k`` control steps earlier; :meth:`reset` starts episodes. Each env draws
-    from its own generator only, in the order: its bias (at a reset), the gyro's white noise,
-    the bias's step, the magnetometer's noise, the star tracker's error; so a batch equals its
-    envs alone bit for bit.
-    """
 
-    def __init__(self, settings: Sensors, task: TaskBatch) -> None:
-        g, m, s = settings.gyro, settings.magnetometer, settings.star_tracker
-        self.gyro = Gyro(g.arw, g.rrw, task.dt, g.bias0) if g is not None and g.on else None
-        """The rate gyro, sampled every world step ``dt`` (None: off)."""
-        self.magnetometer = Magnetometer(m.sigma) if m is not None and m.sigma > 0.0 else None
-        """The magnetometer (None: off)."""
-        self.star_tracker = StarTracker(s.sigma) if s is not None and s.sigma > 0.0 else None
-        """The star tracker (None: off)."""
-        self.delay_line = Delay(settings.delay) if settings.delay else None
-        """The observation's delay (None: none)."""
-        self.bias = np.zeros((task.n, 3))
-        """(N, 3) each env's gyro bias, body frame [rad/s] (drawn at its reset)."""
-        gyro = self.gyro
-        self._per_reset = 3 * int(gyro is not None and gyro.bias0 > 0.0)
-        self._per_sample = 3 * sum(
-            (
-                gyro is not None and gyro.arw > 0.0,
-                gyro is not None and gyro.rrw > 0.0,
-                self.magnetometer is not None,
-                self.star_tracker is not None,
-            )
-        )
-        self._measuring = any(x is not None for x in (gyro, self.magnetometer, self.star_tracker))
-        self._delay_started = False
+class GyroSettings(BaseModel):
+    """A rate gyro (:class:`Gyro`): white noise and a random-walk bias on the observed angular
+    velocity, sampled at each world step ``dt``."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    arw: AngleRandomWalk = 0.0
+    """Angle random walk [rad/sqrt(s)], >= 0: white noise of standard deviation ``arw /
+    sqrt(dt)`` per axis and sample."""
+    rrw: RateRandomWalk = 0.0
+    """Rate random walk [rad/s^(3/2)], >= 0: the bias takes a step of standard deviation ``rrw
+    sqrt(dt)`` per axis and sample."""
+    bias0: NoiseRate = 0.0
+    """Standard deviation of each axis's bias at a reset [rad/s], >= 0 (redrawn per episode)."""
 
     @property
-    def measuring(self) -> bool:
-        """Whether a sensor draws at each step (a delay alone draws nothing)."""
-        return self._measuring
+    def on(self) -> bool:
+        """Whether any of its noise is drawn (all 0: the gyro is off)."""
+        return self.arw > 0.0 or self.rrw > 0.0 or self.bias0 > 0.0
 
-    @classmethod
-    def of(cls, settings: Sensors, task: TaskBatch) -> SensorSuite | None:
-        """The sensors ``settings`` of ``task``, or None when every one is off.
 
-        Raises:
-            ValueError: one line naming ``sensors.<key>``, for a sensor the task cannot take
-                (it observes no such quantity, or observes it otherwise already).
-        """
-        name = task.name
-        for key, reason in task.refused_sensors.items():
-            if getattr(settings, key, None) is not None:
-                raise ValueError(f"sensors.{key}: {name} {reason}; leave {key} out for {name}")
-        if settings.magnetometer is not None and task.observed_field(np.arange(0)) is None:
-            raise ValueError(
-                f"sensors.magnetometer: {name} observes no magnetic field (a magnetometer "
-                "measures the field_x, field_y, field_z a task observes, as BdotDetumble's); "
-                f"leave magnetometer out for {name}"
-            )
-        if settings.gyro is not None and task.randomization.sensor_noise > 0.0:
-            raise ValueError(
-                "sensors.gyro: randomization.sensor_noise puts noise on the observed w too; give "
-                "one of them (the gyro's white noise of sensor_noise [rad/s] per step is arw = "
-                f"sensor_noise * sqrt(dt), dt = {task.dt:g} s)"
-            )
-        return cls(settings, task) if settings.on else None
+class MagnetometerSettings(BaseModel):
+    """A three-axis magnetometer (:class:`Magnetometer`): white noise on the observed field (a
+    task that observes one: BdotDetumble)."""
 
-    def measure(
-        self,
-        task: TaskBatch,
-        rngs: Sequence[np.random.Generator],
-        skip: NDArray[np.bool_] | None = None,
-    ) -> None:
-        """After a pass over the envs not in ``skip`` (default all), their observations
-        measured, env ``i`` drawing from ``rngs[i]`` (one generator per env)."""
-        if not self._measuring:
-            return
-        rows = np.arange(task.n) if skip is None else np.flatnonzero(~skip)
-        task.streams.follow(rngs)
-        draws = RowNormals(task.streams.standard_normals(rows, self._per_sample))
-        self._measure(task, rows, draws)
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
 
-    def delay(self, task: TaskBatch) -> None:
-        """At the end of a control step: each env's observation replaced by the one of ``k``
-        control steps earlier (its first, where its episode is younger)."""
-        if self.delay_line is not None:
-            task.obs[:] = self.delay_line.push(task.obs)
+    sigma: FieldNoise = 0.0
+    """Standard deviation of the noise per axis [T], >= 0 (the Earth's field is 2e-5 to 6e-5 T
+    in low orbit)."""
 
-    def reset(
-        self, task: TaskBatch, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator]
-    ) -> None:
-        """After the pass that observed the new episodes of envs ``rows`` (``rngs``: one
-        generator per row): their gyro biases drawn anew, their observations measured, and their
-        delay history filled with them."""
-        if self._measuring:
-            task.streams.follow(rngs, rows)
-            per_row = self._per_reset + self._per_sample
-            draws = RowNormals(task.streams.standard_normals(rows, per_row))
-            if self.gyro is not None:
-                self.bias = self.gyro.reset(self.bias, draws, rows)
-            self._measure(task, rows, draws)
-        if self.delay_line is not None:
-            self.delay_line.reset(task.obs, rows if self._delay_started else None)
-            self._delay_started = True
 
-    def _measure(self, task: TaskBatch, rows: NDArray[np.int64], draws: RowNormals) -> None:
-        """The observations of the envs ``rows`` through the sensors that are on."""
-        obs, cols, state = task.obs, task.obs_slices, task.world.state
-        if self.gyro is not None:
-            w_body = np.ascontiguousarray(state.w[rows])
-            w_meas, self.bias[rows] = self.gyro.measure(w_body, self.bias[rows], draws)
-            obs[rows, cols["w"]] = np.clip(w_meas / task.w_scale, -W_OBS_BOUND, W_OBS_BOUND)
-            obs[rows, cols["fine_w"]] = np.tanh(w_meas / FINE_SPIN)
-        if self.magnetometer is not None:
-            field = task.observed_field(rows)
-            assert field is not None  # checked by of()
-            b_body, scale = field
-            b_obs = self.magnetometer.measure(b_body, draws) / scale
-            first = cols["field_x"].start
-            bound = task.extra_bound
-            obs[rows, first : first + 3] = np.clip(b_obs, -bound, bound)
-        if self.star_tracker is not None:
-            q_meas = self.star_tracker.measure(np.ascontiguousarray(state.q[rows]), draws)
-            if task.rotation_repr == "quaternion":
-                obs[rows, cols["orientation"]] = q_meas
-            else:  # the first two columns of R(q), as the pass observes them
-                r = quat_to_matrix(q_meas)
-                obs[rows, cols["orientation"]] = np.clip(
-                    np.concatenate([r[:, :, 0], r[:, :, 1]], axis=1), -1.0, 1.0
-                )
-        draws.check_used()
+class StarTrackerSettings(BaseModel):
+    """A star tracker (:class:`StarTracker`): the observed orientation turned by a small random
+    rotation about body axes."""
+
+    model_config = ConfigDict(frozen=True, extra="forbid", use_attribute_docstrings=True)
+
+    sigma: AttitudeNoise = 0.0
+    """Standard deviation of the error rotation per body axis [rad], in [0, pi]."""
+
+
+def _gyro(s: GyroSettings, dt: float) -> Gyro:
+    return Gyro(s.arw, s.rrw, dt, s.bias0)
+
+
+def _gyro_measure(s, dt, truth, bias, normals):
+    """The measured rate and the next bias (:meth:`Gyro.measure`)."""
+    return _gyro(s, dt).measure(np.ascontiguousarray(truth["w"]), bias, normals)
+
+
+def _gyro_reset(s, dt, normals, k):
+    """k envs' biases drawn anew (:meth:`Gyro.reset`)."""
+    return _gyro(s, dt).reset(np.zeros((k, 3)), normals)
+
+
+def _gyro_refuse(s: GyroSettings, task: TaskBatch) -> str | None:
+    """A gyro and ``randomization.sensor_noise`` would both put noise on the observed w."""
+    if task.randomization.sensor_noise > 0.0:
+        return (
+            "randomization.sensor_noise puts noise on the observed w too; give one of them (the "
+            "gyro's white noise of sensor_noise [rad/s] per step is arw = sensor_noise * "
+            f"sqrt(dt), dt = {task.dt:g} s)"
+        )
+    return None
+
+
+def _magnetometer_measure(s, dt, truth, state, normals):
+    return Magnetometer(s.sigma).measure(truth["field"], normals), state
+
+
+def _star_tracker_measure(s, dt, truth, state, normals):
+    return StarTracker(s.sigma).measure(np.ascontiguousarray(truth["q"]), normals), state
+
+
+SENSORS = (
+    Sensor(
+        key="gyro",
+        settings=GyroSettings,
+        reads=("w",),
+        observes="w",
+        noise=(Noise("bias0", 3, at="reset"), Noise("arw", 3), Noise("rrw", 3)),
+        measure=_gyro_measure,
+        state_width=3,
+        reset=_gyro_reset,
+        refuse=_gyro_refuse,
+        example={"arw": 2.0e-3, "rrw": 1.0e-3, "bias0": 1.0e-2},
+    ),
+    Sensor(
+        key="magnetometer",
+        settings=MagnetometerSettings,
+        reads=("field",),
+        observes="field",
+        noise=(Noise("sigma", 3),),
+        measure=_magnetometer_measure,
+        example={"sigma": 2.0e-7},
+    ),
+    Sensor(
+        key="star_tracker",
+        settings=StarTrackerSettings,
+        reads=("q",),
+        observes="orientation",
+        noise=(Noise("sigma", 3),),
+        measure=_star_tracker_measure,
+        example={"sigma": 1.0e-2},
+    ),
+)
+"""The gyro, the magnetometer and the star tracker, in the order their noise is drawn."""

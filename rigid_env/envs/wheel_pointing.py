@@ -18,7 +18,7 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import canonical, safe_norm
-from rigid_env.envs.orbit_draws import draw_orbit_start, place_on_orbit
+from rigid_env.envs.orbit_draws import draw_orbit_start
 from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.sampling import random_quaternion, random_tumble
 from rigid_env.render import TaskView
@@ -62,7 +62,8 @@ class WheelPointingParams(TaskParams):
 def evaluate(body, effort, goal, memory, task, stepped):
     """WheelPointing's reward and success of one env (see :class:`WheelPointingEnv`); its
     extra observations: the error quaternion ``canonical(conj(q) (x) target)``, the wheels'
-    momentum (body frame, over their capacity) and the field (body frame, over FIELD_SCALE)."""
+    momentum ``body.h_wheels`` (body frame, over their capacity) and the field ``body.field``
+    (turned into the body frame, over FIELD_SCALE)."""
     q = body.q
     target = (goal[0], goal[1], goal[2], goal[3])
     err = canonical(quat_mul((q[0], -q[1], -q[2], -q[3]), target))
@@ -74,19 +75,22 @@ def evaluate(body, effort, goal, memory, task, stepped):
     r_spin = max(0.0, 1.0 - speed / task.w_scale)
     ratio = angle / (4.0 * task.success_angle)
     precise = 1.0 / (1.0 + ratio * ratio)
-    momentum = math.sqrt(goal[4] * goal[4] + goal[5] * goal[5] + goal[6] * goal[6])
+    h = body.h_wheels
+    h0, h1, h2 = h[0] / task.capacity, h[1] / task.capacity, h[2] / task.capacity
+    momentum = math.sqrt(h0 * h0 + h1 * h1 + h2 * h2)
     reward = (
         r_angle * (0.5 + 0.5 * r_spin) + 0.5 * precise + (task.success_bonus if success else 0.0)
         - task.effort_weight * effort - task.momentum_weight * momentum
     )  # fmt: skip
-    field = rotate_inv(q, (goal[7], goal[8], goal[9]))
+    b = body.field
+    field = rotate_inv(q, (b[0] / FIELD_SCALE, b[1] / FIELD_SCALE, b[2] / FIELD_SCALE))
     # The error's vector part at fine resolution: 2 sin(angle / 2) axis over success_angle,
     # 1 at the edge of success, where the plain error quaternion is 0.009.
     fine = 2.0 / task.success_angle
     extra = (
         err[0], err[1], err[2], err[3],
         math.tanh(fine * err[1]), math.tanh(fine * err[2]), math.tanh(fine * err[3]),
-        goal[4], goal[5], goal[6], field[0], field[1], field[2],
+        h0, h1, h2, field[0], field[1], field[2],
     )  # fmt: skip
     return Outcome(reward, terminated=False, success=success, memory=memory, extra=extra)
 
@@ -99,13 +103,10 @@ class WheelPointingTask(TaskBatch):
     """Task definition of :class:`WheelPointingEnv` (see there); its keyword arguments are
     :class:`WheelPointingParams`.
 
-    Target: the orientation to hold (rows 0-3, drawn by :meth:`sample`), the wheels' momentum
-    ``sum_k a_k h_k`` (body frame, over their capacity ``J max_speed``; rows 4-6) and the field
-    (world frame, over :data:`FIELD_SCALE`; rows 7-9), both written before every pass. At a
-    reset rows 4-6 carry the drawn wheel speeds (over their limit) and row 7 the time along the
-    orbit the episode starts at, which :meth:`before_pass` puts in the world. From v1 the orbit
-    is world state: at a reset row 7 carries the drawn orbit phase (mean anomaly at the epoch)
-    [rad] and row 8 the Earth's rotation angle at the epoch [rad] instead."""
+    Target: the orientation to hold (drawn by :meth:`sample`, with the wheels' speeds and the
+    time along the orbit the episode starts at). ``evaluate`` reads the wheels' momentum and
+    the field by name (``body.h_wheels``, ``body.field``). From v1 the orbit is world state:
+    :meth:`sample` draws the orbit phase and the Earth's rotation angle instead of a time."""
 
     params_model = WheelPointingParams
     scene_name = "wheel_pointing"
@@ -118,7 +119,7 @@ class WheelPointingTask(TaskBatch):
         "field_x", "field_y", "field_z",
     )  # fmt: skip
     extra_bound = 2.0
-    target_dim = 9
+    target_dim = 4
     refused_sensors: ClassVar[dict[str, str]] = {
         "star_tracker": "observes its error quaternion (error_w..error_z) from the true "
         "attitude, which gives away the attitude a star tracker's noise would hide"
@@ -133,34 +134,34 @@ class WheelPointingTask(TaskBatch):
         k = self.wheels.axes.shape[0]
         speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
         if self.orbit is None:  # v1: the orbit phase and the Earth's angle, each uniform
-            phase, angle = draw_orbit_start(rng)
-            drawn = np.concatenate([target, speeds[:k], [phase, angle]])
-            return np.zeros(3), np.zeros(3), q, w, drawn
+            start = np.array(draw_orbit_start(rng))
+            world = {"wheel_speed": speeds[:k] * self.wheels.max_speed, "orbit_start": start}
+            return np.zeros(3), np.zeros(3), q, w, target, world
         start = rng.uniform(0.0, self.orbit.orbit.period)
-        drawn = np.concatenate([target, speeds[:k], [start, 0.0]])  # row 8: unused in v0
-        return self.position.copy(), np.zeros(3), q, w, drawn
+        world = {"wheel_speed": speeds[:k] * self.wheels.max_speed, "orbit_time": start}
+        return self.position.copy(), np.zeros(3), q, w, target, world
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
-        """The wheels' momentum and the field into the target; at a reset first the drawn
-        wheel speeds and the orbit's start time into the world."""
-        world, wheels = self.world, self.wheels
-        if reset:
-            world.set_wheel_speed(self.target[rows, 4:7] * wheels.max_speed, rows)
-            if self.orbit is None:
-                place_on_orbit(world, rows, self.target[rows, 7], self.target[rows, 8])
-            else:
-                world.orbit_time[rows] = self.target[rows, 7]
-        self.target[rows, 4:7] = world.wheel_momentum[rows] @ wheels.axes / self.capacity
-        if self.orbit is None:  # v1: the field where the body is on its orbit
-            self.target[rows, 7:10] = world.orbit_field(rows) / FIELD_SCALE
+        """The field along the orbit at each env's time (world frame [T]); from v1 the one the
+        compiled step evaluates where the body is on its orbit."""
+        if self.orbit is None:
+            self.world_data.field[rows] = self.world.orbit_field(rows)
         else:
-            self.target[rows, 7:10] = self.orbit.at(world.orbit_time[rows]) / FIELD_SCALE
+            self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (its magnetometer's truth), observed over
-        :data:`FIELD_SCALE`."""
-        field_world = self.target[rows, 7:10] * FIELD_SCALE
+        :data:`FIELD_SCALE` (taken through that scale as the pass takes it)."""
+        field_world = self.world_data.field[rows] / FIELD_SCALE * FIELD_SCALE
         return quat_rotate_inv(self.world.state.q[rows], field_world), FIELD_SCALE
+
+    def derived_numbers(self) -> dict[str, float]:
+        """``capacity``: a wheel's momentum at its speed limit [N m s], the scale of the
+        observed momentum (1 where the scene has no wheels, which the task then refuses)."""
+        wheels = self.world.wheels
+        if wheels is None:
+            return {"capacity": 1.0}
+        return {"capacity": float(np.max(wheels.inertia * wheels.max_speed))}
 
     def view(self) -> TaskView:
         """The body with the target orientation as an outline and its angle to it; the fuel as
@@ -194,7 +195,7 @@ class WheelPointingTask(TaskBatch):
             )
         self.wheels: ReactionWheels = wheels[0]
         """The scene's wheels."""
-        self.capacity = float(np.max(self.wheels.inertia * self.wheels.max_speed))
+        self.capacity = float(self.numbers["capacity"][0])
         """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
         self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
         """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the

@@ -188,7 +188,8 @@ def test_render_imports_no_environment():
         for alias in node.names
     }
     ours = {m for m in imported if m and m.startswith("rigid_env")}
-    assert ours <= {"rigid_env.core.effects", "rigid_env.core.rotation", "rigid_env.scene"}, ours
+    core = {"rigid_env.core.actuator", "rigid_env.core.effects", "rigid_env.core.rotation"}
+    assert ours <= {*core, "rigid_env.scene"}, ours
     assert not any(m and m.startswith("gymnasium") for m in imported)
 
 

@@ -222,16 +222,16 @@ def test_gyro_bias_is_drawn_per_episode_and_kept_through_it():
                         max_episode_steps=3, sensors={"gyro": {"bias0": bias0}})  # fmt: skip
     sensors = venv.unwrapped.task.sensors
     venv.reset(seed=4)
-    first = sensors.bias.copy()
+    first = sensors.state["gyro"].copy()
     _sample_std_matches(first, bias0)
     zero = np.zeros(venv.action_space.shape, np.float32)
     ended = np.zeros(500, bool)
     for _ in range(4):  # the 4th step restarts every env still running after 3
         kept = ~ended
         _, _, term, trunc, _ = venv.step(zero)
-        assert np.array_equal(sensors.bias[kept], first[kept])
+        assert np.array_equal(sensors.state["gyro"][kept], first[kept])
         ended |= term | trunc
-    assert np.all(sensors.bias != first)  # drawn anew (equal with probability 0)
+    assert np.all(sensors.state["gyro"] != first)  # drawn anew (equal with probability 0)
     venv.close()
 
 

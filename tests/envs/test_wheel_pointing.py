@@ -103,3 +103,32 @@ def test_the_evaluation_table_names_the_coils_fuel_unit() -> None:
     assert "| fuel [A m^2 s] |" in table
     table = markdown_table(evaluate(None, "RigidEnv/Detumble-v0", episodes=2, seed=3, only=["pd"]))
     assert "| fuel [N s] |" in table
+
+
+@pytest.mark.parametrize("env_id", ["RigidEnv/WheelPointing-v0", "RigidEnv/BdotDetumble-v1"])
+def test_world_data_reaches_the_task_by_name_and_the_target_holds_the_goal(env_id):
+    """The wheels' momentum and the field reach ``evaluate`` by name (``body.h_wheels``,
+    ``body.field``, from ``task.world_data``), not through the target: the observed momentum is
+    ``world_data.h_wheels`` over the capacity and the observed field ``world_data.field`` over
+    FIELD_SCALE in the body frame, to float32 rounding (6e-8 relative of numbers below 2, so
+    2.4e-7 absolute), and the target holds the goal alone (WheelPointing's quaternion, none for
+    BdotDetumble)."""
+    venv = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    task = venv.unwrapped.task
+    obs, _ = venv.reset(seed=4)
+    obs, *_ = venv.step(np.full(venv.action_space.shape, 0.3, np.float32))
+    data, cols = task.world_data, task.obs_slices
+    assert task.target_dim == (4 if "Wheel" in env_id else 0)
+    assert np.all(task.target[:, task.target_dim :] == 0.0)
+    field = quat_rotate_inv(task.world.state.q, data.field / FIELD_SCALE)
+    first = cols["field_x"].start
+    assert np.allclose(obs[:, first : first + 3], field, rtol=0.0, atol=2.4e-7)
+    assert np.all(np.linalg.norm(data.field, axis=1) > 1.0e-5)  # [T]: the Earth's, in LEO
+    if "Wheel" in env_id:
+        wheels = task.world.wheels
+        assert np.array_equal(data.h_wheels, task.world.wheel_momentum @ wheels.axes)
+        first = cols["momentum_x"].start
+        observed = obs[:, first : first + 3]
+        assert np.allclose(observed, data.h_wheels / task.capacity, rtol=0.0, atol=2.4e-7)
+        assert np.all(np.abs(observed) > 0.0)
+    venv.close()
