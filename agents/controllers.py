@@ -263,20 +263,29 @@ class BdotController:
 
     def __init__(self, env: Any, gain: float | None = None) -> None:
         self.task = task_of(env)
-        coils = where(self.task.world.force_effects, lambda a: a.world_input == "field")
-        if not coils or coils[0].orbit is None or "field_x" not in self.task.obs_slices:
+        world = self.task.world
+        coils = where(world.force_effects, lambda a: a.world_input == "field")
+        motion = world.motion if world.orbit_field(slice(0, 0)) is not None else None
+        on_orbit = bool(coils) and (coils[0].orbit is not None or motion is not None)
+        if not on_orbit or "field_x" not in self.task.obs_slices:
             raise KeyError(
                 f"BdotController: task {type(self.task).__name__} observes no magnetometer on "
                 "magnetorquers along an orbit (BdotDetumble does)"
             )
-        orbit = coils[0].orbit
         self.max_dipole = coils[0].max_dipole
-        tilt = orbit.dipole.tilt  # the orbit's inclination to the geomagnetic equator, at most
-        inclination = min(orbit.orbit.inclination, np.pi - orbit.orbit.inclination) + tilt
-        least = float(np.min(self.task.world.model.inertia))
-        self.gain = (
-            avanzini_gain(orbit.orbit.mean_motion, inclination, least) if gain is None else gain
-        )
+        if motion is not None:  # the orbit as world state: the IGRF's dipole terms
+            model = motion.field_model()
+            g10, g11, h11 = model.g[1, 0], model.g[1, 1], model.h[1, 1]
+            tilt = float(np.arccos(-g10 / np.sqrt(g10 * g10 + g11 * g11 + h11 * h11)))
+            n, orbit_inclination = motion.orbit.mean_motion, motion.orbit.inclination
+        else:
+            orbit = coils[0].orbit
+            tilt = orbit.dipole.tilt
+            n, orbit_inclination = orbit.orbit.mean_motion, orbit.orbit.inclination
+        # the orbit's inclination to the geomagnetic equator, at most
+        inclination = min(orbit_inclination, np.pi - orbit_inclination) + tilt
+        least = float(np.min(world.model.inertia))
+        self.gain = avanzini_gain(n, inclination, least) if gain is None else gain
 
     def __call__(self, obs: NDArray[Any]) -> NDArray[np.float32]:
         """Commands (N, 3) float32 for observations (N, obs_dim) or (obs_dim,)."""

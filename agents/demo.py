@@ -41,7 +41,7 @@ from rigid_env.envs import TASKS as REGISTERED
 
 from .controllers import ANALYTIC, CONTROLLERS, PDController
 from .evaluate import Policy, load_policy, resolve_env_kwargs, rollout
-from .shipped import TASKS
+from .shipped import TASKS, shipped_id
 
 #: Seed of episode 0; episode k uses DEMO_SEED + k (see the module docstring).
 DEMO_SEED = 20261201
@@ -104,8 +104,8 @@ class Row:
 
 
 def env_id(task: str) -> str:
-    """The task's newest id (the one its pretrained policy was trained on)."""
-    return TASKS[task].env_id
+    """The id its pretrained policy was trained on (:func:`agents.shipped.shipped_id`)."""
+    return shipped_id(task)
 
 
 def resolve_tasks(text: str | None) -> list[str]:

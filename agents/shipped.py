@@ -18,15 +18,26 @@ policy."""
 TASKS: dict[str, Task] = {name: REGISTERED[name] for name in SHIPPED}
 """The registry's record of each shipped task, by name."""
 
-ENV_IDS = [task.env_id for task in TASKS.values()]
-"""The newest id of each shipped task: the one its policy was trained on."""
+TRAINED_ON: dict[str, int] = {"BdotDetumble": 1, "WheelPointing": 0}
+"""The version a shipped policy was trained on, where a newer one came after it (BdotDetumble-v2
+and WheelPointing-v1: the orbit as world state, not trained yet); the others' newest."""
+
+
+def shipped_id(name: str) -> str:
+    """The id a shipped task's policy was trained on and plays (:data:`TRAINED_ON`)."""
+    task = TASKS[name]
+    return task.version_id(TRAINED_ON.get(name, task.newest))
+
+
+ENV_IDS = [shipped_id(name) for name in TASKS]
+"""The id each shipped task's policy was trained on (its newest but for :data:`TRAINED_ON`)."""
 
 VARIANTS: dict[str, str] = {"RigidEnv/DetumbleFaults-v0": "detumble_faults"}
 """Variant id -> the stem of its files: ``configs/agents/ppo_<stem>.yaml`` and
 ``agents/pretrained/ppo_<stem>.zip`` (PPO only)."""
 
 POLICIES: dict[str, str] = {
-    **{task.env_id: task.module for task in TASKS.values()},
+    **{shipped_id(name): task.module for name, task in TASKS.items()},
     **VARIANTS,
 }
 """Env id -> stem of its pretrained policy ``agents/pretrained/ppo_<stem>.zip``: every policy

@@ -70,6 +70,7 @@ from rigid_env.core.rotation import (
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import World
 from rigid_env.resources import SCENE_DIR
+from rigid_env.scene_orbit import FieldSpec, OrbitSceneSpec
 from rigid_env.scene_sections import (
     ActuatorsSpec,
     BodySpec,
@@ -77,6 +78,7 @@ from rigid_env.scene_sections import (
     InitialSpec,
     Quantity,
     Spec,
+    _present,
 )
 
 #: The most integrator steps per world step: one world step then takes well under a second
@@ -152,6 +154,12 @@ class Scene(Spec):
     """The file's ``effects`` mapping (the core objects come from :meth:`effects`)."""
     actuators: ActuatorsSpec = ActuatorsSpec()
     """Thrusters and point forces."""
+    orbit: Annotated[OrbitSceneSpec | None, _present("{altitude: m, inclination: deg}")] = None
+    """The body's orbit about the Earth from an epoch (:mod:`rigid_env.scene_orbit`): its
+    position, and its clock, are world state; left out: no orbit."""
+    field: Annotated[FieldSpec | None, _present("{model: igrf, degree: 13}")] = None
+    """The Earth's field where the body is on its orbit (IGRF to a degree; dipole: degree 1),
+    which the magnetorquers act in; left out: none."""
 
     @field_validator("integrator")
     @classmethod
@@ -182,11 +190,63 @@ class Scene(Spec):
                     f"choose one of: {', '.join(steps)}",
                 )
         self._error_controlled()
+        self._on_orbit()
         return self
 
     def _actuator_kinds(self) -> list[Actuator]:
         """The declarations of the listed actuators (:mod:`rigid_env.core.actuator`)."""
         return [named(key) for key, _ in self.actuators.listed()]
+
+    def _on_orbit(self) -> None:
+        """The rules of the ``orbit:`` and ``field:`` sections (:mod:`rigid_env.scene_orbit`)."""
+        coils = self.actuators.magnetorquers
+        if self.field is not None and self.orbit is None:
+            raise FieldError(
+                "field", "is evaluated where the body is on its orbit, and this scene has none",
+                "add an orbit: section",
+            )  # fmt: skip
+        if coils is not None and coils.field is None and coils.orbit is None and not self.field:
+            raise FieldError(
+                "actuators.magnetorquers", "give the field the coils act in",
+                "either field: [Bx, By, Bz] (T, world frame), orbit: {altitude: m, inclination: "
+                "deg}, or the scene's orbit: and field: sections",
+            )  # fmt: skip
+        if (
+            self.field is not None
+            and coils is not None
+            and not (coils.field is None and coils.orbit is None)
+        ):
+            raise FieldError(
+                "actuators.magnetorquers.field", "the scene's field: section gives the field",
+                "leave the coils' field and orbit out",
+            )  # fmt: skip
+        if self.orbit is None:
+            return
+        pushed = [
+            name
+            for name, there in (
+                ("effects.gravity", self.effects_spec.gravity is not None),
+                ("effects.quadratic_drag", self.effects_spec.quadratic_drag is not None),
+                ("actuators.thrusters", bool(self.actuators.thrusters)),
+                ("actuators.point_forces", self.actuators.point_forces is not None),
+            )
+            if there
+        ]
+        if pushed:
+            raise FieldError(
+                pushed[0], "pushes the centre of mass, which moves on the scene's orbit",
+                "leave it out, or leave the orbit out",
+            )  # fmt: skip
+        if self.integrator == "exact_free":
+            raise FieldError(
+                "integrator", "'exact_free' does not read the orbit state",
+                "choose rk4, dop853 or another compiled integrator",
+            )  # fmt: skip
+        try:
+            self.orbit.motion(self.field)
+        except ValueError as exc:
+            problem = str(exc).split(": ", 1)[-1]
+            raise FieldError("orbit.epoch", problem, "choose another epoch") from None
 
     def _error_controlled(self) -> None:
         """Refuse tolerances given to a fixed-step integrator, naming only the error-controlled
@@ -271,7 +331,8 @@ class Scene(Spec):
         then the per-step maps (linear damping, angular damping).
         """
         forces, maps = self.effects_spec.effects(self.point_to_body)
-        return [*forces, *self._actuator_effects(), *maps]
+        motion = [] if self.orbit is None else [self.orbit.motion(self.field)]
+        return [*forces, *self._actuator_effects(), *maps, *motion]
 
     def _actuator_effects(self) -> list[ForceEffect]:
         return self.actuators.actuators(self)

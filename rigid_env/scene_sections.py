@@ -404,6 +404,9 @@ class GravityGradientSpec(EffectSpec):
         # sqrt(tr I / m) (0.13 m for a 0.3 x 0.2 x 0.1 m box).
         size = math.sqrt(float(np.sum(scene.inertia)) / scene.body.mass)
         distance = math.dist(scene.initial.position, self.center)
+        orbit = getattr(scene, "orbit", None)
+        if orbit is not None:  # the body is on its orbit: at least its perigee from the Earth's
+            distance = orbit.a * (1.0 - orbit.eccentricity) - math.hypot(*self.center)  # centre
         if not distance > size:
             raise FieldError(
                 "effects.gravity_gradient.center",
@@ -668,7 +671,8 @@ class MagnetorquersSpec(Spec):
 
     @model_validator(mode="after")
     def _one_field(self) -> MagnetorquersSpec:
-        if (self.field is None) == (self.orbit is None):
+        # neither: the scene's field: section gives it (rigid_env.scene checks that it has one)
+        if self.field is not None and self.orbit is not None:
             raise ValueError(
                 "give the field the coils act in: either field: [Bx, By, Bz] (T, world frame) "
                 "or orbit: {altitude: m, inclination: deg}, not both"

@@ -77,11 +77,14 @@ def add_component(act, u, p, c, model, a, i):
 @kernel
 def with_field(act, command, r, c):
     """``act`` with the body's residual dipole added to its dipole and the field of row ``r``
-    of the command (:func:`rigid_env.core.layout.field_of`), where magnetorquers act."""
+    of the command (:func:`rigid_env.core.layout.field_of`), where magnetorquers act; zeros
+    where the field comes from the orbit state (:func:`rigid_env.core.orbit_state.where`)."""
     if c.magnetorquers == 0.0:
         return act
     residual = (c.residual_dipole_x, c.residual_dipole_y, c.residual_dipole_z)
-    return act[0], act[1], axpy(act[2], 1.0, residual), field_of(command, r, c)
+    # The field of the orbit state (c.field_degree) is set where the body is, per substep.
+    field = ZERO3 if c.field_degree != 0.0 else field_of(command, r, c)
+    return act[0], act[1], axpy(act[2], 1.0, residual), field
 
 
 @kernel

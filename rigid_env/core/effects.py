@@ -659,6 +659,11 @@ def pack(
             named[a.rows_at] = float(MAPS + maps.size + sum(t.size for t in tail))
             tail.append(a.unit_rows(spec, first))
         first += spec.action_dim
+    for e in effects:  # rows a spec declares (the field's coefficients), at a named offset
+        extra = getattr(e, "parameter_rows", None)
+        if extra is not None:
+            named[e.rows_name] = float(MAPS + maps.size + sum(t.size for t in tail))
+            tail.append(extra())
     named["actions"] = float(maps.shape[0])
     named["actuator_force"] = 1.0 if np.any(maps[:, :3] != 0.0) else 0.0
     named["any_force"] = 1.0 if forces else 0.0

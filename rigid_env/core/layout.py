@@ -91,6 +91,11 @@ _TAIL = (
     ("wheels", "flag: the bodies carry reaction wheels (rigid_env.core.wheels)"),
     ("wheel_count", "number K of them (1 to MAX_WHEELS)"),
     ("wheel_rows", "offset of the wheels' rows (a Wheel record each) in the parameter array"),
+    ("orbit", "flag: each body moves on its orbit, state rows from orbit_row (core.orbit_state)"),
+    ("orbit_row", "row of a body's first orbit state row (its clock) in the state columns"),
+    ("orbit_mu", "the Earth's gravitational parameter of the orbits [m^3/s^2]"),
+    ("field_degree", "the IGRF's degree evaluated where the body is (0: none; 1: the dipole)"),
+    ("field_rows", "offset of the IGRF's coefficients g, h, g_rate, h_rate in the parameters"),
 )
 EFFECTS = load_effects()
 """The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""

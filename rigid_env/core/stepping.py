@@ -39,6 +39,7 @@ from rigid_env.core.layout import (
     FAILED,
     HEALTHY,
     REACH,
+    ZERO3,
     beyond_of,
     body_model,
     failures_of,
@@ -50,6 +51,7 @@ from rigid_env.core.layout import (
     unpack,
 )
 from rigid_env.core.maths import norm
+from rigid_env.core.orbit_state import body_position, tick, where
 from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
 from rigid_env.core.wheels import (
@@ -339,6 +341,12 @@ def body_substep(step, p, model, command, world, when, i, counts):
     inside it; else one segment of ``h``), each with the thrusters' wrench held over it (and
     the wheels' momenta riding through it where the bodies carry wheels); on the ``last``
     substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
+    Where the bodies move on an orbit (``c.orbit``, :mod:`rigid_env.core.orbit_state`) the
+    substep reads where the body is at its middle from the orbit state, held over it: its ``x``
+    (the effects' position: the gravity gradient's direction) and, with a field
+    (``c.field_degree``), the field the magnetorquers act in (the next substep reads its own);
+    the last substep leaves ``x`` at the orbit's position at the world step's end and advances
+    the clock by ``dt``.
     ``world = (state, status)``, ``when = (k, last)``; ``counts`` as :func:`integrate`'s.
     Returns ``(failed, beyond)``."""
     state, status = world
@@ -347,10 +355,13 @@ def body_substep(step, p, model, command, world, when, i, counts):
     old, m, w, hw0 = begin_substep(state, model, i, c)
     hw = hw0
     x, v, q, _ = old
-    start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
-    drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
+    field = ZERO3
+    if c.orbit != 0.0:  # where the body is at the substep's middle, held over it
+        x, field = where(p, c, state, i, 0.5 * (t + t1))
+    start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
+    drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
     while t < t1:
         if c.hardware != 0.0:
             end = next_switch(p, c, command, i, t, t1)
@@ -360,14 +371,21 @@ def body_substep(step, p, model, command, world, when, i, counts):
             end = t1
             act = wrench(p, c, model, command, i)
             h = c.h
+        if c.field_degree != 0.0:
+            act = (act[0], act[1], act[2], field)
         forces = force_reach(act, m, c)
         if c.wheels != 0.0:
             forces += wheel_reach(w, hw, drive, c, m)
         span += held_reach(h, forces)
         x, v, q, w, hw = integrate(step, (x, v, q, w, hw), act, m, c, h, counts, i, drive)
         t = end
+    if c.orbit != 0.0 and last:  # the body's position at the world step's end
+        x = body_position(state, c, i, t1)
     new = (x, v, q, w, hw)
-    return end_substep(state, status, i, (new, (*old, hw0)), m, (start, span), c, last)
+    out = end_substep(state, status, i, (new, (*old, hw0)), m, (start, span), c, last)
+    if c.orbit != 0.0 and last:
+        tick(state, c, i, status[i] == HEALTHY)
+    return out
 
 
 @pass_kernel
@@ -618,6 +636,10 @@ def derivatives(p, model, state, command, out):
     for i in range(state.shape[1]):
         act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
+        if c.orbit != 0.0:  # where the body is now, and the field there
+            x, field = where(p, c, state, i, 0.0)
+            if c.field_degree != 0.0:
+                act = (act[0], act[1], act[2], field)
         m = body_model(model, i)
         if c.wheels != 0.0:
             drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))

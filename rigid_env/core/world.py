@@ -40,6 +40,9 @@ from rigid_env.core.layout import (
     decode,
     unpack,
 )
+from rigid_env.core.orbit import Orbit
+from rigid_env.core.orbit import states as kepler_states
+from rigid_env.core.orbit_state import ORBIT_WIDTH, OrbitMotion, fields_at_clocks
 from rigid_env.core.plan import (
     DEFAULT_ATOL,
     DEFAULT_MAX_SUBSTEPS,
@@ -244,13 +247,26 @@ class World:
         if self._wheels is not None:
             check_wheels(self._integrator.name)
         width = STATE_WIDTH + state_rows(plan.effects)
+        # Then each body's orbit, Earth angle and clock where the bodies move on an orbit.
+        self._motion = next((e for e in plan.effects if isinstance(e, OrbitMotion)), None)
+        self._orbit_row = width
+        if self._motion is not None:
+            if self._integrator.name == "exact_free":
+                raise ValueError(
+                    "integrator: 'exact_free' does not read the orbit state (its flow holds the "
+                    "torque fixed over a step); choose 'rk4', 'dop853' or another compiled one"
+                )
+            self.params[Params._fields.index("orbit_row")] = float(width)
+            width += ORBIT_WIDTH
         self._cols = cols = np.zeros((width, self._n))
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
         self._noisy = hw.noisy != 0.0
         coils = where(plan.effects, lambda a: a.world_input == "field")
-        self._magnetic = bool(coils)
+        # the command carries the field unless the orbit state gives it (in the step)
+        self._magnetic = bool(coils) and hw.field_degree == 0.0
+        coils = coils if self._magnetic else []
         self.magnetic_field = np.tile(coils[0].field, (self._n, 1)) if coils else None
         """(N, 3) the field ``B`` each body's coils see in the next :meth:`step`, world frame
         [T], held over the step: set it between steps, or give the coils an ``orbit`` and the
@@ -269,6 +285,10 @@ class World:
         self._state.q[:, 0] = 1.0
         if state is not None:
             self._state.assign(state)
+        self._every_body = np.arange(self._n, dtype=np.int64)
+        if self._motion is not None:
+            self.orbit_rows[:] = self._motion.rows()
+            self._state.x[:] = self.orbit_position()
         self._status = np.zeros(self._n, dtype=np.uint8)
         # An error-controlled integrator's substeps in the last step (row 0) and the substep
         # each body tries first in the next (row 1, carried; 0: the integrator's own guess).
@@ -450,6 +470,50 @@ class World:
         self.wheel_momentum[bodies] = momentum
 
     @property
+    def motion(self) -> OrbitMotion | None:
+        """The bodies' orbit and field (:class:`rigid_env.core.orbit_state.OrbitMotion`), or
+        None where they move on none."""
+        return self._motion
+
+    @property
+    def orbit_rows(self) -> FloatArray | None:
+        """(N, ORBIT_WIDTH) each body's orbit state (:class:`rigid_env.core.orbit_state.
+        OrbitRows`: clock [s from the epoch], elements, Earth angle), a view: editable, part of
+        the state (set a clock, a mean anomaly or an Earth angle per body; the step advances
+        the clock); None without an orbit."""
+        if self._motion is None:
+            return None
+        return self._cols[self._orbit_row : self._orbit_row + ORBIT_WIDTH].T
+
+    def orbit_position(self, bodies: Any = slice(None)) -> FloatArray | None:
+        """(n, 3) the ``bodies``' (default all) position on its orbit at its clock, ECI [m]
+        (the Kepler + J2 drift solution of its rows, :func:`rigid_env.core.orbit.state`); None
+        without an orbit.
+        The step writes it into ``x`` after each substep."""
+        if self._motion is None:
+            return None
+        rows = self.orbit_rows[bodies].reshape(-1, ORBIT_WIDTH)
+        out = np.empty((rows.shape[0], 3))
+        for i, row in enumerate(rows):
+            orbit = Orbit(*row[1:10].tolist(), self._motion.orbit.mu)
+            out[i] = kepler_states(orbit, row[0])[0]
+        return out
+
+    def orbit_field(self, bodies: Any = slice(None)) -> FloatArray | None:
+        """(n, 3) the field at the ``bodies``' (default all) position at their clock, ECI [T],
+        evaluated by the compiled step's own function (:func:`rigid_env.core.orbit_state.
+        where`); None without a field from the orbit."""
+        if self._motion is None or not self._motion.field_degree:
+            return None
+        if isinstance(bodies, slice) and bodies == slice(None):
+            index = self._every_body  # (the common case, per step: no index to build)
+        else:
+            index = np.ascontiguousarray(np.arange(self._n)[bodies], dtype=np.int64).reshape(-1)
+        out = np.empty((index.size, 3))
+        fields_at_clocks(self.params, self._cols, index, out)
+        return out
+
+    @property
     def thrust_noise(self) -> FloatArray:
         """(A,) each command component's noise ``SIGMA`` (0 for an ideal one)."""
         return component_column(self.force_effects, Thruster, "noise")
@@ -592,6 +656,9 @@ class World:
         self._counts[1, bodies] = 0.0
         if self.orbit_time is not None:
             self.orbit_time[bodies] = 0.0
+        if self._motion is not None:  # back on the orbit at the epoch
+            self.orbit_rows[bodies] = self._motion.rows()
+            self._state.x[bodies] = self.orbit_position(bodies)
 
     def __getstate__(self) -> dict[str, Any]:
         """Pickled with the integrator's name (its compiled step is looked up again)."""

@@ -119,10 +119,14 @@ TASKS: dict[str, Task] = _by_name(
             module="bdot_detumble",
             scene="bdot_detumble",
             max_episode_steps=480,
-            newest=1,
+            newest=2,
         ),
         Task(
-            "WheelPointing", module="wheel_pointing", scene="wheel_pointing", max_episode_steps=120
+            "WheelPointing",
+            module="wheel_pointing",
+            scene="wheel_pointing",
+            max_episode_steps=120,
+            newest=1,
         ),
     )
 )

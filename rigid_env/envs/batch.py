@@ -34,6 +34,7 @@ from rigid_env.envs.hardware import (
     misaligned,
     with_preset,
 )
+from rigid_env.envs.orbit_draws import place_on_orbit
 from rigid_env.envs.params import (
     EnvSettings,
     TaskParams,
@@ -122,10 +123,13 @@ def _start_wheel_speed(world: World, rows: NDArray[np.int64], speed: FloatArray)
 
 WORLD_STARTS: dict[str, Callable[[World, NDArray[np.int64], FloatArray], None]] = {
     "orbit_time": _start_orbit_time,
+    "orbit_start": place_on_orbit,
     "wheel_speed": _start_wheel_speed,
 }
 """Where an episode's world starts, by name, as a task's :meth:`TaskBatch.sample` may draw it:
-``orbit_time`` the time along the orbit [s] (K,); ``wheel_speed`` each wheel's speed
+``orbit_time`` the time along the orbit [s] (K,); ``orbit_start`` the orbit phase and the
+Earth's rotation angle at the epoch [rad] (K, 2) where the orbit is world state
+(:func:`rigid_env.envs.orbit_draws.place_on_orbit`); ``wheel_speed`` each wheel's speed
 relative to the body [rad/s] (K, wheels)."""
 
 
@@ -187,7 +191,7 @@ class TaskBatch:
         self.settings: EnvSettings = settings
         self.scene: Scene = with_preset(
             load_scene(
-                settings.scene if settings.scene is not None else scene_path(self.scene_name)
+                settings.scene if settings.scene is not None else scene_path(self.version_scene())
             ),
             settings.thrusters,
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
@@ -318,6 +322,22 @@ class TaskBatch:
         optionally followed by a dict of where its world starts, by the names of
         :data:`WORLD_STARTS` (``{"orbit_time": t}``)."""
         raise NotImplementedError
+
+    version_scenes: ClassVar[dict[int, str]] = {}
+    """The scene stems of the task's later versions, by the version they start at (a version
+    plays the newest one at or below it; :attr:`scene_name` before the first)."""
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickled with :attr:`world_data` made views of its array again (pickling copies
+        views apart: the pass would read world data nobody writes)."""
+        self.__dict__.update(state)
+        self.world_data = K.WorldData.of(self._world_data)
+
+    def version_scene(self) -> str:
+        """The stem of the scene this env's version plays (:attr:`version_scenes`)."""
+        version = int(getattr(self.params, "version", 0))
+        starts = [k for k in self.version_scenes if k <= version]
+        return self.version_scenes[max(starts)] if starts else self.scene_name
 
     def before_pass(self, rows: NDArray[np.int64] | slice, reset: bool) -> None:
         """Before the task's pass over the envs ``rows`` (after their world step, or their

@@ -3,8 +3,9 @@ field along its orbit."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import model_validator
@@ -17,12 +18,13 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import safe_norm
+from rigid_env.envs.orbit_draws import draw_orbit_start
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.rewards import spin_cost
 from rigid_env.envs.sampling import random_tumble
 from rigid_env.render import TaskView
 
-Version = task_version(newest=1)
+Version = task_version(newest=2)
 
 FIELD_SCALE = 5.0e-5
 """[T] the observed field is divided by this (the Earth's is 2e-5 to 6e-5 in low orbit)."""
@@ -43,8 +45,9 @@ class BdotDetumbleParams(TaskParams):
     success_bonus: Bonus = 1.0
     """Reward on the step that reaches the threshold (the episode ends there), >= 0."""
     version: Version = 0
-    """The task's version, 0 or 1 (see the env's Version History); gym.make sets it from the
-    id. It sets the default of ``command`` alone."""
+    """The task's version, 0 to 2 (see the env's Version History); gym.make sets it from the
+    id. From 1 it sets the default of ``command``; from 2 the scene (the orbit as world
+    state) and the draws of the orbit phase and the Earth's angle."""
     command: Literal["dipole", "torque"] = "dipole"
     """What an action asks for: ``"dipole"``, each coil's dipole over its limit;
     ``"torque"``, the torque wanted (body frame) over ``max_dipole |B|``, which the flight
@@ -79,10 +82,38 @@ def torque_dipoles(
         to_commands: (3, K) the coils' commands per body-frame dipole [1 / (A m^2)].
         unit: the dipole [A m^2] of a wanted torque of ``|B|`` (one coil's limit).
     """
-    size = np.linalg.norm(field, axis=1, keepdims=True)
-    across = np.divide(field, size, out=np.zeros_like(field), where=size > 0.0)
-    commands = (np.cross(across, action) * unit) @ to_commands
-    return commands / np.maximum(1.0, np.abs(commands).max(axis=1, keepdims=True))
+    wanted = np.empty((field.shape[0], 3))
+    _across_torque(np.ascontiguousarray(action, dtype=np.float64),
+                   np.ascontiguousarray(field, dtype=np.float64), float(unit), wanted)  # fmt: skip
+    commands = wanted @ to_commands  # NumPy's (BLAS's) products, as published: not a loop's
+    _within_limits(commands)
+    return commands
+
+
+@kernel
+def _across_torque(action, field, unit, out):
+    """Rows of ``out`` (N, 3): ``unit (B / |B|) x action`` (zero for a zero field), in the
+    operations and order of NumPy's ``norm``, ``divide`` and ``cross`` (the same numbers, one
+    compiled call in place of a dozen: most of a single env's step)."""
+    for r in range(field.shape[0]):
+        b0, b1, b2 = field[r, 0], field[r, 1], field[r, 2]
+        size = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
+        a0, a1, a2 = (b0 / size, b1 / size, b2 / size) if size > 0.0 else (0.0, 0.0, 0.0)
+        t0, t1, t2 = action[r, 0], action[r, 1], action[r, 2]
+        out[r, 0] = (a1 * t2 - a2 * t1) * unit
+        out[r, 1] = (a2 * t0 - a0 * t2) * unit
+        out[r, 2] = (a0 * t1 - a1 * t0) * unit
+
+
+@kernel
+def _within_limits(commands):
+    """Each row of ``commands`` scaled down as a whole where a coil passes its limit (1)."""
+    for r in range(commands.shape[0]):
+        most = 1.0
+        for k in range(commands.shape[1]):
+            most = max(most, abs(commands[r, k]))
+        for k in range(commands.shape[1]):
+            commands[r, k] = commands[r, k] / most
 
 
 @kernel
@@ -113,6 +144,7 @@ class BdotDetumbleTask(TaskBatch):
 
     params_model = BdotDetumbleParams
     scene_name = "bdot_detumble"
+    version_scenes: ClassVar[dict[int, str]] = {2: "bdot_detumble_orbit"}
     task_pass = bdot_detumble_pass
     extra_observations = ("field_x", "field_y", "field_z")
     extra_bound = 2.0
@@ -122,12 +154,20 @@ class BdotDetumbleTask(TaskBatch):
 
     def sample(self, rng: np.random.Generator):
         q, w = random_tumble(rng, self.params.max_initial_spin)
+        if self.orbit is None:  # v2: the orbit phase and the Earth's angle, each uniform
+            start = np.array(draw_orbit_start(rng))
+            return np.zeros(3), np.zeros(3), q, w, np.zeros(0), {"orbit_start": start}
         start = rng.uniform(0.0, self.orbit.orbit.period)
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0), {"orbit_time": start}
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
-        """The field along the orbit at each env's time (world frame [T])."""
-        self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
+        """The field along the orbit at each env's time (world frame [T]); from v2 the one the
+        compiled step evaluates where the body is on its orbit (:meth:`rigid_env.core.world.
+        World.orbit_field`)."""
+        if self.orbit is None:
+            self.world_data.field[rows] = self.world.orbit_field(rows)
+        else:
+            self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""
@@ -153,14 +193,17 @@ class BdotDetumbleTask(TaskBatch):
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
         coils = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
-        if not coils or coils[0].orbit is None:
+        on_orbit = self.world.orbit_field(slice(0, 0)) is not None  # the field is world state
+        if not coils or (coils[0].orbit is None and not on_orbit):
             raise ValueError(
-                "scene: BdotDetumble needs magnetorquers on an orbit (actuators.magnetorquers: "
-                "{max_dipole: A m^2, orbit: {altitude: m, inclination: deg}}); this scene has "
+                "scene: BdotDetumble needs magnetorquers on an orbit (the scene's orbit: and "
+                "field: sections, or actuators.magnetorquers: {max_dipole: A m^2, orbit: "
+                "{altitude: m, inclination: deg}}); this scene has "
                 + ("a constant field" if coils else "no magnetorquers")
             )
-        self.orbit: OrbitField = coils[0].orbit
-        """The orbit the coils' field follows (the scene's)."""
+        self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
+        """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the
+        orbit is world state (the scene's ``orbit:`` and ``field:``: v2)."""
         if self.params.command == "torque":
             self._to_commands, self._unit_dipole = torque_command_map(coils, self.action_dim)
 
@@ -233,7 +276,8 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     Orientation uniform on SO(3); angular velocity uniform in magnitude on [0,
     ``max_initial_spin``], direction uniform; a time along the orbit uniform over its period
-    (5668 s).
+    (5668 s); from v2 the orbit phase and the Earth's rotation angle, each uniform on [0, 2 pi)
+    (a uniform longitude under the body).
 
     ## Episode End
 
@@ -258,6 +302,14 @@ class BdotDetumbleEnv(RigidBodyEnv):
 
     ## Version History
 
+    * v2: the orbit is world state (``configs/scenes/bdot_detumble_orbit.yaml``): the body moves
+      on its orbit (500 km above the equatorial radius 6378.137 km, 97.4 deg, J2's drift on, from
+      the epoch 2025.0) inside the compiled step, and its coils act in the IGRF-14 field to
+      degree 13 where it is, evaluated each 1 s substep (v1: the IGRF-2020 tilted dipole of a
+      circular orbit 500 km above 6371.2 km, held over each 5 s step). Each episode draws its
+      orbit phase (the mean anomaly at the epoch) and the Earth's rotation angle, each uniform,
+      so that ground tracks start at every longitude (v1's started within one orbit of t = 0,
+      all in one 24 deg band of longitude). The shipped policy was trained on v1.
     * v1: the actions are wanted torques by default (``command="torque"``), the command the
       shipped policy plays, so ``gym.make("RigidEnv/BdotDetumble-v1")`` is the env it was
       trained for; otherwise v0 with ``command="torque"``, bit for bit.

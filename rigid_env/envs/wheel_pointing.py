@@ -18,7 +18,8 @@ from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
 from rigid_env.envs.kernels import Outcome, env_pass, kernel, task_kernel
 from rigid_env.envs.maths import canonical, safe_norm
-from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight
+from rigid_env.envs.orbit_draws import draw_orbit_start
+from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.sampling import random_quaternion, random_tumble
 from rigid_env.render import TaskView
 
@@ -52,6 +53,9 @@ class WheelPointingParams(TaskParams):
     initial_wheel_speed: Fraction = 0.3
     """Each wheel starts at a speed uniform in +-this fraction of its limit (momentum stored by
     earlier manoeuvres), in [0, 1)."""
+    version: task_version(newest=1) = 0  # type: ignore[valid-type]
+    """The task's version, 0 or 1 (see the env's Version History); gym.make sets it from the
+    id. From 1 the body moves on its orbit (the scene ``wheel_pointing_orbit``)."""
 
 
 @kernel
@@ -101,10 +105,12 @@ class WheelPointingTask(TaskBatch):
 
     Target: the orientation to hold (drawn by :meth:`sample`, with the wheels' speeds and the
     time along the orbit the episode starts at). ``evaluate`` reads the wheels' momentum and
-    the field by name (``body.h_wheels``, ``body.field``)."""
+    the field by name (``body.h_wheels``, ``body.field``). From v1 the orbit is world state:
+    :meth:`sample` draws the orbit phase and the Earth's rotation angle instead of a time."""
 
     params_model = WheelPointingParams
     scene_name = "wheel_pointing"
+    version_scenes: ClassVar[dict[int, str]] = {1: "wheel_pointing_orbit"}
     task_pass = wheel_pointing_pass
     extra_observations = (
         "error_w", "error_x", "error_y", "error_z",
@@ -127,13 +133,21 @@ class WheelPointingTask(TaskBatch):
         target = canonical_quat(random_quaternion(rng))
         k = self.wheels.axes.shape[0]
         speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
+        if self.orbit is None:  # v1: the orbit phase and the Earth's angle, each uniform
+            start = np.array(draw_orbit_start(rng))
+            world = {"wheel_speed": speeds[:k] * self.wheels.max_speed, "orbit_start": start}
+            return np.zeros(3), np.zeros(3), q, w, target, world
         start = rng.uniform(0.0, self.orbit.orbit.period)
         world = {"wheel_speed": speeds[:k] * self.wheels.max_speed, "orbit_time": start}
         return self.position.copy(), np.zeros(3), q, w, target, world
 
     def before_pass(self, rows: np.ndarray | slice, reset: bool) -> None:
-        """The field along the orbit at each env's time (world frame [T])."""
-        self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
+        """The field along the orbit at each env's time (world frame [T]); from v1 the one the
+        compiled step evaluates where the body is on its orbit."""
+        if self.orbit is None:
+            self.world_data.field[rows] = self.world.orbit_field(rows)
+        else:
+            self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
 
     def observed_field(self, rows: np.ndarray) -> tuple[np.ndarray, float]:
         """Each env's field in the body frame [T] (its magnetometer's truth), observed over
@@ -166,20 +180,29 @@ class WheelPointingTask(TaskBatch):
         effects = self.world.force_effects
         wheels = [e for e in effects if isinstance(e, ReactionWheels)]
         coils = [e for e in effects if isinstance(e, Magnetorquers)]
-        if len(wheels) != 1 or wheels[0].axes.shape[0] != 3 or not coils or not coils[0].orbit:
+        on_orbit = self.world.orbit_field(slice(0, 0)) is not None  # the field is world state
+        if (
+            len(wheels) != 1
+            or wheels[0].axes.shape[0] != 3
+            or not coils
+            or not (coils[0].orbit or on_orbit)
+        ):
             raise ValueError(
                 "scene: WheelPointing needs three reaction wheels (actuators.reaction_wheels "
-                "with three axes) and magnetorquers on an orbit (actuators.magnetorquers: "
-                "{max_dipole: A m^2, orbit: {altitude: m, inclination: deg}})"
+                "with three axes) and magnetorquers on an orbit (the scene's orbit: and field: "
+                "sections, or actuators.magnetorquers: {max_dipole: A m^2, orbit: {altitude: m, "
+                "inclination: deg}})"
             )
         self.wheels: ReactionWheels = wheels[0]
         """The scene's wheels."""
         self.capacity = float(self.numbers["capacity"][0])
         """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
-        self.orbit: OrbitField = coils[0].orbit
-        """The orbit the coils' field follows (the scene's)."""
+        self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
+        """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the
+        orbit is world state (the scene's ``orbit:`` and ``field:``: v1)."""
         self.position = self.scene.initial_state(1).x[0]
-        """Where the body stays [m] (the scene's: the gravity gradient's distance)."""
+        """Where the body stays [m] (v0's scene: the gravity gradient's distance); from v1 the
+        body moves on its orbit."""
 
 
 class WheelPointingEnv(RigidBodyEnv):
@@ -220,7 +243,8 @@ class WheelPointingEnv(RigidBodyEnv):
 
     Orientation and target uniform on SO(3); |w| uniform on [0, ``max_initial_spin``] (1
     deg/s); each wheel's speed uniform in +-``initial_wheel_speed`` (0.3) of its limit; a
-    time along the orbit uniform over its period.
+    time along the orbit uniform over its period (from v1: the orbit phase and the Earth's
+    rotation angle, each uniform).
 
     ## Episode End
 
@@ -243,6 +267,14 @@ class WheelPointingEnv(RigidBodyEnv):
 
     ## Version History
 
+    * v1: the body moves on its orbit (``configs/scenes/wheel_pointing_orbit.yaml``: 500 km above
+      the equatorial radius 6378.137 km, 97.4 deg, J2's drift on, from the epoch 2025.0), the
+      orbit being world state advanced inside the compiled step, so the gravity-gradient
+      torque's direction turns with it (v0's body sat at one inertial point, (6878 km, 0, 0),
+      while its field was taken along a 6871.2 km orbit: the two directions were 84 deg apart
+      in the median); the coils act in the IGRF-14 field to degree 13 where the body is,
+      evaluated each 0.05 s substep. Each episode draws its orbit phase and the Earth's
+      rotation angle, each uniform. The shipped policy was trained on v0.
     * v0: initial version.
     """
 

@@ -173,7 +173,7 @@ def test_each_task_declares_what_it_shows():
     assert reorient.target_orientation and reorient.readouts == ("target_angle",)
     assert fall.ground and fall.gauge_top == 70.0  # the highest drop
     assert all(views[f"RigidEnv/{e}"].thruster_points.shape == (6, 3) for e in built_in)
-    coils = views["RigidEnv/BdotDetumble-v1"]  # magnetorquers: at the centre, along their axes
+    coils = views["RigidEnv/BdotDetumble-v2"]  # magnetorquers: at the centre, along their axes
     assert coils.title == "BdotDetumble" and not coils.thruster_points.any()
     assert np.array_equal(coils.thruster_directions, np.eye(3))
 

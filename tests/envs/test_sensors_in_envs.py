@@ -120,10 +120,11 @@ def test_sensors_change_only_the_observation(env_id):
     """The sensors draw from the env's generator but act on nothing: the first episode's
     rewards and end with every sensor on equal those without (the same start, the same
     actions; the next episode starts elsewhere, the generator having drawn the noise).
-    BdotDetumble-v1's torque command reads the magnetometer by design (the flight software's law
-    turns a wanted torque into a dipole from the measured field): it plays dipoles here."""
+    BdotDetumble's torque command (from v1) reads the magnetometer by design (the flight
+    software's law turns a wanted torque into a dipole from the measured field): it plays dipoles
+    here."""
     actions = actions_for(env_id, 30, 1)[:, 0]
-    own = {"command": "dipole"} if env_id == "RigidEnv/BdotDetumble-v1" else {}
+    own = {"command": "dipole"} if env_id.startswith("RigidEnv/BdotDetumble-") else {}
     plain_obs, plain_rewards, plain_ends, _ = single_rollout(env_id, 3, actions, **own)
     obs, rewards, ends, _ = single_rollout(
         env_id, 3, actions, sensors=all_sensors(env_id), **own

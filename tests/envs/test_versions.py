@@ -12,7 +12,14 @@ import pytest
 import rigid_env
 from rigid_env.core.rotation import quat_from_axis_angle, quat_mul
 
-NEWEST = {"Detumble": 0, "SpinStabilize": 1, "Reorient": 1, "TumblingFall": 1, "BdotDetumble": 1}
+NEWEST = {
+    "Detumble": 0,
+    "SpinStabilize": 1,
+    "Reorient": 1,
+    "TumblingFall": 1,
+    "BdotDetumble": 2,
+    "WheelPointing": 1,
+}
 
 
 def make(env_id: str, **kwargs):
