@@ -243,6 +243,7 @@ class World:
         lagged = self.action_dim if hw.lagged != 0.0 else 0
         width = STATE_WIDTH + lagged + (MAX_WHEELS if self._wheels is not None else 0)
         self._cols = cols = np.zeros((width, self._n))
+        self._momenta = self._wheel_rows(cols)
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
@@ -519,10 +520,21 @@ class World:
         self._check_asymmetry()
         self._set_arrays()
 
+    def _wheel_rows(self, cols: FloatArray) -> FloatArray:
+        """(MAX_WHEELS, N) the wheels' momenta: a view of their rows of the state ``cols``, its
+        own array for the compiled step (the other rows are never read through it, and the
+        compiler vectorises the wheels' passes only where it need not check that the wheels'
+        rows and the state's overlap); an empty one without wheels."""
+        if self._wheels is None:
+            return np.zeros((0, self._n))
+        return cols[THRUST : THRUST + MAX_WHEELS]
+
     def _set_arrays(self) -> None:
         """The compiled step's arrays but the command (whose place is last); an
         error-controlled integrator also writes the substeps each body took."""
-        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        self._arrays = (
+            self.params, self._model_cols, self._cols, self._status, self._wrenches, self._momenta,
+        )  # fmt: skip
         if self._integrator.error_control:
             self._arrays += (self._counts,)
 
@@ -605,6 +617,8 @@ class World:
         self._plan = replace(self._plan, integrator=self._integrator)
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
+        self._momenta = self._wheel_rows(cols)
+        self._set_arrays()
 
     # ---------------------------------------------------------------------------------------
     def step(self, action: ArrayLike | None = None) -> BoolArray:
