@@ -389,7 +389,7 @@ class Scene(Spec):
         )
         wheels = scene.actuators.reaction_wheels
         if wheels is not None and wheels.speeds:
-            built.set_wheel_speed(wheels.speeds)
+            built.set_wheel_speed(wheels.speeds, initial=True)  # restart and reset too
         return built
 
     # ---- variants and serialisation --------------------------------------------------------

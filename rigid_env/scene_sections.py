@@ -617,6 +617,12 @@ class ReactionWheelsSpec(Spec):
             raise ValueError(
                 f"speeds: give one speed per wheel ({len(self.axes)}), got {len(self.speeds)}"
             )
+        for k, speed in enumerate(self.speeds):
+            if abs(speed) > self.max_speed:
+                raise ValueError(
+                    f"speeds[{k}]: {speed:g} rad/s is beyond max_speed {self.max_speed:g} "
+                    "rad/s; give speeds within +-max_speed"
+                )
         return self
 
 
