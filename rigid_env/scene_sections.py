@@ -736,6 +736,12 @@ class ReactionWheelsSpec(Spec):
             raise ValueError(
                 f"speeds: give one speed per wheel ({len(self.axes)}), got {len(self.speeds)}"
             )
+        for k, speed in enumerate(self.speeds):
+            if abs(speed) > self.max_speed:
+                raise ValueError(
+                    f"speeds[{k}]: {speed:g} rad/s is beyond max_speed {self.max_speed:g} "
+                    "rad/s; give speeds within +-max_speed"
+                )
         return self
 
     @property
@@ -751,7 +757,7 @@ class ReactionWheelsSpec(Spec):
     def start(self, world: Any) -> None:
         """Set the wheels' speeds at the start in a world just built (none given: at rest)."""
         if self.speeds:
-            world.set_wheel_speed(self.speeds)
+            world.set_wheel_speed(self.speeds, initial=True)  # restart and reset give them again
 
     def actuator(self, scene: Any) -> ReactionWheels:
         """The wheels as a core spec, body frame."""

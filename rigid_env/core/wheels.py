@@ -216,7 +216,9 @@ def wheel_row(c):
     (:data:`rigid_env.core.layout.THRUST`; thrusters whose levels lag, the other rows from
     there, never come with wheels: :func:`rigid_env.core.effects.pack` refuses them). A world
     with wheels has :data:`~rigid_env.core.layout.MAX_WHEELS` rows of them, zeros past the last
-    wheel (they stay zero: its rates are zero), so that every row is a constant of the pass."""
+    wheel (they stay zero: its rates are zero), so that every row is a constant of the pass.
+    The world step's passes read them as their own array ``momenta`` (those rows, row 0 the
+    first wheel's), which the compiler knows the state's other rows do not overlap."""
     return THRUST
 
 

@@ -31,6 +31,7 @@ from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
+    MAX_WHEELS,
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
@@ -246,6 +247,12 @@ class World:
         self._wheels = wheels[0] if wheels else None
         if self._wheels is not None:
             check_wheels(self._integrator.name)
+        self.initial_wheel_speed = (
+            None if self._wheels is None else np.zeros(self._wheels.axes.shape[0])
+        )
+        """(K,) the wheels' speeds relative to the body [rad/s] that :meth:`restart` and
+        :meth:`reset` give them (a scene's ``speeds``; zeros: at rest); set it with
+        :meth:`set_wheel_speed` (``initial=True``); None without wheels."""
         width = STATE_WIDTH + state_rows(plan.effects)
         # Then each body's orbit, Earth angle and clock where the bodies move on an orbit.
         self._motion = next((e for e in plan.effects if isinstance(e, OrbitMotion)), None)
@@ -259,6 +266,7 @@ class World:
             self.params[Params._fields.index("orbit_row")] = float(width)
             width += ORBIT_WIDTH
         self._cols = cols = np.zeros((width, self._n))
+        self._momenta = self._wheel_rows(cols)
         self.thrust_factors = np.ones((self._n, self.action_dim))
         """(N, A) the thrusters' noise factors for the next :meth:`step` (where a thruster has
         ``noise``): set them, or draw them with :meth:`draw_thrust_factors`; 1: nominal."""
@@ -456,18 +464,58 @@ class World:
         e = self._wheels
         return None if e is None else self.wheel_momentum / e.inertia - self.state.w @ e.axes.T
 
-    def set_wheel_speed(self, speed: ArrayLike, bodies: Any = slice(None)) -> None:
-        """Set the ``bodies``' wheels to the relative speeds ``speed`` [rad/s] ((K,) or (n, K)),
-        at their present body rates (``h_k = J_k (a_k . w + Omega_k)``)."""
+    def set_wheel_speed(
+        self, speed: ArrayLike, bodies: Any = slice(None), *, initial: bool = False
+    ) -> None:
+        """Set the ``bodies``' wheels (an index, a slice or a mask of the N) to the relative
+        speeds ``speed`` [rad/s] ((K,) or (n, K) for the n bodies chosen), at their present body
+        rates (``h_k = J_k (a_k . w + Omega_k)``); ``initial=True`` also makes ``speed`` (K,)
+        the speeds :meth:`restart` and :meth:`reset` give (:attr:`initial_wheel_speed`).
+
+        Raises:
+            ValueError: one line naming what is wrong: no wheels, ``bodies`` no index of the
+                world's, a shape other than (K,) or (n, K), a speed that is not finite or
+                beyond a wheel's ``max_speed``.
+        """
         e = self._wheels
         if e is None:
             raise ValueError("wheel speeds: this world has no reaction_wheels")
         k = e.axes.shape[0]
-        omega = np.asarray(speed, dtype=np.float64)
-        if omega.shape[-1:] != (k,) or not np.all(np.isfinite(omega)):
-            raise ValueError(f"wheel speeds: expected {k} finite speeds per body [rad/s]")
+        try:
+            chosen = np.arange(self._n)[bodies]
+        except (IndexError, TypeError, ValueError):
+            raise ValueError(
+                f"bodies: {bodies!r} is no index, slice or mask of this world's {self._n} "
+                f"bodies (indices 0 to {self._n - 1})"
+            ) from None
+        try:
+            omega = np.asarray(speed, dtype=np.float64)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"wheel speeds: expected numbers [rad/s], {k} per body, got {speed!r}"
+            ) from None
+        n = np.size(chosen)
+        shapes = ((k,), (n, k)) if np.ndim(chosen) else ((k,),)
+        if omega.shape not in shapes or (initial and omega.shape != (k,)):
+            allowed = " or ".join(str(s) for s in (shapes[:1] if initial else shapes))
+            raise ValueError(
+                f"wheel speeds: expected shape {allowed} (one speed per wheel [rad/s]), got "
+                f"shape {omega.shape}"
+            )
+        if not np.all(np.isfinite(omega)):
+            raise ValueError(f"wheel speeds: expected finite speeds [rad/s], got {speed!r}")
+        beyond = np.abs(omega) > e.max_speed
+        if beyond.any():
+            j = int(np.flatnonzero(beyond.reshape(-1, k).any(axis=0))[0])
+            worst = float(np.max(np.abs(omega.reshape(-1, k)[:, j])))
+            raise ValueError(
+                f"wheel speeds: wheel {j} at {worst:g} rad/s is beyond its max_speed "
+                f"{e.max_speed[j]:g} rad/s; give speeds within +-max_speed"
+            )
         momentum = e.inertia * (self.state.w[bodies] @ e.axes.T + omega)
         self.wheel_momentum[bodies] = momentum
+        if initial:
+            self.initial_wheel_speed = omega.copy()
 
     @property
     def motion(self) -> OrbitMotion | None:
@@ -584,10 +632,21 @@ class World:
         self._check_asymmetry()
         self._set_arrays()
 
+    def _wheel_rows(self, cols: FloatArray) -> FloatArray:
+        """(MAX_WHEELS, N) the wheels' momenta: a view of their rows of the state ``cols``, its
+        own array for the compiled step (the other rows are never read through it, and the
+        compiler vectorises the wheels' passes only where it need not check that the wheels'
+        rows and the state's overlap); an empty one without wheels."""
+        if self._wheels is None:
+            return np.zeros((0, self._n))
+        return cols[THRUST : THRUST + MAX_WHEELS]
+
     def _set_arrays(self) -> None:
         """The compiled step's arrays but the command (whose place is last); an
         error-controlled integrator also writes the substeps each body took."""
-        self._arrays = (self.params, self._model_cols, self._cols, self._status, self._wrenches)
+        self._arrays = (
+            self.params, self._model_cols, self._cols, self._status, self._wrenches, self._momenta,
+        )  # fmt: skip
         if self._integrator.error_control:
             self._arrays += (self._counts,)
 
@@ -651,8 +710,8 @@ class World:
                 f"(indices 0 to {self._n - 1})"
             ) from None
         self._cols[STATE_WIDTH:, bodies] = 0.0
-        if self._wheels is not None:  # wheels at rest relative to the body
-            self.set_wheel_speed(np.zeros(self._wheels.axes.shape[0]), bodies)
+        if self._wheels is not None:  # the wheels at their initial speeds (a scene's speeds)
+            self.set_wheel_speed(self.initial_wheel_speed, bodies)
         self._counts[1, bodies] = 0.0
         if self.orbit_time is not None:
             self.orbit_time[bodies] = 0.0
@@ -673,6 +732,8 @@ class World:
         self._plan = replace(self._plan, integrator=self._integrator)
         cols = self._cols  # pickling copies views apart: make the state views of it again
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
+        self._momenta = self._wheel_rows(cols)
+        self._set_arrays()
 
     # ---------------------------------------------------------------------------------------
     def step(self, action: ArrayLike | None = None) -> BoolArray:

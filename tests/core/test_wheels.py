@@ -292,3 +292,60 @@ def test_a_trajectory_records_the_wheels_and_the_total_momentum():
     np.testing.assert_array_equal(arrays["wheel_momentum"][-1], world.wheel_momentum)
     np.testing.assert_allclose(arrays["angular_momentum_world"], 0.0, atol=1e-10)
     assert np.abs(arrays["wheel_momentum"][-1]).max() == pytest.approx(4e-3, rel=1e-6)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (([1e6, 0.0, 0.0],), r"^wheel speeds: wheel 0 at 1e\+06 rad/s is beyond its max_speed 600"),
+        (([0.0, -601.0, 0.0],), r"^wheel speeds: wheel 1 at 601 rad/s is beyond its max_speed"),
+        (([1.0, 2.0],), r"^wheel speeds: expected shape \(3,\) or \(5, 3\)"),
+        ((np.zeros((4, 3)),), r"^wheel speeds: expected shape \(3,\) or \(5, 3\)"),
+        (([1.0, 2.0, 3.0], 7), r"^bodies: 7 is no index, slice or mask of this world's 5 bodies"),
+        ((["a", 1.0, 2.0],), r"^wheel speeds: expected numbers \[rad/s\]"),
+        (([np.nan, 0.0, 0.0],), r"^wheel speeds: expected finite speeds"),
+    ],
+)
+def test_set_wheel_speed_refuses_in_one_line(args, message):
+    world = World(model(), [ReactionWheels(np.eye(3), max_speed=600.0)], "rk4", n=5)
+    with pytest.raises(ValueError, match=message) as e:
+        world.set_wheel_speed(*args)
+    assert "\n" not in str(e.value)
+    assert np.all(world.wheel_momentum == 0.0)  # nothing set
+
+
+def test_scene_speeds_beyond_the_limit_are_refused_in_one_line():
+    from rigid_env.scene import load_scene
+
+    wheels = {"inertia": 1e-5, "max_torque": 1e-3, "max_speed": 600.0, "speeds": [0, 1000, 0]}
+    scene = {"dt": 0.1, "body": {"mass": 1.0, "inertia": [1.0, 2.0, 3.0]},
+             "actuators": {"reaction_wheels": wheels}}  # fmt: skip
+    with pytest.raises(ValueError, match=r"speeds\[1\]: 1000 rad/s is beyond max_speed 600") as e:
+        load_scene(scene)
+    assert "\n" not in str(e.value)
+
+
+def test_restart_and_reset_give_the_scenes_wheel_speeds_again():
+    # A fresh world's wheels spin at the scene's speeds relative to the body; after steps that
+    # drive them elsewhere, restart (some bodies) and reset (all) put them back, at the body
+    # rates of then (h_k = J (a_k . w + Omega_k): exact up to the rounding of h / J - a . w).
+    from rigid_env.scene import load_scene
+
+    wheels = {"inertia": 1e-5, "max_torque": 1e-3, "max_speed": 600.0, "speeds": [100, 0, -20]}
+    scene = load_scene({"dt": 0.1, "body": {"mass": 1.0, "inertia": [1.0, 2.0, 3.0]},
+                        "initial": {"angular_velocity": [0.1, 0.2, 0.3]},
+                        "actuators": {"reaction_wheels": wheels}})  # fmt: skip
+    world = scene.build_world(3)
+    start = [100.0, 0.0, -20.0]
+    assert np.allclose(world.wheel_speed, start, rtol=0, atol=1e-12)
+    for _ in range(5):
+        world.step([1.0, -1.0, 1.0])
+    assert not np.allclose(world.wheel_speed, start, atol=1.0)
+    world.restart([1])
+    assert np.allclose(world.wheel_speed[1], start, rtol=0, atol=1e-12)
+    assert not np.allclose(world.wheel_speed[0], start, atol=1.0)
+    world.step([1.0, -1.0, 1.0])
+    world.reset(scene.initial_state(3))
+    assert np.allclose(world.wheel_speed, start, rtol=0, atol=1e-12)
+    fresh = scene.build_world(3)
+    assert np.allclose(world.wheel_momentum, fresh.wheel_momentum, rtol=1e-15, atol=0)

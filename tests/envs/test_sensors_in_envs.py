@@ -126,9 +126,7 @@ def test_sensors_change_only_the_observation(env_id):
     actions = actions_for(env_id, 30, 1)[:, 0]
     own = {"command": "dipole"} if env_id.startswith("RigidEnv/BdotDetumble-") else {}
     plain_obs, plain_rewards, plain_ends, _ = single_rollout(env_id, 3, actions, **own)
-    obs, rewards, ends, _ = single_rollout(
-        env_id, 3, actions, sensors=all_sensors(env_id), **own
-    )
+    obs, rewards, ends, _ = single_rollout(env_id, 3, actions, sensors=all_sensors(env_id), **own)
     first = np.flatnonzero(plain_ends)[0] + 1 if plain_ends.any() else len(plain_ends)
     assert np.array_equal(rewards[:first], plain_rewards[:first])
     assert np.array_equal(ends[:first], plain_ends[:first])
