@@ -199,7 +199,8 @@ class Scene(Spec):
 
     def _on_orbit(self) -> None:
         """The rules of the ``orbit:`` and ``field:`` sections (:mod:`rigid_env.scene_orbit`)."""
-        coils = self.actuators.magnetorquers
+        reading = [(k, v) for k, v in self.actuators.listed() if named(k).world_input == "field"]
+        key, coils = reading[0] if reading else ("", None)
         if self.field is not None and self.orbit is None:
             raise FieldError(
                 "field", "is evaluated where the body is on its orbit, and this scene has none",
@@ -207,7 +208,7 @@ class Scene(Spec):
             )  # fmt: skip
         if coils is not None and coils.field is None and coils.orbit is None and not self.field:
             raise FieldError(
-                "actuators.magnetorquers", "give the field the coils act in",
+                f"actuators.{key}", "give the field the coils act in",
                 "either field: [Bx, By, Bz] (T, world frame), orbit: {altitude: m, inclination: "
                 "deg}, or the scene's orbit: and field: sections",
             )  # fmt: skip
@@ -217,7 +218,7 @@ class Scene(Spec):
             and not (coils.field is None and coils.orbit is None)
         ):
             raise FieldError(
-                "actuators.magnetorquers.field", "the scene's field: section gives the field",
+                f"actuators.{key}.field", "the scene's field: section gives the field",
                 "leave the coils' field and orbit out",
             )  # fmt: skip
         if self.orbit is None:
@@ -227,10 +228,14 @@ class Scene(Spec):
             for name, there in (
                 ("effects.gravity", self.effects_spec.gravity is not None),
                 ("effects.quadratic_drag", self.effects_spec.quadratic_drag is not None),
-                ("actuators.thrusters", bool(self.actuators.thrusters)),
-                ("actuators.point_forces", self.actuators.point_forces is not None),
             )
             if there
+        ]
+        pushed += [  # the actuators whose units push (a force map), asked of their specs
+            f"actuators.{k}"
+            for k, v in self.actuators.listed()
+            if named(k).world_input is None
+            and np.any(getattr(self.actuators.actuator_of(v, self), "force_map", 0.0) != 0.0)
         ]
         if pushed:
             raise FieldError(

@@ -822,13 +822,19 @@ class ActuatorsSpec(Spec):
             if start is not None:
                 start(world)
 
+    @staticmethod
+    def actuator_of(section: Any, scene: Any) -> ForceEffect:
+        """The core spec of one listed section (:meth:`listed`), body frame."""
+        return (
+            type(section[0]).actuator_of(section, scene)
+            if isinstance(section, tuple)
+            else section.actuator(scene)
+        )
+
     def actuators(self, scene: Any) -> list[ForceEffect]:
         """The listed actuators as core specs, body frame, in action order (``scene``: the
         whole scene, for its frame)."""
-        return [
-            type(v[0]).actuator_of(v, scene) if isinstance(v, tuple) else v.actuator(scene)
-            for _, v in self.listed()
-        ]
+        return [self.actuator_of(v, scene) for _, v in self.listed()]
 
     def check(self, dt: float) -> None:
         """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one

@@ -327,12 +327,6 @@ class TaskBatch:
     """The scene stems of the task's later versions, by the version they start at (a version
     plays the newest one at or below it; :attr:`scene_name` before the first)."""
 
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        """Unpickled with :attr:`world_data` made views of its array again (pickling copies
-        views apart: the pass would read world data nobody writes)."""
-        self.__dict__.update(state)
-        self.world_data = K.WorldData.of(self._world_data)
-
     def version_scene(self) -> str:
         """The stem of the scene this env's version plays (:attr:`version_scenes`)."""
         version = int(getattr(self.params, "version", 0))

@@ -18,8 +18,10 @@ clips each reading into [-1, 1] (noise may push a face in full light past 1).
 
 The Sun: :func:`rigid_env.core.sun.sun_position` (0.01 deg) at the Julian date
 :data:`EPOCH` + the body's time along its orbit; the body where its orbit puts it at that time
-(:attr:`rigid_env.core.world.World.orbit`). A task suits the sensor where its world has an
-orbit (BdotDetumble, WheelPointing).
+(:attr:`rigid_env.core.world.World.orbit`), or, where the orbit is world state
+(:attr:`rigid_env.core.world.World.motion`), the body's position and clock from the scene's
+``orbit:`` epoch. A task suits the sensor where its world has an orbit (BdotDetumble,
+WheelPointing).
 """
 
 from __future__ import annotations
@@ -33,6 +35,7 @@ from numba import njit
 from numpy.typing import NDArray
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field
 
+from rigid_env.core.orbit_state import epoch_datetime
 from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.core.sun import light_conical, sun_position
 from rigid_env.core.timescale import SECONDS_PER_DAY, julian_date
@@ -102,14 +105,20 @@ def _sun_and_light(r, jd, to_sun, light):
 def _sky(task: TaskBatch, rows: NDArray[np.int64]) -> tuple[FloatArray, FloatArray] | None:
     """The Sun's unit vector (K, 3) ECI and its light (K,) at the envs ``rows``; None without
     an orbit."""
-    orbit, clock = task.world.orbit, task.world.orbit_time
-    if orbit is None or clock is None:
+    world = task.world
+    if world.motion is not None:  # the orbit as world state: x is where the orbit puts the body
+        t = world.orbit_rows[rows, 0]
+        r = world.state.x[rows]
+        epoch_jd = julian_date(epoch_datetime(world.motion.epoch))
+    elif world.orbit is not None and world.orbit_time is not None:  # the coils' own orbit
+        t = world.orbit_time[rows]
+        r = world.orbit.orbit.position(t)
+        epoch_jd = EPOCH_JD
+    else:
         return None
-    t = clock[rows]
-    r = orbit.orbit.position(t)
     to_sun, light = np.empty((t.size, 3)), np.empty(t.size)
     if t.size:
-        _sun_and_light(np.ascontiguousarray(r), EPOCH_JD + t / SECONDS_PER_DAY, to_sun, light)
+        _sun_and_light(np.ascontiguousarray(r), epoch_jd + t / SECONDS_PER_DAY, to_sun, light)
     return to_sun, light
 
 

@@ -179,16 +179,18 @@ def test_a_conservative_effect_conserves_energy_to_the_methods_order(
 
 def _by_body(step):
     @njit(cache=False)
-    def stepped(p, model, state, status, command):
-        return body_advance(step, p, model, (state, status), command, (0, state.shape[1]), None)
+    def stepped(p, model, state, status, momenta, command):
+        world = (state, status, momenta)
+        return body_advance(step, p, model, world, command, (0, state.shape[1]), None)
 
     return stepped
 
 
 def _vectorised(step):
     @njit(cache=False)
-    def stepped(p, model, state, status, wrenches, command):
-        return advance(step, p, model, (state, status, wrenches), command, (0, state.shape[1]))
+    def stepped(p, model, state, status, wrenches, momenta, command):
+        world = (state, status, wrenches, momenta)
+        return advance(step, p, model, world, command, (0, state.shape[1]))
 
     return stepped
 
@@ -220,11 +222,11 @@ def test_the_vectorised_pass_equals_the_body_by_body_step(method: str) -> None:
     step = INTEGRATORS[method].body
     a, b = world.columns.copy(), world.columns.copy()
     status_a, status_b = np.zeros(n, np.uint8), np.zeros(n, np.uint8)
-    wrenches = np.zeros((7, n))
+    wrenches, momenta = np.zeros((7, n)), np.zeros((0, n))  # (no wheels: no momenta rows)
     vectorised, by_body = _vectorised(step), _by_body(step)
     for _ in range(20):
-        vectorised(world.params, world.model_columns, a, status_a, wrenches, command)
-        by_body(world.params, world.model_columns, b, status_b, command)
+        vectorised(world.params, world.model_columns, a, status_a, wrenches, momenta, command)
+        by_body(world.params, world.model_columns, b, status_b, momenta, command)
     assert a.tobytes() == b.tobytes()
 
 
