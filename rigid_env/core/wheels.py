@@ -10,9 +10,12 @@ and Control", Springer 2014, Sec. 3.3.5; Hughes, "Spacecraft Attitude Dynamics",
 
 with ``I`` the body's inertia without the wheels' axial ``J_k`` (principal, as every body's).
 The motor gives ``u_k max_torque_k`` (``u_k`` the command component, in [-1, 1]) and none that
-would drive the wheel beyond ``max_speed_k`` (``|Omega_k| >= max_speed_k`` and the torque
-along ``Omega_k``: the drive's speed limit); the bearing's friction is ``-viscous_k Omega_k -
-coulomb_k sign(Omega_k)``. Without external torque the total ``R (I w + h)`` is constant and
+would drive the wheel beyond ``max_speed_k``; the bearing's friction is ``-viscous_k Omega_k -
+coulomb_k sign(Omega_k)``, stick-slip at rest. Each flow holds the friction's sign and the
+motor's torque (cut where the limit is reached within it) from its start (:func:`hold`), and
+:func:`wheel_laws` makes the limit and the friction hold exactly after it, by internal impulses
+(the pre-fix law, kept for WheelPointing-v0 only, cuts the motor and reads the sign at each
+stage). Without external torque the total ``R (I w + h)`` is constant and
 friction moves momentum, never creates it.
 
 An integrator with wheels advances ``(x, v, q, w, h_1 .. h_K)`` together, each stage reading the
@@ -294,16 +297,30 @@ def _held_sign(w, hw, wheels, m, h, k):
     return 0.0 if rest else _sign(omega)
 
 
+AT_LIMIT = 1.0 - 1e-9
+"""A wheel whose relative speed is within this share of its limit is at it (the limit's impulse
+puts it there to rounding of the speeds in play, which a large overshoot makes more than an
+ulp): its motor gives no torque that pushes it further."""
+
+
 @kernel
-def _held_motor(w, hw, wheels, motors, k):
-    """Slot ``k``'s motor torque over a flow: none where the wheel is at or beyond its limit at
-    the start and the torque pushes it further (the pre-fix law's wheel keeps its torque: it
-    cuts at each stage)."""
+def _held_motor(w, hw, wheels, motors, m, h, k):
+    """Slot ``k``'s motor torque held over a flow of ``h``: the drive's torque cut where the
+    limit is reached within it, as an average: ``motor min(1, t* / h)``, ``t* = J_eff (max_speed
+    - Omega sign(motor)) / |motor|`` the time the motor alone takes to the limit on its side
+    (friction only delays it: the wheel then ends short of the limit, never past it by more
+    than the gyroscopic coupling, which :func:`wheel_laws` takes back). 0 at or beyond the limit
+    (to :data:`AT_LIMIT`); ``motor`` itself where it does not reach it. The pre-fix law's wheel
+    keeps its torque: it cuts at each stage."""
     e = wheels[k]
     omega = relative_speed(w, hw[k], _axis(e), e.inertia)
     motor = motors[k]
-    cut = (e.pre_fix == 0.0) & (abs(omega) >= e.max_speed) & (motor * omega > 0.0)
-    return 0.0 if cut else motor
+    room = e.max_speed - (omega if motor > 0.0 else -omega)
+    room = 0.0 if room <= e.max_speed * (1.0 - AT_LIMIT) else room
+    reach = abs(motor) * h  # the impulse the motor gives over h
+    share = min(1.0, effective_inertia(e, m) * room / reach) if reach > 0.0 else 1.0
+    share = 0.0 if room == 0.0 else share
+    return motor if e.pre_fix != 0.0 else motor * share
 
 
 @kernel
@@ -312,8 +329,9 @@ def hold(drive, w, hw, m, h):
     torque held over it (the flow's rates then smooth; where no stage crosses zero or the
     limit, the same numbers as a sign and a cut read at each stage). ``held``: the signs of the
     relative speeds, 0 for a wheel that friction stops within ``h`` (:func:`wheel_laws` then
-    sticks or slips it); a wheel at its limit gets no torque that pushes it further; one the
-    flow carries past it :func:`wheel_laws` puts back at it."""
+    sticks or slips it); the motors cut where they reach the limit within ``h``
+    (:func:`_held_motor`); a wheel the flow carries past it :func:`wheel_laws` puts back at
+    it."""
     wheels, motors, _ = drive
     held = (
         _held_sign(w, hw, wheels, m, h, 0),
@@ -322,10 +340,10 @@ def hold(drive, w, hw, m, h):
         _held_sign(w, hw, wheels, m, h, 3),
     )
     motors = (
-        _held_motor(w, hw, wheels, motors, 0),
-        _held_motor(w, hw, wheels, motors, 1),
-        _held_motor(w, hw, wheels, motors, 2),
-        _held_motor(w, hw, wheels, motors, 3),
+        _held_motor(w, hw, wheels, motors, m, h, 0),
+        _held_motor(w, hw, wheels, motors, m, h, 1),
+        _held_motor(w, hw, wheels, motors, m, h, 2),
+        _held_motor(w, hw, wheels, motors, m, h, 3),
     )
     return wheels, motors, held
 

@@ -10,15 +10,16 @@ or a pyramid of four) and starts (body rates, wheel speeds within the limit):
   to the integrator's error.
 
 The integrator's error: a method of order ``p`` over a substep ``h`` errs by about ``(h W)^(p+1)``
-of the state it advances, ``W`` the fastest rate of the smooth flow (the body's ``|w|``, ``|h| /
-I_min`` of the wheels' gyroscopic coupling, the motor's ``max_torque / (J_eff W)`` as a rate of
-the relative speed is not one: a constant torque is integrated exactly by every method here, and
-``viscous / J_eff`` the bearing's decay); the bound allowed is ``10 (h W)^(p+1)`` per substep,
-relative, summed over the run (a factor 10 for the constants of the error terms), plus 1e-12 per
-substep for rounding. The laws' impulses themselves conserve momentum to rounding and never raise
-energy (the proof is in :func:`rigid_env.core.wheels.wheel_laws`), so a law that added energy or
-momentum (the pre-fix Coulomb sign flip: 0.50 J to 13.75 J in 20 steps) fails by orders of
-magnitude beyond the bound.
+of the state it advances, ``W`` the fastest rate of the smooth flow: the body's ``|w|`` (the
+larger of a step's start and end), what the motors may add to it within the step (``K
+max_torque h / I_min``), the wheels' gyroscopic coupling (``2 K J max_speed / I_min``) and the
+bearing's viscous decay (``viscous / J``); a constant torque is integrated exactly by every method
+here. The bound allowed is ``10 (h W)^(p+1)`` per substep, relative (to the energy, or to the
+momentum body and wheels exchange, ``|I w| + |h|``), summed over the run (a factor 10 for the
+constants of the error terms), plus 1e-12 per substep for rounding. The laws' impulses
+themselves conserve momentum to rounding and never raise energy (the proof is in
+:func:`rigid_env.core.wheels.wheel_laws`), so a law that added energy or momentum (the pre-fix
+Coulomb sign flip: 0.50 J to 13.75 J in 20 steps) fails by orders of magnitude beyond the bound.
 
 Examples: a small count by default (profile ``wheel_laws``); ``HYPOTHESIS_PROFILE=long`` runs 300
 (profile ``wheel_laws_long``).
@@ -156,10 +157,11 @@ def test_total_momentum_is_conserved_without_outside_torque(case):
 
 def test_a_huge_motor_stops_at_the_limit_in_one_step():
     # The issue's case: one rk4 step of a 1e3 N m motor took a wheel to 1.05e7 rad/s against 628.
-    # The limit's impulse sets it at 628 to rounding of the speeds in play (the flow's 1e7 rad/s
-    # times 1e-15) and keeps the total momentum: the flow moves max_torque dt = 100 N m s between
-    # each wheel and the body, spinning it to 5e3 rad/s within the step; rk4's error there stays
-    # below 1e-9 of it (measured 2e-10), the impulse's is rounding.
+    # The held motor stops where the limit is reached (its average over the step) and the limit's
+    # impulse takes back what the gyroscopic coupling adds: 628 to rounding of the speeds in play
+    # (max_torque h / J = 1e7 rad/s times 1e-15), the total momentum kept (measured 1e-18 N m s
+    # against J_eff 628 = 6e-3 N m s exchanged; allowed 1e-9 of 100 N m s, rk4's error at the
+    # motor's full impulse).
     inertia = np.array([0.02, 0.03, 0.045])
     wheels = ReactionWheels(np.eye(3), inertia=1e-5, max_torque=1e3, max_speed=628.0)
     world = World(BodyModel(np.array([2.0]), inertia[None, :]), [wheels], "rk4", dt=0.1)
