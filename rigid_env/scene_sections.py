@@ -729,6 +729,10 @@ class ReactionWheelsSpec(Spec):
     """Coulomb bearing friction ``-coulomb sign(Omega)`` [N m]."""
     speeds: tuple[Rate, ...] = ()
     """Each wheel's speed relative to the body at the start [rad/s]; none: at rest."""
+    pre_fix_law: bool = False
+    """The wheel law before issue 44 (the speed limit checked at a stage's start, so a step may
+    carry a wheel past it; Coulomb friction's sign read at each stage, so it may reverse a wheel):
+    kept only for WheelPointing-v0's bit-for-bit history (its scene sets it); leave it out."""
 
     @model_validator(mode="after")
     def _speeds(self) -> ReactionWheelsSpec:
@@ -768,6 +772,7 @@ class ReactionWheelsSpec(Spec):
             max_speed=self.max_speed,
             viscous=self.viscous,
             coulomb=self.coulomb,
+            pre_fix=self.pre_fix_law,
         )
 
 

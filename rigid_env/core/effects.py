@@ -496,6 +496,10 @@ class ReactionWheels(LinearActuator):
         max_speed: (K,) or one speed limit relative to the body [rad/s] (6000 rpm: 628).
         viscous: (K,) or one viscous friction coefficient [N m s/rad], >= 0.
         coulomb: (K,) or one Coulomb friction torque [N m], >= 0.
+        pre_fix: True: the law before issue 44 (a stage's start cuts the motor at the speed
+            limit, friction's sign read at each stage), kept only for WheelPointing-v0's
+            bit-for-bit history; False (the default): the limit and friction laws that hold
+            inside a step (:func:`rigid_env.core.wheels.wheel_laws`).
     """
 
     axes: FloatArray = field(default_factory=lambda: np.eye(3))
@@ -504,6 +508,7 @@ class ReactionWheels(LinearActuator):
     max_speed: FloatArray | float = 628.0
     viscous: FloatArray | float = 0.0
     coulomb: FloatArray | float = 0.0
+    pre_fix: bool = False
     name: ClassVar[str] = "reaction_wheels"
     force_map: FloatArray = dataclass_field(init=False, repr=False)
     torque_map: FloatArray = dataclass_field(init=False, repr=False)
@@ -532,6 +537,7 @@ class ReactionWheels(LinearActuator):
         out = np.column_stack([
             self.axes, self.inertia, self.max_torque, self.max_speed, self.viscous, self.coulomb,
             first + np.arange(self.axes.shape[0], dtype=np.float64),
+            np.full(self.axes.shape[0], 1.0 if self.pre_fix else 0.0),
         ])  # fmt: skip
         assert out.shape[1] == WHEEL_WIDTH
         return out

@@ -174,6 +174,7 @@ class Wheel(NamedTuple):
     viscous: float  # viscous friction [N m s/rad]
     coulomb: float  # Coulomb friction [N m]
     action: float  # its command component (an index)
+    pre_fix: float  # 1: the law before issue 44 (kept for WheelPointing-v0's history), else 0
 
 
 WHEEL_WIDTH = len(Wheel._fields)

@@ -58,12 +58,14 @@ from rigid_env.core.threads import split_range
 from rigid_env.core.thrusters import next_switch, segment_wrench
 from rigid_env.core.wheels import (
     gyrostat,
+    hold,
     load_drive,
     load_wheels,
     motor_torques,
     store_motors,
     store_wheels,
     wheel_drive,
+    wheel_laws,
     wheel_reach,
     wheel_records,
     wheel_row,
@@ -213,9 +215,12 @@ def integrate(step, body, act, m, c, h, counts, i, drive):
     (0: its own guess), and returns the substeps it took, added to ``counts[0, i]``, and the
     substep the next should try first, into ``counts[1, i]``. Compiled, the choice is made by
     the types of ``step`` and ``counts`` (the overload below), so a fixed-step integrator's
-    loop is unchanged."""
+    loop is unchanged. With wheels the flow holds each wheel's friction sign
+    (:func:`rigid_env.core.wheels.hold`) and is followed by the wheels' laws
+    (:func:`rigid_env.core.wheels.wheel_laws`: stick-slip and the speed limit, by internal
+    impulses), so that no (sub)step carries a wheel past its limit or reverses it by friction."""
     if is_flow(step):
-        return step(body, act, m, c, drive, h)
+        return _wheel_flow(step, body, act, m, c, h, drive)
     x, v, q, w, hw = body
     if counts is None:
         return (*step(x, v, q, w, act, m, c, h), hw)
@@ -223,6 +228,18 @@ def integrate(step, body, act, m, c, h, counts, i, drive):
     counts[0, i] += n
     counts[1, i] = first
     return x, v, q, w, hw
+
+
+@kernel
+def _wheel_flow(step, body, act, m, c, h, drive):
+    """The flow ``step`` of ``body`` over ``h``, under the wheels' laws where it carries wheels
+    (:func:`integrate`)."""
+    if drive is not None and c.wheels != 0.0:
+        held = hold(drive, body[3], body[4], m, h)
+        x, v, q, w, hw = step(body, act, m, c, held, h)
+        w, hw = wheel_laws(w, hw, held, c, m, h)
+        return x, v, q, w, hw
+    return step(body, act, m, c, drive, h)
 
 
 def clear_counts(counts, bodies):
@@ -240,7 +257,7 @@ def _integrate(step, body, act, m, c, h, counts, i, drive):
     if is_flow(step.dispatcher):
 
         def flow(step, body, act, m, c, h, counts, i, drive):
-            return step(body, act, m, c, drive, h)
+            return _wheel_flow(step, body, act, m, c, h, drive)
 
         return flow
 
@@ -673,6 +690,7 @@ def derivatives(p, model, state, command, out):
         if c.wheels != 0.0:
             drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
             hw = load_wheels(state, wheel_row(c), i, c)
+            drive = hold(drive, w, hw, m, 0.0)  # Coulomb's sign at this state
             a, alpha, _ = gyrostat(x, v, q, w, hw, act, m, c, drive)
         else:
             a, alpha = accelerations(x, v, q, w, act, m, c, True)

@@ -10,9 +10,12 @@ and Control", Springer 2014, Sec. 3.3.5; Hughes, "Spacecraft Attitude Dynamics",
 
 with ``I`` the body's inertia without the wheels' axial ``J_k`` (principal, as every body's).
 The motor gives ``u_k max_torque_k`` (``u_k`` the command component, in [-1, 1]) and none that
-would drive the wheel beyond ``max_speed_k`` (``|Omega_k| >= max_speed_k`` and the torque
-along ``Omega_k``: the drive's speed limit); the bearing's friction is ``-viscous_k Omega_k -
-coulomb_k sign(Omega_k)``. Without external torque the total ``R (I w + h)`` is constant and
+would drive the wheel beyond ``max_speed_k``; the bearing's friction is ``-viscous_k Omega_k -
+coulomb_k sign(Omega_k)``, stick-slip at rest. Each flow holds the friction's sign and the
+motor's torque (cut where the limit is reached within it) from its start (:func:`hold`), and
+:func:`wheel_laws` makes the limit and the friction hold exactly after it, by internal impulses
+(the pre-fix law, kept for WheelPointing-v0 only, cuts the motor and reads the sign at each
+stage). Without external torque the total ``R (I w + h)`` is constant and
 friction moves momentum, never creates it.
 
 An integrator with wheels advances ``(x, v, q, w, h_1 .. h_K)`` together, each stage reading the
@@ -63,7 +66,7 @@ def _slot(c, k):
 
 NO_WHEEL_RECORDS = (Wheel(*([0.0] * len(Wheel._fields))),) * MAX_WHEELS
 """The wheel records of a body without wheels: constants the compiler folds."""
-NO_DRIVE = (NO_WHEEL_RECORDS, ZERO4)
+NO_DRIVE = (NO_WHEEL_RECORDS, ZERO4, ZERO4)
 """The drive of a body without wheels (:func:`wheel_drive`)."""
 
 
@@ -96,12 +99,13 @@ def motor_torques(wheels, c, command, r):
 
 @kernel
 def wheel_drive(wheels, c, command, r):
-    """``(wheels, motors)``: the wheel records (:func:`wheel_records`) and their
-    :func:`motor_torques` of row ``r`` of the command; :data:`NO_DRIVE` where the bodies carry
-    no wheels. Numbers only, so that the integrator's flow gets no array."""
+    """``(wheels, motors, held)``: the wheel records (:func:`wheel_records`) and their
+    :func:`motor_torques` of row ``r`` of the command (``held``: zeros, the signs that
+    :func:`hold` sets before each flow); :data:`NO_DRIVE` where the bodies carry no wheels.
+    Numbers only, so that the integrator's flow gets no array."""
     if c.wheels == 0.0:
         return NO_DRIVE
-    return wheels, motor_torques(wheels, c, command, r)
+    return wheels, motor_torques(wheels, c, command, r), ZERO4
 
 
 @kernel
@@ -115,12 +119,13 @@ def store_motors(wrenches, i, motors, c):
 
 @kernel
 def load_drive(wheels, wrenches, i, c):
-    """``(wheels, motors)`` as :func:`wheel_drive`, the motor torques read from body ``i``'s
-    rows of ``wrenches`` (:func:`store_motors`); :data:`NO_DRIVE` without wheels."""
+    """``(wheels, motors, held)`` as :func:`wheel_drive`, the motor torques read from body
+    ``i``'s rows of ``wrenches`` (:func:`store_motors`); :data:`NO_DRIVE` without wheels."""
     if c.wheels == 0.0:
         return NO_DRIVE
     k = MOTORS
-    return wheels, (wrenches[k, i], wrenches[k + 1, i], wrenches[k + 2, i], wrenches[k + 3, i])
+    motors = (wrenches[k, i], wrenches[k + 1, i], wrenches[k + 2, i], wrenches[k + 3, i])
+    return wheels, motors, ZERO4
 
 
 @kernel
@@ -130,13 +135,23 @@ def _axis(e):
 
 
 @kernel
-def _wheel_rate(w, hk, e, motor):
-    """Wheel ``e``'s torque ``h_k'`` [N m] at momentum ``hk``: the ``motor`` torque under its
-    speed limit, and friction."""
+def _sign(x):
+    """1, -1 or 0: the sign of ``x``."""
+    return 1.0 if x > 0.0 else (-1.0 if x < 0.0 else 0.0)
+
+
+@kernel
+def _wheel_rate(w, hk, e, motor, held):
+    """Wheel ``e``'s torque ``h_k'`` [N m] at momentum ``hk``: the ``motor`` torque (as
+    :func:`hold` left it: none that pushes a wheel at its limit further), and friction,
+    Coulomb's along ``-held`` (the sign of the wheel's speed at the flow's start,
+    :func:`hold`). The pre-fix law (``e.pre_fix``) cuts the motor and reads the sign at each
+    stage."""
     omega = relative_speed(w, hk, _axis(e), e.inertia)
-    # the drive gives no torque that would spin the wheel past its limit
-    motor = 0.0 if (abs(omega) >= e.max_speed) & (motor * omega > 0.0) else motor
-    sign = 1.0 if omega > 0.0 else (-1.0 if omega < 0.0 else 0.0)
+    old = e.pre_fix != 0.0
+    # the pre-fix drive: no torque at a stage beyond the limit
+    motor = 0.0 if old & (abs(omega) >= e.max_speed) & (motor * omega > 0.0) else motor
+    sign = _sign(omega) if old else held
     return motor - e.viscous * omega - e.coulomb * sign
 
 
@@ -144,9 +159,9 @@ def _wheel_rate(w, hk, e, motor):
 def _slot_rate(w, hw, c, drive, k):
     """``(h_k', a_k)`` of the wheel in slot ``k`` (a constant), or zeros past the last wheel,
     by selects."""
-    wheels, motors = drive
+    wheels, motors, held = drive
     e = wheels[k]
-    rate = _wheel_rate(w, hw[k], e, motors[k])
+    rate = _wheel_rate(w, hw[k], e, motors[k], held[k])
     on = k < int(c.wheel_count)
     return (rate if on else 0.0), (_axis(e) if on else ZERO3)
 
@@ -255,10 +270,157 @@ def wheel_reach(w, hw, drive, c, m):
     (:func:`rigid_env.core.stepping.force_reach`): their torques on the body, ``sum_k
     (max_torque + coulomb + 2 viscous |Omega_k|) / sqrt(I_min)`` with ``|Omega_k|`` at least the
     wheel's limit (``w x h`` does no work on the body)."""
-    wheels, _ = drive
+    wheels = drive[0]
     total = 0.0 + _slot_reach(w, hw, wheels, c, 0) + _slot_reach(w, hw, wheels, c, 1)
     total += _slot_reach(w, hw, wheels, c, 2) + _slot_reach(w, hw, wheels, c, 3)
     return total * m.inv_sqrt_inertia
+
+
+# ---- the laws that hold inside a step: held friction sign, stick-slip, the speed limit ---------
+@kernel
+def effective_inertia(e, m):
+    """``J_eff = (1/J + a . I^-1 a)^-1`` [kg m^2] of wheel record ``e`` on a body of model
+    ``m``: an internal impulse ``dh`` (``+dh`` on the wheel, ``-a dh`` on the body) changes the
+    wheel's relative speed by ``dh / J_eff``."""
+    ax, ay, az = _axis(e)
+    along = ax * ax * m.inv_inertia_x + ay * ay * m.inv_inertia_y + az * az * m.inv_inertia_z
+    return 1.0 / (1.0 / e.inertia + along)
+
+
+@kernel
+def _held_sign(w, hw, wheels, m, h, k):
+    """The sign of slot ``k``'s relative speed, 0 where Coulomb friction stops the wheel within
+    ``h`` (``J_eff |Omega| <= coulomb h``: it is then at rest for the step, stick-slip)."""
+    e = wheels[k]
+    omega = relative_speed(w, hw[k], _axis(e), e.inertia)
+    rest = effective_inertia(e, m) * abs(omega) <= e.coulomb * h
+    return 0.0 if rest else _sign(omega)
+
+
+AT_LIMIT = 1.0 - 1e-9
+"""A wheel whose relative speed is within this share of its limit is at it (the limit's impulse
+puts it there to rounding of the speeds in play, which a large overshoot makes more than an
+ulp): its motor gives no torque that pushes it further."""
+
+
+@kernel
+def _held_motor(w, hw, wheels, motors, m, h, k):
+    """Slot ``k``'s motor torque held over a flow of ``h``: the drive's torque cut where the
+    limit is reached within it, as an average: ``motor min(1, t* / h)``, ``t* = J_eff (max_speed
+    - Omega sign(motor)) / |motor|`` the time the motor alone takes to the limit on its side
+    (friction only delays it: the wheel then ends short of the limit, never past it by more
+    than the gyroscopic coupling, which :func:`wheel_laws` takes back). 0 at or beyond the limit
+    (to :data:`AT_LIMIT`); ``motor`` itself where it does not reach it. The pre-fix law's wheel
+    keeps its torque: it cuts at each stage."""
+    e = wheels[k]
+    omega = relative_speed(w, hw[k], _axis(e), e.inertia)
+    motor = motors[k]
+    room = e.max_speed - (omega if motor > 0.0 else -omega)
+    room = 0.0 if room <= e.max_speed * (1.0 - AT_LIMIT) else room
+    reach = abs(motor) * h  # the impulse the motor gives over h
+    share = min(1.0, effective_inertia(e, m) * room / reach) if reach > 0.0 else 1.0
+    share = 0.0 if room == 0.0 else share
+    return motor if e.pre_fix != 0.0 else motor * share
+
+
+@kernel
+def hold(drive, w, hw, m, h):
+    """``drive`` for a flow of ``h`` from ``(w, hw)``: each wheel's friction sign and motor
+    torque held over it (the flow's rates then smooth; where no stage crosses zero or the
+    limit, the same numbers as a sign and a cut read at each stage). ``held``: the signs of the
+    relative speeds, 0 for a wheel that friction stops within ``h`` (:func:`wheel_laws` then
+    sticks or slips it); the motors cut where they reach the limit within ``h``
+    (:func:`_held_motor`); a wheel the flow carries past it :func:`wheel_laws` puts back at
+    it."""
+    wheels, motors, _ = drive
+    held = (
+        _held_sign(w, hw, wheels, m, h, 0),
+        _held_sign(w, hw, wheels, m, h, 1),
+        _held_sign(w, hw, wheels, m, h, 2),
+        _held_sign(w, hw, wheels, m, h, 3),
+    )
+    motors = (
+        _held_motor(w, hw, wheels, motors, m, h, 0),
+        _held_motor(w, hw, wheels, motors, m, h, 1),
+        _held_motor(w, hw, wheels, motors, m, h, 2),
+        _held_motor(w, hw, wheels, motors, m, h, 3),
+    )
+    return wheels, motors, held
+
+
+@kernel
+def _impulse(w, hw, drive, c, m, h, k, friction):
+    """``(w, hw)`` after slot ``k``'s internal impulse (:func:`wheel_laws`): with ``friction``
+    (a constant) Coulomb's stick-slip, then the speed limit; unchanged (by selects) past the
+    last wheel, for a pre-fix wheel, and where no law acts."""
+    wheels, motors, held = drive
+    e = wheels[k]
+    a = _axis(e)
+    j = effective_inertia(e, m)
+    omega = relative_speed(w, hw[k], a, e.inertia)
+    dh = 0.0
+    if friction:
+        stop = -j * omega  # the impulse that stops the wheel relative to the body
+        s0 = held[k]
+        reach = e.coulomb * h
+        slip = max(-reach, min(reach, stop))  # from rest: stuck while it stops it
+        d = abs(motors[k])
+        total = e.coulomb + d
+        share = min(1.0, 2.0 * e.coulomb / total) if total > 0.0 else 1.0
+        crossed = s0 * omega < 0.0
+        dh = stop * share if crossed else (slip if s0 == 0.0 else 0.0)
+    after = omega + dh / j
+    target = e.max_speed if after > 0.0 else -e.max_speed
+    dh += j * (target - after) if abs(after) > e.max_speed else 0.0
+    on = (k < int(c.wheel_count)) & (e.pre_fix == 0.0) & (dh != 0.0)
+    w1 = (
+        w[0] - dh * a[0] * m.inv_inertia_x,
+        w[1] - dh * a[1] * m.inv_inertia_y,
+        w[2] - dh * a[2] * m.inv_inertia_z,
+    )
+    return (w1 if on else w), with_item(hw, k, hw[k] + dh) if on else hw
+
+
+@kernel
+def wheel_laws(w, hw, drive, c, m, h):
+    """``(w, hw)`` after a flow of ``h`` of a body with wheels (``drive`` as :func:`hold` gave
+    it), by internal impulses between each wheel and the body (``+dh_k`` on wheel ``k``,
+    ``-I^-1 a_k dh_k`` on the body's rate), in slot order:
+
+    * Coulomb friction, stick-slip: a wheel at rest for the step (``held`` 0, :func:`hold`;
+      the flow had no Coulomb torque) gets the impulse of at most ``coulomb h`` that stops it
+      relative to the body (stuck while the drive and the body's motion ask for no more:
+      ``|drive| <= coulomb``);
+      a wheel whose speed crossed zero under the held friction is taken back toward zero by
+      ``J_eff |Omega| min(1, 2 coulomb / (coulomb + |motor|))`` (the friction past the stop
+      was ``-coulomb`` held where it is ``+coulomb`` under a larger motor, ``-motor`` (stuck)
+      under a smaller one), never past it;
+    * the speed limit: a wheel beyond ``+-max_speed`` is put at it, ``dh = J_eff (+-max_speed -
+      Omega)``; then three sweeps of the limit alone (Gauss-Seidel: the other wheels'
+      impulses move the body, so wheel ``j``'s speed by ``a_j . I^-1 a_k dh_k``). Wheels along
+      the body's principal axes do not couple: each is at its limit to rounding after the
+      first sweep. Otherwise what a sweep leaves beyond the limit falls each sweep by ``r =
+      max J_eff |a_j . I^-1 a_k|`` (``J / I``: 2e-3 for a 3U CubeSat's wheel pyramid), to
+      ``r^4`` of the step's overshoot after the four.
+
+    Total momentum: ``I dw = -a_k dh_k`` and ``dh = a_k dh_k``, so ``I w + h`` is unchanged (to
+    rounding). Energy: ``T = w.I w / 2 + sum_k h_k^2 / (2 J_k)``; along the impulse ``s`` from 0
+    to ``dh``, ``dT/ds = h_k / J_k - a_k . w = Omega_k(s)``, linear in ``s`` with slope
+    ``1 / J_eff``, so ``dT = dh (Omega + Omega') / 2``. Each impulse opposes ``Omega`` and
+    leaves ``Omega'`` of its sign or zero, ``|Omega'| <= |Omega|``: ``dT = -J_eff (Omega^2 -
+    Omega'^2) / 2 <= 0``. No impulse raises the kinetic energy; no friction impulse reverses a
+    wheel. Where no wheel crosses its limit, none was at rest and none crossed zero, ``(w,
+    hw)`` is returned as it came (selects), so the numbers are those of the flow alone."""
+    w, hw = _impulse(w, hw, drive, c, m, h, 0, True)
+    w, hw = _impulse(w, hw, drive, c, m, h, 1, True)
+    w, hw = _impulse(w, hw, drive, c, m, h, 2, True)
+    w, hw = _impulse(w, hw, drive, c, m, h, 3, True)
+    for _ in range(3):
+        w, hw = _impulse(w, hw, drive, c, m, h, 0, False)
+        w, hw = _impulse(w, hw, drive, c, m, h, 1, False)
+        w, hw = _impulse(w, hw, drive, c, m, h, 2, False)
+        w, hw = _impulse(w, hw, drive, c, m, h, 3, False)
+    return w, hw
 
 
 def __getattr__(name: str):
