@@ -282,9 +282,14 @@ def effective_inertia(e, m):
     """``J_eff = (1/J + a . I^-1 a)^-1`` [kg m^2] of wheel record ``e`` on a body of model
     ``m``: an internal impulse ``dh`` (``+dh`` on the wheel, ``-a dh`` on the body) changes the
     wheel's relative speed by ``dh / J_eff``."""
+    return 1.0 / (1.0 / e.inertia + _along(e, m))
+
+
+@kernel
+def _along(e, m):
+    """``a . I^-1 a`` of wheel record ``e`` on a body of model ``m``."""
     ax, ay, az = _axis(e)
-    along = ax * ax * m.inv_inertia_x + ay * ay * m.inv_inertia_y + az * az * m.inv_inertia_z
-    return 1.0 / (1.0 / e.inertia + along)
+    return ax * ax * m.inv_inertia_x + ay * ay * m.inv_inertia_y + az * az * m.inv_inertia_z
 
 
 @kernel
@@ -349,27 +354,27 @@ def hold(drive, w, hw, m, h):
 
 
 @kernel
-def _impulse(w, hw, drive, c, m, h, k, friction):
-    """``(w, hw)`` after slot ``k``'s internal impulse (:func:`wheel_laws`): with ``friction``
+def _impulse(w, hw, drive, c, m, h, k, friction, inertias):
+    """``(w, hw)`` after slot ``k``'s internal impulse (:func:`wheel_laws`; ``inertias``: the
+    slots' :func:`effective_inertia`): with ``friction``
     (a constant) Coulomb's stick-slip, then the speed limit; unchanged (by selects) past the
     last wheel, for a pre-fix wheel, and where no law acts."""
     wheels, motors, held = drive
     e = wheels[k]
     a = _axis(e)
-    j = effective_inertia(e, m)
+    j = inertias[k]
     omega = relative_speed(w, hw[k], a, e.inertia)
-    dh = 0.0
-    if friction:
-        stop = -j * omega  # the impulse that stops the wheel relative to the body
-        s0 = held[k]
-        reach = e.coulomb * h
-        slip = max(-reach, min(reach, stop))  # from rest: stuck while it stops it
-        d = abs(motors[k])
-        total = e.coulomb + d
-        share = min(1.0, 2.0 * e.coulomb / total) if total > 0.0 else 1.0
-        crossed = s0 * omega < 0.0
-        dh = stop * share if crossed else (slip if s0 == 0.0 else 0.0)
-    after = omega + dh / j
+    stop = -j * omega  # the impulse that stops the wheel relative to the body
+    s0 = held[k]
+    reach = e.coulomb * h
+    slip = max(-reach, min(reach, stop))  # from rest: stuck while it stops it
+    d = abs(motors[k])
+    total = e.coulomb + d
+    share = min(1.0, 2.0 * e.coulomb / max(total, 1e-300))
+    crossed = s0 * omega < 0.0
+    dh = stop * share if crossed else (slip if s0 == 0.0 else 0.0)
+    dh = dh if friction else 0.0
+    after = omega + dh * (1.0 / e.inertia + _along(e, m))
     target = e.max_speed if after > 0.0 else -e.max_speed
     dh += j * (target - after) if abs(after) > e.max_speed else 0.0
     on = (k < int(c.wheel_count)) & (e.pre_fix == 0.0) & (dh != 0.0)
@@ -379,6 +384,15 @@ def _impulse(w, hw, drive, c, m, h, k, friction):
         w[2] - dh * a[2] * m.inv_inertia_z,
     )
     return (w1 if on else w), with_item(hw, k, hw[k] + dh) if on else hw
+
+
+@kernel
+def _limit_sweep(w, hw, drive, c, m, h, js):
+    """One sweep of the speed limit over the slots (:func:`wheel_laws`)."""
+    w, hw = _impulse(w, hw, drive, c, m, h, 0, False, js)
+    w, hw = _impulse(w, hw, drive, c, m, h, 1, False, js)
+    w, hw = _impulse(w, hw, drive, c, m, h, 2, False, js)
+    return _impulse(w, hw, drive, c, m, h, 3, False, js)
 
 
 @kernel
@@ -411,16 +425,20 @@ def wheel_laws(w, hw, drive, c, m, h):
     Omega'^2) / 2 <= 0``. No impulse raises the kinetic energy; no friction impulse reverses a
     wheel. Where no wheel crosses its limit, none was at rest and none crossed zero, ``(w,
     hw)`` is returned as it came (selects), so the numbers are those of the flow alone."""
-    w, hw = _impulse(w, hw, drive, c, m, h, 0, True)
-    w, hw = _impulse(w, hw, drive, c, m, h, 1, True)
-    w, hw = _impulse(w, hw, drive, c, m, h, 2, True)
-    w, hw = _impulse(w, hw, drive, c, m, h, 3, True)
-    for _ in range(3):
-        w, hw = _impulse(w, hw, drive, c, m, h, 0, False)
-        w, hw = _impulse(w, hw, drive, c, m, h, 1, False)
-        w, hw = _impulse(w, hw, drive, c, m, h, 2, False)
-        w, hw = _impulse(w, hw, drive, c, m, h, 3, False)
-    return w, hw
+    wheels = drive[0]
+    js = (
+        effective_inertia(wheels[0], m),
+        effective_inertia(wheels[1], m),
+        effective_inertia(wheels[2], m),
+        effective_inertia(wheels[3], m),
+    )
+    w, hw = _impulse(w, hw, drive, c, m, h, 0, True, js)
+    w, hw = _impulse(w, hw, drive, c, m, h, 1, True, js)
+    w, hw = _impulse(w, hw, drive, c, m, h, 2, True, js)
+    w, hw = _impulse(w, hw, drive, c, m, h, 3, True, js)
+    w, hw = _limit_sweep(w, hw, drive, c, m, h, js)
+    w, hw = _limit_sweep(w, hw, drive, c, m, h, js)
+    return _limit_sweep(w, hw, drive, c, m, h, js)
 
 
 def __getattr__(name: str):
