@@ -43,7 +43,6 @@ Adding an actuator (the checklist; the manual's page ``docs/extending/actuator.m
 from __future__ import annotations
 
 import importlib
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cache
@@ -51,6 +50,8 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from rigid_env.core.effect import declared_in, modules_named
 
 FloatArray = NDArray[np.float64]
 
@@ -212,7 +213,7 @@ class Actuator:
 
 def plugin_modules() -> list[str]:
     """The module names in ``RIGID_ENV_ACTUATORS`` (none if unset)."""
-    return [name.strip() for name in os.environ.get(ENV_VAR, "").split(",") if name.strip()]
+    return modules_named(ENV_VAR)
 
 
 @cache
@@ -225,19 +226,7 @@ def actuators() -> tuple[Actuator, ...]:
     """
     from rigid_env.core.actuators import BUILT_IN
 
-    found = list(BUILT_IN)
-    for module in plugin_modules():
-        declared = getattr(importlib.import_module(module), "ACTUATORS", None)
-        if declared is None:
-            raise ValueError(
-                f"{ENV_VAR}: module {module!r} has no ACTUATORS (a sequence of Actuator)"
-            )
-        found.extend(declared)
-    names = [a.name for a in found]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ValueError(f"{ENV_VAR}: actuator {twice[0]!r} is declared twice; rename one")
-    return tuple(found)
+    return declared_in(ENV_VAR, BUILT_IN, "ACTUATORS", "Actuator")
 
 
 def declaration(spec: Any) -> Actuator | None:

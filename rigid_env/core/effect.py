@@ -39,6 +39,7 @@ import importlib
 import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 ENV_VAR = "RIGID_ENV_EFFECTS"
 """The environment variable naming modules of further effects (comma-separated)."""
@@ -80,9 +81,35 @@ class Effect:
     potential_bound: Callable | None = None
 
 
+def modules_named(env_var: str) -> list[str]:
+    """The module names listed, comma-separated, in the environment variable ``env_var``
+    (none if unset)."""
+    return [name.strip() for name in os.environ.get(env_var, "").split(",") if name.strip()]
+
+
 def plugin_modules() -> list[str]:
     """The module names in ``RIGID_ENV_EFFECTS`` (none if unset)."""
-    return [name.strip() for name in os.environ.get(ENV_VAR, "").split(",") if name.strip()]
+    return modules_named(ENV_VAR)
+
+
+def declared_in(env_var: str, built_in: Any, attr: str, kind: str) -> tuple[Any, ...]:
+    """A registry of declarations: ``built_in``, then the sequence ``attr`` of each module named
+    in ``env_var`` (:func:`modules_named`), each declaration's ``name`` its own.
+
+    Raises:
+        ValueError: for a module without ``attr``, or a name declared twice.
+    """
+    found = list(built_in)
+    for module in modules_named(env_var):
+        declared = getattr(importlib.import_module(module), attr, None)
+        if declared is None:
+            raise ValueError(f"{env_var}: module {module!r} has no {attr} (a sequence of {kind})")
+        found.extend(declared)
+    names = [d.name for d in found]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise ValueError(f"{env_var}: {kind.lower()} {twice[0]!r} is declared twice; rename one")
+    return tuple(found)
 
 
 def load_effects() -> tuple[Effect, ...]:
@@ -93,14 +120,4 @@ def load_effects() -> tuple[Effect, ...]:
     """
     from rigid_env.core.forces import BUILT_IN  # the built-ins' kernels, after Effect exists
 
-    effects = list(BUILT_IN)
-    for module in plugin_modules():
-        declared = getattr(importlib.import_module(module), "EFFECTS", None)
-        if declared is None:
-            raise ValueError(f"{ENV_VAR}: module {module!r} has no EFFECTS (a sequence of Effect)")
-        effects.extend(declared)
-    names = [e.name for e in effects]
-    twice = sorted({n for n in names if names.count(n) > 1})
-    if twice:
-        raise ValueError(f"{ENV_VAR}: effect {twice[0]!r} is declared twice; rename one")
-    return tuple(effects)
+    return declared_in(ENV_VAR, BUILT_IN, "EFFECTS", "Effect")
