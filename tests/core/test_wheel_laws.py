@@ -46,7 +46,7 @@ _COMMON = {
     "suppress_health_check": [HealthCheck.too_slow],
 }
 settings.register_profile("wheel_laws", max_examples=8, **_COMMON)
-settings.register_profile("wheel_laws_long", max_examples=300, **_COMMON)
+settings.register_profile("wheel_laws_long", max_examples=300, derandomize=False, **_COMMON)
 PROFILE = settings.get_profile(
     "wheel_laws_long" if os.environ.get("HYPOTHESIS_PROFILE") == "long" else "wheel_laws"
 )
@@ -116,15 +116,25 @@ def momentum_in_play(world):
     return np.linalg.norm(world.model.inertia[0] * world.state.w[0]) + h
 
 
+def _step(world, command) -> bool:
+    """One step; False where the world said loudly that it blew up. Explicit Euler grows a free
+    body's rate by ``sqrt(1 + (h w)^2)`` a step, so a fast draw (h |w| ~ 0.7, the motors spinning
+    the body up) diverges within 20 steps: a clear error is the promised outcome there, and the
+    laws are judged on every step before it."""
+    try:
+        world.step(command)
+    except NumericalInstabilityError:
+        return False
+    return True
+
+
 @PROFILE
 @given(wheel_worlds(motor=True))
 def test_no_wheel_passes_its_speed_limit(case):
     world, command, (_, rounding) = case
     limit = float(np.max(world._wheels.max_speed))
     for _ in range(STEPS):
-        try:
-            world.step(command)
-        except NumericalInstabilityError:  # said loudly (an explicit method's body spin-up)
+        if not _step(world, command):
             return
         assert np.abs(world.wheel_speed[0]).max() <= limit + rounding, world.wheel_speed
 
@@ -135,7 +145,8 @@ def test_body_and_wheels_gain_no_energy_without_a_motor(case):
     world, command, (bound, _) = case
     for _ in range(STEPS):
         before, rate = world.energy()[0], np.abs(world.state.w[0]).sum()
-        world.step(command)
+        if not _step(world, command):
+            return
         allowed = bound(world, max(rate, np.abs(world.state.w[0]).sum()))
         assert world.energy()[0] <= before * (1.0 + allowed), (before, world.energy()[0])
 
@@ -148,7 +159,8 @@ def test_total_momentum_is_conserved_without_outside_torque(case):
     allowed = 0.0
     for n in range(1, STEPS + 1):
         scale, rate = momentum_in_play(world), np.abs(world.state.w[0]).sum()
-        world.step(command)
+        if not _step(world, command):
+            return
         rate = max(rate, np.abs(world.state.w[0]).sum())
         allowed += bound(world, rate) * max(scale, momentum_in_play(world))
         drift = np.abs(world.angular_momentum_world()[0] - start).max()

@@ -42,7 +42,7 @@ _COMMON = {
     "suppress_health_check": [HealthCheck.too_slow, HealthCheck.filter_too_much],
 }
 settings.register_profile("ci", max_examples=25, **_COMMON)
-settings.register_profile("long", max_examples=1000, **_COMMON)
+settings.register_profile("long", max_examples=1000, derandomize=False, **_COMMON)
 PROFILE = settings.get_profile(
     os.environ.get("HYPOTHESIS_PROFILE", "ci")
     if os.environ.get("HYPOTHESIS_PROFILE") in ("ci", "long")
