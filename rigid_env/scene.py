@@ -262,18 +262,20 @@ class Scene(Spec):
         kinds = self._actuator_kinds()
         controlled = [n for n, i in INTEGRATORS.items() if i.error_control]
         usable = [n for n in controlled if all(kind.accepts(n) for kind in kinds)]
-        fix = (
-            f"leave them out, or choose integrator: {usable[0]}"
-            if usable
-            else "leave them out (no error-controlled integrator steps reaction wheels; a "
-            "smaller dt or more substeps make a fixed step more accurate)"
-        )
-        raise FieldError(
-            given[0],
-            f"integrator {self.integrator!r} takes fixed steps; rtol and atol set the error "
-            f"control of {', '.join(repr(n) for n in controlled)}",
-            fix,
-        )
+        if usable:
+            problem = (
+                f"integrator {self.integrator!r} takes fixed steps; rtol and atol set the error "
+                f"control of {', '.join(repr(n) for n in usable)}"
+            )
+            fix = f"leave them out, or choose integrator: {usable[0]}"
+        else:  # name no integrator that this scene's actuators refuse
+            refusing = [k.name for k in kinds if not any(k.accepts(n) for n in controlled)]
+            problem = (
+                f"integrator {self.integrator!r} takes fixed steps, and no error-controlled "
+                f"integrator steps this scene's {', '.join(refusing) or 'actuators'}"
+            )
+            fix = "leave them out (a smaller dt or more substeps make a fixed step more accurate)"
+        raise FieldError(given[0], problem, fix)
 
     # ---- derived ---------------------------------------------------------------------------
     @cached_property

@@ -23,9 +23,10 @@ import datetime as _dt
 import math
 from typing import Annotated, Literal
 
-from pydantic import Field, model_validator
+from pydantic import BeforeValidator, Field, model_validator
 
-from rigid_env.config_files import FieldError
+from rigid_env import knobs
+from rigid_env.config_files import FieldError, describe
 from rigid_env.core.igrf import MAX_DEGREE
 from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, kepler_orbit
 from rigid_env.core.orbit_state import OrbitMotion
@@ -33,6 +34,40 @@ from rigid_env.scene_sections import Quantity, Spec
 
 Angle = Annotated[float, Field(ge=-360, le=360, allow_inf_nan=False), Quantity("deg")]
 Metres = Annotated[float, Field(gt=0, le=1.0e9, allow_inf_nan=False), Quantity("m")]
+EPOCH_YEARS = (1900.0, 2100.0)
+"""The decimal years an epoch may be given as."""
+_EPOCH_FIX = "write a decimal year (2025.0) or a UTC date-time (2025-01-01T00:00:00Z)"
+
+
+def _epoch(value: object) -> _dt.datetime | float:
+    """An epoch as a datetime or a decimal year: a number is a year (never seconds since
+    1970, which pydantic would make of it), text a date-time in ISO 8601 only."""
+    value = knobs.plain_tree(value)
+    if isinstance(value, _dt.datetime):
+        return value
+    if isinstance(value, _dt.date):  # YAML's 2025-01-01: midnight UTC
+        return _dt.datetime(value.year, value.month, value.day, tzinfo=_dt.timezone.utc)
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        low, high = EPOCH_YEARS
+        if not (math.isfinite(value) and low <= value <= high):
+            raise ValueError(
+                f"a decimal year lies in [{low:g}, {high:g}], got {value!r}; {_EPOCH_FIX}"
+            )
+        return float(value)
+    if isinstance(value, str):
+        try:
+            return _dt.datetime.fromisoformat(value.strip().replace("Z", "+00:00"))
+        except ValueError:
+            pass
+        try:
+            float(value)
+        except ValueError:
+            pass
+        else:
+            raise ValueError(
+                f"a year is a number, got the string {value!r}; write it without quotes"
+            )
+    raise ValueError(f"expected a decimal year or a date-time, got {describe(value)}; {_EPOCH_FIX}")
 
 
 class FieldSpec(Spec):
@@ -70,7 +105,7 @@ class OrbitSceneSpec(Spec):
     axis is ``R + altitude`` (a low orbit: 4e5 to 8e5). Give this or ``semi_major_axis``."""
     semi_major_axis: Metres | None = None
     """Or the semi-major axis [m]."""
-    eccentricity: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False)] = 0.0
+    eccentricity: Annotated[float, Field(ge=0, lt=1, allow_inf_nan=False), Quantity("")] = 0.0
     """Eccentricity, in [0, 1)."""
     inclination: Annotated[float, Field(ge=0, le=180, allow_inf_nan=False), Quantity("deg")]
     """Inclination to the equator [deg], 0 to 180 (polar: 90; sun-synchronous at 500 km:
@@ -81,9 +116,9 @@ class OrbitSceneSpec(Spec):
     """Argument of perigee at the epoch [deg]."""
     mean_anomaly: Angle = 0.0
     """Mean anomaly at the epoch [deg]."""
-    j2: bool = False
+    j2: knobs.Flag = False
     """J2's secular drift of the node, the perigee and the mean motion."""
-    epoch: _dt.datetime | Annotated[float, Field(ge=1900, le=2100, allow_inf_nan=False)] = 2025.0
+    epoch: Annotated[_dt.datetime | float, BeforeValidator(_epoch)] = 2025.0
     """The UTC instant the clock counts from: a decimal year or a date-time; with a field,
     inside the IGRF-14 table (1900.0 to 2030.0)."""
 

@@ -51,6 +51,7 @@ from rigid_env.core.effects import (
 from rigid_env.core.geomagnetic import CircularOrbit, OrbitField
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.layout import MAX_WHEELS
+from rigid_env.knobs import Flag
 
 # |q| of initial.orientation may differ from 1 by this much (rounding of hand-typed decimals
 # such as 0.7071) and is then normalised; a larger difference is a typo, reported as an error.
@@ -729,7 +730,7 @@ class ReactionWheelsSpec(Spec):
     """Coulomb bearing friction ``-coulomb sign(Omega)`` [N m]."""
     speeds: tuple[Rate, ...] = ()
     """Each wheel's speed relative to the body at the start [rad/s]; none: at rest."""
-    pre_fix_law: bool = False
+    pre_fix_law: Flag = False
     """The wheel law before issue 44 (the speed limit checked at a stage's start, so a step may
     carry a wheel past it; Coulomb friction's sign read at each stage, so it may reverse a wheel):
     kept only for WheelPointing-v0's bit-for-bit history (its scene sets it); leave it out."""

@@ -43,8 +43,8 @@ class BodyModel:
     """True when every body has three equal moments (no gyroscopic term)."""
 
     def __post_init__(self) -> None:
-        mass = np.atleast_1d(np.asarray(self.mass, dtype=np.float64)).reshape(-1)
-        inertia = np.atleast_2d(np.asarray(self.inertia, dtype=np.float64))
+        mass = np.atleast_1d(_floats(self.mass, "mass", "(N,) masses [kg]")).reshape(-1)
+        inertia = np.atleast_2d(_floats(self.inertia, "inertia", "(N, 3) principal moments"))
         if inertia.shape[-1] != 3 or inertia.ndim != 2:
             raise ValueError(
                 f"inertia: expected shape (N, 3) principal moments, got {inertia.shape}"
@@ -92,9 +92,27 @@ class BodyModel:
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:
         """One body's mass [kg] and principal moments (3,) [kg m^2], shared by the whole batch."""
-        return cls(
-            np.array([mass], dtype=np.float64), np.asarray(inertia, dtype=np.float64)[None, :]
-        )
+        moments = _floats(inertia, "inertia", "(3,) principal moments [kg m^2]")
+        if moments.shape != (3,):
+            raise ValueError(
+                f"inertia: expected shape (3,) principal moments [kg m^2], got {moments.shape}"
+            )
+        mass = _floats(mass, "mass", "one mass [kg]")
+        if mass.shape != ():
+            raise ValueError(f"mass: expected one mass [kg], got shape {mass.shape}")
+        return cls(mass.reshape(1), moments[None, :])
+
+
+def _floats(value: ArrayLike, name: str, expected: str) -> FloatArray:
+    """``value`` as float64, or a one-line ValueError naming ``name`` (text, None, a ragged
+    list or a bool array are no numbers)."""
+    try:
+        out = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected {expected} as numbers, got {value!r}") from None
+    if np.asarray(value).dtype.kind == "b":
+        raise ValueError(f"{name}: expected {expected} as numbers, got booleans {value!r}")
+    return out
 
 
 @dataclass

@@ -481,13 +481,7 @@ class World:
         if e is None:
             raise ValueError("wheel speeds: this world has no reaction_wheels")
         k = e.axes.shape[0]
-        try:
-            chosen = np.arange(self._n)[bodies]
-        except (IndexError, TypeError, ValueError):
-            raise ValueError(
-                f"bodies: {bodies!r} is no index, slice or mask of this world's {self._n} "
-                f"bodies (indices 0 to {self._n - 1})"
-            ) from None
+        chosen = self._chosen(bodies)
         try:
             omega = np.asarray(speed, dtype=np.float64)
         except (TypeError, ValueError):
@@ -540,7 +534,7 @@ class World:
         The step writes it into ``x`` after each substep."""
         if self._motion is None:
             return None
-        rows = self.orbit_rows[bodies].reshape(-1, ORBIT_WIDTH)
+        rows = self.orbit_rows[self._chosen(bodies)].reshape(-1, ORBIT_WIDTH)
         out = np.empty((rows.shape[0], 3))
         for i, row in enumerate(rows):
             orbit = Orbit(*row[1:10].tolist(), self._motion.orbit.mu)
@@ -556,7 +550,7 @@ class World:
         if isinstance(bodies, slice) and bodies == slice(None):
             index = self._every_body  # (the common case, per step: no index to build)
         else:
-            index = np.ascontiguousarray(np.arange(self._n)[bodies], dtype=np.int64).reshape(-1)
+            index = np.ascontiguousarray(self._chosen(bodies), dtype=np.int64).reshape(-1)
         out = np.empty((index.size, 3))
         fields_at_clocks(self.params, self._cols, index, out)
         return out
@@ -692,6 +686,17 @@ class World:
         self._status[:] = 0
         self.step_count = 0
 
+    def _chosen(self, bodies: Any) -> NDArray[np.int64]:
+        """The indices ``bodies`` (an index, a slice or a mask of the N) picks, or a one-line
+        ValueError naming ``bodies`` (every method that takes ``bodies`` reads it here)."""
+        try:
+            return np.arange(self._n)[bodies]
+        except (IndexError, TypeError, ValueError):
+            raise ValueError(
+                f"bodies: {bodies!r} is no index, slice or mask of this world's {self._n} "
+                f"bodies (indices 0 to {self._n - 1})"
+            ) from None
+
     def restart(self, bodies: Any) -> None:
         """Clear what the ``bodies`` (an index, or a mask, of the N) carry from one step to the
         next besides their state, as :meth:`reset` does for all: the thrusters' lagging levels
@@ -702,13 +707,7 @@ class World:
         Raises:
             ValueError: for an index out of range or a mask of the wrong length.
         """
-        try:
-            np.arange(self._n)[bodies]
-        except (IndexError, TypeError, ValueError):
-            raise ValueError(
-                f"bodies: {bodies!r} is no index or mask of this world's {self._n} bodies "
-                f"(indices 0 to {self._n - 1})"
-            ) from None
+        self._chosen(bodies)
         self._cols[STATE_WIDTH:, bodies] = 0.0
         if self._wheels is not None:  # the wheels at their initial speeds (a scene's speeds)
             self.set_wheel_speed(self.initial_wheel_speed, bodies)

@@ -1,0 +1,133 @@
+"""Cases of the round-four audit (issue 44) that were silent, raw or unclear, each now a one-line
+error naming the field and the fix, or the value taken as the number it holds (the audit:
+/work/notes/audit44.py, outside the suite)."""
+
+from __future__ import annotations
+
+import datetime as dt
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+
+from rigid_env.core import BodyModel
+from rigid_env.scene import SceneError, load_scene
+
+SCENES = Path(__file__).resolve().parents[2] / "configs" / "scenes"
+
+
+def _orbit_scene(**orbit: object) -> dict:
+    data = yaml.safe_load((SCENES / "wheel_pointing_orbit.yaml").read_text())
+    data["orbit"] = {**data["orbit"], **orbit}
+    return data
+
+
+def _one_line(exc: pytest.ExceptionInfo, *words: str) -> str:
+    msg = str(exc.value)
+    assert "\n" not in msg, msg
+    for word in words:
+        assert word in msg, (word, msg)
+    return msg
+
+
+@pytest.mark.parametrize(
+    ("value", "words"),
+    [
+        (1800, ("orbit.epoch", "[1900, 2100]", "1800")),  # pydantic took it for 1970-01-01
+        ("2025.0", ("orbit.epoch", "without quotes")),  # ... and this for 1970 + 2025 s
+        ("next year", ("orbit.epoch", "2025-01-01T00:00:00Z")),
+        (True, ("orbit.epoch", "boolean")),
+        (float("nan"), ("orbit.epoch", "nan")),
+    ],
+)
+def test_an_epoch_is_a_year_or_a_date_time_never_seconds_since_1970(value, words) -> None:
+    with pytest.raises(SceneError) as exc:
+        load_scene(_orbit_scene(epoch=value))
+    _one_line(exc, *words)
+
+
+@pytest.mark.parametrize(
+    ("value", "expected"),
+    [
+        (np.float64(2025.5), 2025.5),
+        ("2025-03-01T12:00:00Z", dt.datetime(2025, 3, 1, 12, tzinfo=dt.timezone.utc)),
+        (dt.date(2025, 3, 1), dt.datetime(2025, 3, 1, tzinfo=dt.timezone.utc)),
+    ],
+)
+def test_an_epoch_is_read_as_written(value, expected) -> None:
+    assert load_scene(_orbit_scene(epoch=value)).orbit.epoch == expected
+
+
+@pytest.mark.parametrize("value", ["yes", 1, "true"])
+def test_j2_is_true_or_false_only(value) -> None:
+    with pytest.raises(SceneError) as exc:
+        load_scene(_orbit_scene(j2=value))
+    _one_line(exc, "orbit.j2", "true or false")
+
+
+def test_j2_takes_a_numpy_bool() -> None:
+    assert load_scene(_orbit_scene(j2=np.bool_(True))).orbit.j2 is True
+
+
+def test_eccentricity_in_quotes_is_not_a_number() -> None:
+    with pytest.raises(SceneError) as exc:
+        load_scene(_orbit_scene(eccentricity="0.01"))
+    _one_line(exc, "orbit.eccentricity", "without quotes")
+
+
+def test_pre_fix_law_is_true_or_false_only() -> None:
+    data = yaml.safe_load((SCENES / "wheel_pointing.yaml").read_text())
+    data["actuators"]["reaction_wheels"]["pre_fix_law"] = "no"
+    with pytest.raises(SceneError) as exc:
+        load_scene(data)
+    _one_line(exc, "pre_fix_law", "true or false")
+
+
+def test_tolerances_on_a_wheel_world_name_no_integrator_that_refuses_wheels() -> None:
+    """rk4 with rtol on a scene of reaction wheels: dop853 (error-controlled) refuses wheels,
+    so the message must not send the user there."""
+    scene = load_scene(SCENES / "wheel_pointing_orbit.yaml")
+    with pytest.raises(SceneError) as exc:
+        scene.replace(rtol=1e-6)
+    msg = _one_line(exc, "rtol", "reaction_wheels", "leave them out")
+    assert "dop853" not in msg
+
+
+@pytest.mark.parametrize("method", ["orbit_position", "orbit_field"])
+@pytest.mark.parametrize("bodies", [5, "x", np.array([True, False, True])])
+def test_orbit_methods_name_bodies(method, bodies) -> None:
+    world = load_scene(SCENES / "wheel_pointing_orbit.yaml").build_world(2)
+    with pytest.raises(ValueError) as exc:
+        getattr(world, method)(bodies)
+    _one_line(exc, "bodies", "indices 0 to 1")
+
+
+def test_orbit_methods_take_an_index_a_list_and_a_numpy_integer() -> None:
+    world = load_scene(SCENES / "wheel_pointing_orbit.yaml").build_world(2)
+    every = world.orbit_position()
+    np.testing.assert_array_equal(world.orbit_position(np.int64(1)), every[1:])
+    np.testing.assert_array_equal(world.orbit_field([1, 0]), world.orbit_field()[::-1])
+
+
+@pytest.mark.parametrize(
+    ("mass", "inertia", "words"),
+    [
+        (1.0, "abc", ("inertia", "(3,)", "'abc'")),
+        (1.0, np.float64(1.0), ("inertia", "shape (3,)", "()")),
+        (1.0, [1.0, 2.0], ("inertia", "shape (3,)", "(2,)")),
+        (1.0, [True, True, True], ("inertia", "booleans")),
+        ("1 kg", [1.0, 2.0, 3.0], ("mass", "'1 kg'")),
+        ([1.0, 2.0], [1.0, 2.0, 3.0], ("mass", "one mass")),
+    ],
+)
+def test_body_model_single_refuses_in_one_line(mass, inertia, words) -> None:
+    with pytest.raises(ValueError) as exc:
+        BodyModel.single(mass, inertia)
+    _one_line(exc, *words)
+
+
+def test_body_model_single_takes_numpy_scalars_as_their_numbers() -> None:
+    model = BodyModel.single(np.float32(2.0), np.array([1, 2, 3], np.int64))
+    assert model.mass.tolist() == [2.0]
+    assert model.inertia.tolist() == [[1.0, 2.0, 3.0]]
