@@ -431,7 +431,26 @@ def _cmd_simulate(args: argparse.Namespace, extra: list[str]) -> int:
     wall = time.perf_counter() - start
     _write_npz(out, arrays)
     print(_summary(scene.name, world, arrays, wall, out))
+    _note_past_limit(scene, world, arrays)
     return 0
+
+
+def _note_past_limit(scene: Any, world: Any, arrays: dict[str, Any]) -> None:
+    """One stderr line where a wheel ran past its max_speed: only the law before issue 44 lets
+    it (``pre_fix_law``, kept for WheelPointing-v0's history), and the run says so."""
+    if "wheel_speed" not in arrays or world.wheels is None:
+        return
+    top = np.max(np.abs(arrays["wheel_speed"]), axis=0)
+    past = np.flatnonzero(top > world.wheels.max_speed * (1.0 + 1e-12))
+    if past.size:
+        k = int(past[np.argmax(top[past] - world.wheels.max_speed[past])])
+        print(
+            f"{PROG}: note: wheel {k} reached {top[k]:.6g} rad/s, beyond its max_speed "
+            f"{world.wheels.max_speed[k]:g}: {scene.name} sets reaction_wheels.pre_fix_law: "
+            "true (the law before issue 44, kept for WheelPointing-v0's history); leave it out "
+            "for a limit that holds within each step",
+            file=sys.stderr,
+        )
 
 
 class _Progress:

@@ -51,6 +51,8 @@ def number(name: str, value: Any, *, integer: bool = False) -> float:
     Raises:
         ValueError: one line naming the field, the value and what it must be.
     """
+    if isinstance(value, np.ndarray) and value.ndim == 0:  # a 0-d array: the number it holds
+        value = value[()]
     whole = isinstance(value, numbers.Integral) or (
         isinstance(value, numbers.Real) and float(value).is_integer()
     )
@@ -81,14 +83,15 @@ def check_tolerances(
     if not get_integrator(integrator).error_control:
         given = [k for k, v in (("rtol", rtol), ("atol", atol)) if v is not None]
         if given:
-            fix = (  # the error-controlled integrator refuses wheels: not a fix for them
-                "leave them out: no error-controlled integrator steps reaction wheels"
-                if wheels
-                else "leave them out, or choose integrator 'dop853'"
-            )
+            if wheels:  # the error-controlled integrator refuses wheels: not a fix for them
+                raise ValueError(
+                    f"{given[0]}: integrator {integrator!r} takes fixed steps, and no "
+                    "error-controlled integrator steps reaction wheels; leave rtol and atol out "
+                    "(more substeps make a fixed step more accurate)"
+                )
             raise ValueError(
                 f"{given[0]}: integrator {integrator!r} takes fixed steps; rtol and atol set the "
-                f"error control of 'dop853' ({fix})"
+                "error control of 'dop853' (leave them out, or choose integrator 'dop853')"
             )
         return None
     rtol = DEFAULT_RTOL if rtol is None else number("rtol", rtol)

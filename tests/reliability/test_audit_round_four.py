@@ -131,3 +131,46 @@ def test_body_model_single_takes_numpy_scalars_as_their_numbers() -> None:
     model = BodyModel.single(np.float32(2.0), np.array([1, 2, 3], np.int64))
     assert model.mass.tolist() == [2.0]
     assert model.inertia.tolist() == [[1.0, 2.0, 3.0]]
+
+
+def test_simulate_says_when_a_wheel_runs_past_its_limit_under_the_old_law(tmp_path, capsys) -> None:
+    """wheel_pointing.yaml keeps the law before issue 44 (WheelPointing-v0's history): full
+    torque takes a wheel past 628 rad/s within a step (629.04 at 100 steps); the run says so in
+    one stderr line. The orbit scene, on the exact law, stays within it and says nothing."""
+    from rigid_env.cli import main
+
+    for name, past in (("wheel_pointing", True), ("wheel_pointing_orbit", False)):
+        out = tmp_path / f"{name}.npz"
+        argv = ["simulate", str(SCENES / f"{name}.yaml"), "--steps", "100", "--action",
+                "0,0,0,1,1,1", "--out", str(out)]  # fmt: skip
+        assert main(argv) == 0
+        err = capsys.readouterr().err.strip()
+        top = np.abs(np.load(out)["wheel_speed"]).max()
+        if past:
+            assert top > 628.0
+            assert len(err.splitlines()) == 1, err
+            assert "pre_fix_law" in err and "max_speed 628" in err, err
+        else:
+            assert top <= 628.0
+            assert err == ""
+
+
+def test_a_zero_d_array_counts_as_the_number_it_holds() -> None:
+    """``np.array(0.02)`` (what ``np.asarray`` of a number gives) is a number for dt, as a
+    NumPy scalar is; a (1,) array is not."""
+    from rigid_env.core import World
+
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), "rk4", np.array(0.01))
+    assert world.dt == 0.01
+    assert world.with_settings(dt=np.array(0.02), substeps=np.array(3)).substeps == 3
+    with pytest.raises(ValueError) as exc:
+        world.with_settings(dt=np.array([0.02]))
+    _one_line(exc, "dt", "a number")
+
+
+def test_tolerances_on_a_wheel_world_object_name_no_integrator_that_refuses_wheels() -> None:
+    world = load_scene(SCENES / "wheel_pointing_orbit.yaml").build_world()
+    with pytest.raises(ValueError) as exc:
+        world.with_settings(rtol=1e-6)
+    msg = _one_line(exc, "rtol", "reaction wheels", "substeps")
+    assert "dop853" not in msg
