@@ -24,7 +24,6 @@ TESTS_CLASS = {
 NAMES_ONE = {
     "rigid_env/bench/peers_cases.py",  # scenes written as dicts
     "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
-    "rigid_env/core/effects.py",  # the specs' scene keys (name = "thrusters", ...)
     "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
     "rigid_env/envs/__init__.py",  # the "thrusters" preset keyword of the envs
     "rigid_env/envs/batch.py",  # the same keyword, read
