@@ -32,7 +32,8 @@ from rigid_env.envs.hardware import (
     apply_faults,
     draw_fault,
     misaligned,
-    with_preset,
+    preset_keywords,
+    with_presets,
 )
 from rigid_env.envs.orbit_draws import place_on_orbit
 from rigid_env.envs.params import (
@@ -189,11 +190,11 @@ class TaskBatch:
         variant it was made as (``DetumbleFaults-v0``)."""
         settings, self.params = parse_kwargs(self.params_model, self.name, kwargs)
         self.settings: EnvSettings = settings
-        self.scene: Scene = with_preset(
+        self.scene: Scene = with_presets(  # each actuator's hardware preset, by its keyword
             load_scene(
                 settings.scene if settings.scene is not None else scene_path(self.version_scene())
             ),
-            settings.thrusters,
+            {keyword: getattr(settings, keyword) for keyword in preset_keywords()},
             settings.dt if isinstance(settings.dt, int | float) and settings.dt > 0 else None,
         )
         self.world = self._build_world()

@@ -22,9 +22,7 @@ NAMES_ONE = {
     "rigid_env/bench/peers_cases.py",  # scenes written as dicts
     "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
     "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
-    "rigid_env/envs/__init__.py",  # the "thrusters" preset keyword of the envs
-    "rigid_env/envs/batch.py",  # the same keyword, read
-    "rigid_env/envs/hardware.py",  # the "thrusters" preset, rewriting the scene's thrusters
+    "rigid_env/envs/__init__.py",  # a variant's registered kwargs (registering imports no core)
     "rigid_env/scene_sections.py",  # the sections themselves and the wheels/hardware rule
 }
 """Files that still name an actuator (a string or an attribute of its scene key)."""
