@@ -23,7 +23,6 @@ NAMES_ONE = {
     "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
     "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
     "rigid_env/envs/__init__.py",  # a variant's registered kwargs (registering imports no core)
-    "rigid_env/scene_sections.py",  # the sections themselves and the wheels/hardware rule
 }
 """Files that still name an actuator (a string or an attribute of its scene key)."""
 
