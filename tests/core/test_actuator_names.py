@@ -19,7 +19,6 @@ OWN = ("rigid_env/core/actuator.py", "rigid_env/core/actuators/")
 TESTS_CLASS: set[str] = set()
 """Files that still ``isinstance`` an actuator class."""
 NAMES_ONE = {
-    "rigid_env/bench/peers_cases.py",  # scenes written as dicts
     "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
     "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
     "rigid_env/envs/__init__.py",  # a variant's registered kwargs (registering imports no core)
