@@ -22,8 +22,11 @@ from rigid_env.core.actuator import fuel_per_unit, specs
 from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.batch_actions import Actions, as_num_envs
+from rigid_env.envs.batch_actions import as_actions as as_actions  # (re-exported: its old home)
 from rigid_env.envs.batch_infos import Infos
+from rigid_env.envs.batch_observations import PERIOD_BOUND as PERIOD_BOUND  # (re-exported)
 from rigid_env.envs.batch_observations import Observations
+from rigid_env.envs.batch_resets import WORLD_STARTS as WORLD_STARTS  # (re-exported)
 from rigid_env.envs.batch_resets import Resets
 from rigid_env.envs.batch_view import RenderViews
 from rigid_env.envs.hardware import (
