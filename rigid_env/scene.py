@@ -179,7 +179,7 @@ class Scene(Spec):
     def _derive(self) -> Scene:
         _ = self._frame  # the mass properties are computed (and checked) when loading
         self.effects_spec.check(self)
-        self.actuators.check(self.dt)
+        self.actuators.check(self)
         for kind in self._actuator_kinds():
             if not kind.accepts(self.integrator):
                 steps = [name for name in INTEGRATORS if kind.accepts(name)]

@@ -33,6 +33,7 @@ from rigid_env.config_files import FieldError, number, vector
 from rigid_env.core import inertia as mass_props
 from rigid_env.core.actuator import actuators as registered_actuators
 from rigid_env.core.actuator import kernel as named_object
+from rigid_env.core.actuator import named
 from rigid_env.core.actuators.couple import ThrusterCouples
 from rigid_env.core.effects import (
     AngularDamping,
@@ -842,26 +843,25 @@ class ActuatorsSpec(Spec):
         whole scene, for its frame)."""
         return [self.actuator_of(v, scene) for _, v in self.listed()]
 
-    def check(self, dt: float) -> None:
-        """Rules that involve the scene's step ``dt`` [s]: a minimum impulse bit a firing of one
-        step can reach (``max_force dt``); raise :class:`FieldError` naming the thruster
-        (``actuators.thrusters[k].<field>``)."""
-        for k, t in enumerate(self.thrusters):
-            hardware = t.lag > 0 or t.min_impulse > 0 or t.mode == "on_off" or t.noise > 0
-            if hardware and self.reaction_wheels is not None:
-                raise FieldError(
-                    f"actuators.thrusters[{k}]",
-                    "has a hardware model (lag, min_impulse, on_off or noise), which does not "
-                    "step with reaction wheels",
-                    "make the thrusters ideal or leave reaction_wheels out",
-                )
-            if t.min_impulse > t.max_force * dt:
-                raise FieldError(
-                    f"actuators.thrusters[{k}].min_impulse",
-                    f"{t.min_impulse:g} N s is above the most the thruster gives in one step "
-                    f"(max_force dt = {t.max_force * dt:g} N s)",
-                    "lower it, raise max_force or lengthen dt",
-                )
+    def check(self, scene: Any) -> None:
+        """The rules between a listed section and the scene's step or the other listed
+        sections, each declared once by its actuator (:mod:`rigid_env.core.actuator`): its
+        per-component table's ``check`` (a minimum impulse bit a firing of one step can reach,
+        ``max_force dt``) and its ``check_world`` (the wheels refuse thrusters with hardware),
+        on the core specs of the whole ``scene``; raise :class:`FieldError` naming
+        ``actuators.<section>``."""
+        built = [(key, named(key), self.actuator_of(v, scene)) for key, v in self.listed()]
+        for key, kind, spec in built:
+            try:
+                if kind.table is not None and kind.table.needed(spec):
+                    kind.table.check(spec, scene.dt)
+                if kind.check_world is not None:
+                    kind.check_world([(k, s) for other, k, s in built if other != key])
+            except ValueError as exc:  # "<where>: <problem>; <fix>", where below actuators
+                where, colon, said = str(exc).partition(": ")
+                where, said = (where, said) if colon else (key, str(exc))
+                problem, _, fix = said.rpartition("; ")
+                raise FieldError(f"actuators.{where}", problem or said, fix) from None
 
 
 def _with_outside_sections(base: type[ActuatorsSpec]) -> type[ActuatorsSpec]:

@@ -30,6 +30,7 @@ from Basilisk.utilities import (
 from rigid_env.bench.timing import Case as Timed
 from rigid_env.bench.timing import measure
 from rigid_env.core import igrf
+from rigid_env.core.actuator import kinds, sets_dipole, stores_momentum
 from rigid_env.core.atmosphere import air_velocity
 from rigid_env.core.facets import drag_wrench, facets, srp_wrench
 from rigid_env.core.geomagnetic import (
@@ -232,7 +233,10 @@ def coils(cases: Sequence[Case]) -> Agreement:
         "integrator": "rk4",
         "body": {"mass": float(scene.body.mass), "inertia": inertia},
         "initial": {"position": [6.878e6, 0.0, 0.0]},
-        "actuators": {"magnetorquers": {"max_dipole": 0.35, "field": [0.0, 0.0, 3.0e-5]}},
+        # the coils: the actuator whose command sets a dipole (Basilisk's MtbEffector's peer)
+        "actuators": {
+            kinds(sets_dipole)[0].name: {"max_dipole": 0.35, "field": [0.0, 0.0, 3.0e-5]}
+        },
     }
     world = load_scene(spec).build_world()
     dipole = TiltedDipole.igrf2020()
@@ -409,8 +413,8 @@ def wheel_world(n: int = 1):
         "integrator": "rk4",
         "body": {"mass": float(scene.body.mass), "inertia": [float(x) for x in scene.inertia]},
         "initial": {"position": [6.878e6, 0.0, 0.0]},
-        "actuators": {
-            "reaction_wheels": {
+        "actuators": {  # the wheels: the actuator whose state holds angular momentum
+            kinds(stores_momentum)[0].name: {
                 "inertia": WHEEL_INERTIA,
                 "max_torque": WHEEL_MAX_TORQUE,
                 "max_speed": 628.0,

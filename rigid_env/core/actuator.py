@@ -43,8 +43,8 @@ Adding an actuator (the checklist; the manual's page ``docs/extending/actuator.m
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from functools import cache
 from typing import Any
 
@@ -152,6 +152,8 @@ class Actuator:
             Python statement of its guard bound, which the generic tests hold it to.
         torque_at: ``(spec, u (K,), field) -> (3,)`` the external body-frame torque [N m] at
             the command ``u`` (the generic momentum law).
+        full_scale: ``spec -> (K,)`` each component's size at ``|u| = 1``, in
+            :attr:`Command.unit` (a thruster's force, a coil's dipole, a motor's torque).
         fuel: ``spec -> (K,)`` what one component spends per second at ``|u| = 1``, in
             :attr:`fuel_unit` per second (thrusters: their force, an impulse rate [N]).
         fuel_unit: the unit of the spent total (``"N s"``, ``"A m^2 s"``).
@@ -176,6 +178,10 @@ class Actuator:
             directions turned by ``tilt`` (``(K, 3) -> (K, 3)``, a misalignment drawn by the
             env), or None: nothing of it tilts.
         fails: whether a unit of it may fail for an episode (the envs' faults).
+        presets: the hardware presets that the env keyword of its :attr:`name` picks
+            (``thrusters="realistic"``), ``{preset: (unit section, control step dt [s]) ->
+            {key: value} of that unit's scene section to set}``, None: as the scene says; the
+            first is the keyword's default. Empty: no such keyword.
     """
 
     name: str
@@ -195,6 +201,7 @@ class Actuator:
     torque_bound: Callable | None = None
     bound: Callable[[Any, Any], tuple[float, float]] | None = None
     torque_at: Callable[[Any, FloatArray, Any], FloatArray] | None = None
+    full_scale: Callable[[Any], FloatArray] = lambda spec: np.linalg.norm(spec.force_map, axis=1)
     fuel: Callable[[Any], FloatArray] = _no_fuel
     fuel_unit: str = "N s"
     draw: Callable[[Any], tuple[FloatArray, FloatArray]] = _points
@@ -209,6 +216,9 @@ class Actuator:
     why_not: Callable[[str], str] = lambda integrator: "it does not"
     tilted: Callable[[Any, Callable], tuple[FloatArray, FloatArray]] | None = None
     fails: bool = False
+    presets: Mapping[str, Callable[[Any, float], dict[str, Any]] | None] = field(
+        default_factory=dict
+    )
 
 
 def plugin_modules() -> list[str]:
@@ -265,6 +275,29 @@ def where(effects: Sequence[Any], test: Callable[[Actuator], bool]) -> list[Any]
     """The actuator specs among ``effects`` whose declaration passes ``test`` (a part chosen
     by what it does, ``lambda a: a.world_input == "field"``, never by its class)."""
     return [spec for a, spec in listed(effects) if test(a)]
+
+
+def kinds(test: Callable[[Actuator], bool]) -> list[Actuator]:
+    """The registered declarations that pass ``test`` (a kind of part chosen by what it does,
+    ``lambda a: a.command.quantity == "dipole"``), in command order: for a layer that names
+    what it needs of a scene that may lack it (``f"actuators.{kind.name}"``)."""
+    return [a for a in actuators() if test(a)]
+
+
+def preset_keywords(preset: str) -> dict[str, str]:
+    """The env keywords that pick the hardware preset ``preset`` of every actuator offering it
+    (:attr:`Actuator.presets`), each set to it: ``{"thrusters": "realistic"}``."""
+    return {a.name: preset for a in actuators() if preset in a.presets}
+
+
+def sets_dipole(kind: Actuator) -> bool:
+    """Whether ``kind``'s command sets a magnetic dipole (the coils)."""
+    return kind.command.quantity == "dipole"
+
+
+def stores_momentum(kind: Actuator) -> bool:
+    """Whether ``kind``'s state rows hold angular momentum (the wheels)."""
+    return kind.internal_momentum is not None
 
 
 def component_column(effects: Sequence[Any], record: type, name: str) -> FloatArray:

@@ -15,23 +15,18 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from dataclasses import field as dataclass_field
 from typing import ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
 
-from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.inertia import checked_floats
 from rigid_env.core.layout import (
     EFFECTS,
     MAPS,
-    MAX_WHEELS,
-    WHEEL_WIDTH,
     Params,
-    Thruster,
 )
-from rigid_env.core.rotation import cross, quat_rotate_inv
+from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.core.state import BodyModel, State
 
 FloatArray = NDArray[np.float64]
@@ -289,262 +284,17 @@ class LinearActuator(ForceEffect):
         return {}
 
 
-@dataclass(frozen=True)
-class Thrusters(LinearActuator):
-    """Thrusters: thruster ``k`` pushes along ``directions[k]`` at ``points[k]`` (body frame) with
-    force ``u_k * max_force[k]``, ``u_k`` in [-1, 1], ideal unless given a hardware model
-    (:mod:`rigid_env.core.thrusters`; each array may be left out: all ideal).
+def __getattr__(name: str) -> type:
+    """A registered actuator's spec class by its name (``Thrusters``, ``Magnetorquers``, ...),
+    defined in its own module of :mod:`rigid_env.core.actuators`; ``from
+    rigid_env.core.effects import Thrusters`` keeps working."""
+    if not name.startswith("__"):  # (the import machinery asks for dunders: not actuators)
+        from rigid_env.core.actuator import actuators
 
-    Attributes:
-        points: (K, 3) application points, body frame, relative to the centre of mass [m].
-        directions: (K, 3) thrust directions, body frame (normalised here).
-        max_force: (K,) force at ``|u| = 1`` [N].
-        lag: (K,) time constant ``TAU`` of ``df/dt = (u f_max - f) / TAU`` [s], 0: none.
-        min_impulse: (K,) minimum impulse bit [N s]: a firing whose commanded impulse over a
-            world step is below it gives none, 0: none.
-        on_off: (K,) pulse-width firing: ``|u|`` (at most 1) is the fraction of the world step
-            fired at full thrust from its start, along ``sign(u) direction``.
-        noise: (K,) ``SIGMA`` of the multiplicative thrust factor drawn per world step outside
-            the core (:meth:`rigid_env.core.world.World.draw_thrust_factors`), 0: none.
-    """
-
-    points: FloatArray
-    directions: FloatArray
-    max_force: FloatArray
-    lag: FloatArray | None = None
-    min_impulse: FloatArray | None = None
-    on_off: NDArray[np.bool_] | None = None
-    noise: FloatArray | None = None
-    name: ClassVar[str] = "thrusters"
-    force_map: FloatArray = field(init=False, repr=False)
-    torque_map: FloatArray = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        points = np.asarray(self.points, dtype=np.float64).reshape(-1, 3)
-        dirs = np.asarray(self.directions, dtype=np.float64).reshape(-1, 3)
-        fmax = np.broadcast_to(np.asarray(self.max_force, dtype=np.float64), (points.shape[0],))
-        if dirs.shape != points.shape:
-            raise ValueError(f"thrusters: {points.shape[0]} points but {dirs.shape[0]} directions")
-        for name, arr in (("point", points), ("direction", dirs), ("max_force", fmax)):
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"thrusters.{name}: every number must be finite")
-        norms = np.linalg.norm(dirs, axis=1)
-        if np.any(norms == 0.0):
-            k = int(np.argmin(norms))
-            raise ValueError(f"thrusters[{k}].direction: is zero; give a non-zero direction vector")
-        if np.any(fmax < 0.0):
-            raise ValueError("thrusters.max_force: must be >= 0 [N]")
-        dirs = dirs / norms[:, None]
-        fmap = dirs * fmax[:, None]
-        k = points.shape[0]
-        for name in ("lag", "min_impulse", "noise"):
-            given = getattr(self, name)
-            arr = np.zeros(k) if given is None else np.asarray(given, dtype=np.float64)
-            arr = np.broadcast_to(arr, (k,)).copy()
-            bad = np.flatnonzero(~(np.isfinite(arr) & (arr >= 0.0)))
-            if bad.size:
-                j = int(bad[0])
-                raise ValueError(
-                    f"thrusters[{j}].{name}: must be a finite number >= 0, got {arr[j]} (0 or "
-                    "left out: ideal)"
-                )
-            object.__setattr__(self, name, arr)
-        on_off = np.zeros(k, bool) if self.on_off is None else np.asarray(self.on_off, bool)
-        object.__setattr__(self, "on_off", np.broadcast_to(on_off, (k,)).copy())
-        object.__setattr__(self, "points", points)
-        object.__setattr__(self, "directions", dirs)
-        object.__setattr__(self, "max_force", fmax.copy())
-        object.__setattr__(self, "force_map", fmap)
-        object.__setattr__(self, "torque_map", cross(points, fmap))
-
-    @property
-    def hardware(self) -> bool:
-        """Whether some thruster is not ideal (then the world step is the hardware's)."""
-        arrays = (self.lag, self.min_impulse, self.on_off, self.noise)
-        return bool(any(np.any(a != 0) for a in arrays))
-
-    def check_step(self, dt: float) -> None:
-        """Refuse a minimum impulse bit no firing of ``dt`` [s] reaches: ``max_force dt``.
-
-        Raises:
-            ValueError: naming the thruster, the field and the fix.
-        """
-        over = np.flatnonzero(self.min_impulse > self.max_force * dt)
-        if over.size:
-            j = int(over[0])
-            raise ValueError(
-                f"thrusters[{j}].min_impulse: {self.min_impulse[j]:g} N s is above the most the "
-                f"thruster gives in one step, max_force dt = {self.max_force[j] * dt:g} N s; "
-                "lower it or lengthen dt"
-            )
-
-    def hardware_rows(self) -> FloatArray:
-        """(K, THRUSTER_WIDTH) each thruster's :class:`rigid_env.core.layout.Thruster` row."""
-        inv_lag = np.divide(1.0, self.lag, out=np.zeros_like(self.lag), where=self.lag > 0.0)
-        named = {
-            "max_force": self.max_force,
-            "inv_lag": inv_lag,
-            "min_impulse": self.min_impulse,
-            "on_off": self.on_off.astype(np.float64),
-            "noise": self.noise,
-        }
-        return np.stack([named[f] for f in Thruster._fields], axis=1)
-
-
-@dataclass(frozen=True)
-class PointForces(LinearActuator):
-    """General mode: a free 3-D body-frame force at each of ``K`` body points. The command has
-    ``3 K`` components ``(fx_0, fy_0, fz_0, fx_1, ...)`` in [-1, 1], scaled by ``max_force``.
-
-    Attributes:
-        points: (K, 3) application points, body frame, relative to the centre of mass [m].
-        max_force: force per component at ``|u| = 1`` [N].
-    """
-
-    points: FloatArray
-    max_force: float = 1.0
-    name: ClassVar[str] = "point_forces"
-    force_map: FloatArray = field(init=False, repr=False)
-    torque_map: FloatArray = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        points = np.asarray(self.points, dtype=np.float64).reshape(-1, 3)
-        if not np.all(np.isfinite(points)):
-            raise ValueError("point_forces.points: every number must be finite")
-        if not (np.isfinite(self.max_force) and self.max_force >= 0.0):
-            raise ValueError(
-                f"point_forces.max_force: must be finite and >= 0, got {self.max_force}"
-            )
-        k = points.shape[0]
-        # Row 3k + j is a unit force along body axis j at point k.
-        fmap = np.tile(np.eye(3), (k, 1)) * float(self.max_force)
-        tmap = cross(np.repeat(points, 3, axis=0), fmap)
-        object.__setattr__(self, "points", points)
-        object.__setattr__(self, "force_map", fmap)
-        object.__setattr__(self, "torque_map", tmap)
-
-
-@dataclass(frozen=True)
-class Magnetorquers(LinearActuator):
-    """Magnetorquers: coil ``k`` makes the magnetic dipole ``u_k max_dipole[k] axes[k]`` (body
-    frame), ``u_k`` in [-1, 1]; with the body's residual dipole ``m_res`` the torque is ``tau_body
-    = m_b x R^T B`` in the field ``B`` (world frame) each body's command carries
-    (:attr:`rigid_env.core.world.World.magnetic_field`, held over a world step). No force: a
-    uniform field pushes no dipole. The torque lies across the field, so a field that does not
-    turn (relative to the body) leaves one axis uncontrolled: magnetorquers act over an orbit.
-
-    Attributes:
-        max_dipole: (K,) or one dipole at ``|u| = 1`` [A m^2] (a CubeSat's: about 0.2 to 1).
-        axes: (K, 3) each coil's axis, body frame (normalised here); default the body axes.
-        residual: (3,) the body's own dipole, body frame [A m^2] (a disturbance).
-        field: (3,) the field each body starts with, world frame [T].
-        orbit: or the Earth's field along an orbit, which the world then sets before each
-            step at the step's middle (:class:`rigid_env.core.geomagnetic.OrbitField`); None:
-            the field stays as set.
-    """
-
-    max_dipole: FloatArray | float = 0.35
-    axes: FloatArray = field(default_factory=lambda: np.eye(3))
-    residual: FloatArray = field(default_factory=lambda: np.zeros(3))
-    field: FloatArray = field(default_factory=lambda: np.array([0.0, 0.0, 3.0e-5]))
-    orbit: OrbitField | None = None
-    name: ClassVar[str] = "magnetorquers"
-    force_map: FloatArray = dataclass_field(init=False, repr=False)
-    torque_map: FloatArray = dataclass_field(init=False, repr=False)
-    dipole_map: FloatArray = dataclass_field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        axes = _unit_axes("magnetorquers.axes", self.axes, "a list of K >= 1", "coil's axis")
-        k = axes.shape[0]
-        moment = _per_unit("magnetorquers.max_dipole", self.max_dipole, k, "dipole", "coil",
-                           ("A m^2", False))  # fmt: skip
-        if self.orbit is not None and not isinstance(self.orbit, OrbitField):
-            raise TypeError(
-                f"magnetorquers.orbit: expected an OrbitField (rigid_env.core.geomagnetic), got "
-                f"{type(self.orbit).__name__}"
-            )
-        if self.orbit is not None:
-            object.__setattr__(self, "field", self.orbit.at(0.0))
-        for name in ("residual", "field"):
-            value = checked_floats(f"magnetorquers.{name}", getattr(self, name), (3,))
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "axes", axes)
-        object.__setattr__(self, "max_dipole", moment)
-        object.__setattr__(self, "force_map", np.zeros((k, 3)))
-        object.__setattr__(self, "torque_map", np.zeros((k, 3)))
-        object.__setattr__(self, "dipole_map", self.axes * moment[:, None])
-
-    def parameters(self) -> dict[str, float]:
-        """The flag and the residual dipole; the coils' rows go after the maps (:func:`pack`)."""
-        axes = ("residual_dipole_x", "residual_dipole_y", "residual_dipole_z")
-        return {"magnetorquers": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
-
-
-@dataclass(frozen=True)
-class ReactionWheels(LinearActuator):
-    """Reaction wheels (:mod:`rigid_env.core.wheels`): wheel ``k`` spins about the body axis
-    ``axes[k]``; command component ``u_k`` in [-1, 1] drives it with the motor torque ``u_k
-    max_torque[k]``, none beyond ``max_speed[k]``, against the bearing's friction ``-viscous
-    Omega - coulomb sign(Omega)``. The body feels ``-sum_k a_k h_k'`` and ``-w x h``: momentum
-    moves between body and wheels, the total stays. No force, no torque map: the wheels' torque
-    is internal, evaluated in the dynamics at every stage.
-
-    Attributes:
-        axes: (K, 3) each wheel's spin axis, body frame (normalised here), 1 to 4 wheels.
-        inertia: (K,) or one axial inertia ``J`` [kg m^2] (a CubeSat's: 1e-6 to 1e-4).
-        max_torque: (K,) or one motor torque at ``|u| = 1`` [N m] (a CubeSat's: 1e-3 to 1e-2).
-        max_speed: (K,) or one speed limit relative to the body [rad/s] (6000 rpm: 628).
-        viscous: (K,) or one viscous friction coefficient [N m s/rad], >= 0.
-        coulomb: (K,) or one Coulomb friction torque [N m], >= 0.
-        pre_fix: True: the law before issue 44 (a stage's start cuts the motor at the speed
-            limit, friction's sign read at each stage), kept only for WheelPointing-v0's
-            bit-for-bit history; False (the default): the limit and friction laws that hold
-            inside a step (:func:`rigid_env.core.wheels.wheel_laws`).
-    """
-
-    axes: FloatArray = field(default_factory=lambda: np.eye(3))
-    inertia: FloatArray | float = 1.0e-5
-    max_torque: FloatArray | float = 2.0e-3
-    max_speed: FloatArray | float = 628.0
-    viscous: FloatArray | float = 0.0
-    coulomb: FloatArray | float = 0.0
-    pre_fix: bool = False
-    name: ClassVar[str] = "reaction_wheels"
-    force_map: FloatArray = dataclass_field(init=False, repr=False)
-    torque_map: FloatArray = dataclass_field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        most = MAX_WHEELS
-        axes = _unit_axes(
-            "reaction_wheels.axes", self.axes, f"1 to {most}", "wheel's spin axis", most
-        )
-        k = axes.shape[0]
-        object.__setattr__(self, "axes", axes)
-        for name, unit, positive in (
-            ("inertia", "kg m^2", True), ("max_torque", "N m", False),
-            ("max_speed", "rad/s", True), ("viscous", "N m s/rad", False),
-            ("coulomb", "N m", False),
-        ):  # fmt: skip
-            value = _per_unit(f"reaction_wheels.{name}", getattr(self, name), k, "value", "wheel",
-                              (unit, positive))  # fmt: skip
-            object.__setattr__(self, name, value)
-        object.__setattr__(self, "force_map", np.zeros((k, 3)))
-        object.__setattr__(self, "torque_map", np.zeros((k, 3)))
-
-    def rows(self, first: int) -> FloatArray:
-        """(K, WHEEL_WIDTH) the wheels' rows of the parameters, their command components
-        ``first``, ``first + 1``, ..."""
-        out = np.column_stack([
-            self.axes, self.inertia, self.max_torque, self.max_speed, self.viscous, self.coulomb,
-            first + np.arange(self.axes.shape[0], dtype=np.float64),
-            np.full(self.axes.shape[0], 1.0 if self.pre_fix else 0.0),
-        ])  # fmt: skip
-        assert out.shape[1] == WHEEL_WIDTH
-        return out
-
-    def parameters(self) -> dict[str, float]:
-        """The wheels' flag and count; their rows go last in the parameters (:func:`pack`)."""
-        return {"wheels": 1.0, "wheel_count": float(self.axes.shape[0])}
+        for a in actuators():
+            if a.spec.__name__ == name:
+                return a.spec
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _unit_axes(where: str, value: object, count: str, item: str, most: float = math.inf):

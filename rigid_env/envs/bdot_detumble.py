@@ -10,7 +10,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from pydantic import model_validator
 
-from rigid_env.core.effects import Magnetorquers
+from rigid_env.core.actuator import Actuator, kinds, listed, sets_dipole
 from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.maths import rotate_inv
 from rigid_env.core.rotation import quat_rotate_inv
@@ -192,43 +192,49 @@ class BdotDetumbleTask(TaskBatch):
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
-        coils = [e for e in self.world.force_effects if isinstance(e, Magnetorquers)]
+        coils = [(a, spec) for a, spec in listed(self.world.force_effects) if sets_dipole(a)]
         on_orbit = self.world.orbit_field(slice(0, 0)) is not None  # the field is world state
-        if not coils or (coils[0].orbit is None and not on_orbit):
+        if not coils or (self.world.orbit is None and not on_orbit):
+            name = kinds(sets_dipole)[0].name
             raise ValueError(
                 "scene: BdotDetumble needs magnetorquers on an orbit (the scene's orbit: and "
-                "field: sections, or actuators.magnetorquers: {max_dipole: A m^2, orbit: "
+                f"field: sections, or actuators.{name}: {{max_dipole: A m^2, orbit: "
                 "{altitude: m, inclination: deg}}); this scene has "
                 + ("a constant field" if coils else "no magnetorquers")
             )
-        self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
-        """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the
+        self.orbit: OrbitField | None = None if on_orbit else self.world.orbit
+        """The orbit the coils' field follows (a scene's coils' ``orbit``), or None where the
         orbit is world state (the scene's ``orbit:`` and ``field:``: v2)."""
         if self.params.command == "torque":
             self._to_commands, self._unit_dipole = torque_command_map(coils, self.action_dim)
 
 
-def torque_command_map(coils: list[Magnetorquers], action_dim: int) -> tuple[np.ndarray, float]:
+def torque_command_map(
+    coils: list[tuple[Actuator, Any]], action_dim: int
+) -> tuple[np.ndarray, float]:
     """For ``command="torque"``: the (3, 3) map from a body-frame dipole to the coils'
-    commands, and the smallest coil's limit [A m^2] (the dipole of a unit wanted torque).
+    commands, and the smallest coil's limit [A m^2] (the dipole of a unit wanted torque), from
+    the coils' ``(declaration, spec)``: their per-unit rows (each coil's dipole at ``|u| = 1``,
+    body frame) and their :attr:`~rigid_env.core.actuator.Actuator.full_scale`.
 
     Raises:
         ValueError: the actions are not three coils' alone, or the coils' axes do not span
             space (no dipole map to invert).
     """
-    coil_map = coils[0].dipole_map  # (K, 3): each coil's dipole at |u| = 1
+    kind, spec = coils[0]
+    coil_map = np.asarray(kind.unit_rows(spec, 0))  # (K, 3): each coil's dipole at |u| = 1
     if len(coils) != 1 or coil_map.shape[0] != 3 or action_dim != 3:
         raise ValueError(
             f"command: 'torque' needs the actions to be three coils' alone (this scene has "
-            f"{action_dim} action components); give actuators.magnetorquers three axes and no "
+            f"{action_dim} action components); give actuators.{kind.name} three axes and no "
             "other actuator, or use command='dipole'"
         )
     if np.linalg.cond(coil_map) > 1.0e8:
         raise ValueError(
             "command: 'torque' needs coil axes that span space (these lie in a plane); give "
-            "actuators.magnetorquers three independent axes, or use command='dipole'"
+            f"actuators.{kind.name} three independent axes, or use command='dipole'"
         )
-    return np.linalg.inv(coil_map), float(np.min(coils[0].max_dipole))
+    return np.linalg.inv(coil_map), float(np.min(kind.full_scale(spec)))
 
 
 class BdotDetumbleEnv(RigidBodyEnv):

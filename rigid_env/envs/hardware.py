@@ -1,24 +1,8 @@
-"""Thruster hardware for the tasks: the presets of the ``thrusters`` keyword, and the per-episode
-draws of the randomisation keys ``thruster_misalignment`` and ``thruster_faults`` (each from the
-generator it is given, an env's own).
-
-The ``realistic`` preset models a small cold-gas attitude thruster (a gas fed through a
-solenoid valve fired on/off); the numbers are per thruster, relative to the scene's
-``max_force`` where they scale with it. What each rests on:
-
-* ``mode: on_off``: cold-gas thruster valves are opened and shut, in pairs for a torque, and the
-  systems are used for pulsing (Brown, *Elements of Spacecraft Design*, AIAA 2002, Secs. 4.3 and
-  4.8); attitude control modulates the pulse width (pulse-width pulse-frequency modulation:
-  Wie, *Space Vehicle Dynamics and Control*, AIAA 1998; Sidi, *Spacecraft Dynamics and Control*,
-  Cambridge 1997).
-* ``min_impulse``: a minimum on-time of 10 ms, ``max_force * 0.01 s`` (1 mN s at the 0.1 N of
-  the shipped scenes). VACCO's MiPS cold-gas system (isobutane) lists a minimum pulse duration
-  of 0.01 s and a minimum impulse bit of 0.55 mN s at 55 mN of thrust (Osiander, Darrin and
-  Champion, eds., *MEMS and Microstructures in Aerospace Applications*, CRC 2006, Ch. 11,
-  Table 11.8).
-* ``lag: 0.01`` s (the thrust's rise and decay) and ``noise: 0.05`` (thrust repeatability per
-  pulse): typical values, not verified against a datasheet; no source found gives a cold-gas
-  valve's thrust time constant or its pulse-to-pulse scatter.
+"""Actuator hardware for the tasks: the presets that an actuator's env keyword picks
+(``thrusters="realistic"``: each preset declared by its actuator,
+:attr:`rigid_env.core.actuator.Actuator.presets`), and the per-episode draws of the
+randomisation keys ``thruster_misalignment`` and ``thruster_faults`` (each from the generator it
+is given, an env's own).
 
 A fault (:class:`Fault`) acts on the command an env sends: stuck off (0), stuck on at a level
 (the valve held at that command whatever is sent) or degraded to a fraction of the command.
@@ -36,20 +20,12 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from rigid_env import knobs
 from rigid_env.config_files import vector
-from rigid_env.core.actuator import declaration
+from rigid_env.core.actuator import declaration, kinds, named
 from rigid_env.core.layout import Thruster
 from rigid_env.scene import Scene
 
 FloatArray = NDArray[np.float64]
 
-PRESETS = ("ideal", "realistic")
-"""The values of the tasks' ``thrusters`` keyword."""
-REALISTIC_LAG = 0.01
-"""Time constant of the thrust's rise and decay [s]."""
-REALISTIC_MIN_ON_TIME = 0.01
-"""Shortest valve opening [s]: the minimum impulse bit is ``max_force`` times it."""
-REALISTIC_NOISE = 0.05
-"""Relative standard deviation of the thrust per step."""
 FaultKind = Literal["stuck_off", "stuck_on", "degraded"]
 FAULT_KINDS: tuple[FaultKind, ...] = ("stuck_off", "stuck_on", "degraded")
 FAULT_ROW = np.dtype(
@@ -62,39 +38,51 @@ NO_FAULT = (-1, -1, -1, 0.0)
 """The :data:`FAULT_ROW` of an env without a fault."""
 
 
-def with_preset(scene: Scene, preset: str, dt: float | None = None) -> Scene:
-    """``scene`` with its thrusters' hardware set by ``preset`` (``ideal``: as the scene says;
-    ``realistic``: the module's cold-gas values, the minimum on-time capped at the control step
-    ``dt`` [s], default the scene's).
+def preset_keywords() -> list[str]:
+    """The env keywords that pick an actuator's hardware preset: the names of the actuators
+    that declare presets (:attr:`rigid_env.core.actuator.Actuator.presets`)."""
+    return [a.name for a in kinds(lambda a: bool(a.presets))]
+
+
+def with_presets(scene: Scene, chosen: dict[str, str], dt: float | None = None) -> Scene:
+    """``scene`` with each ``{keyword: preset}`` of ``chosen`` applied (:func:`with_preset`)."""
+    for keyword, preset in chosen.items():
+        scene = with_preset(scene, preset, dt, keyword)
+    return scene
+
+
+def with_preset(
+    scene: Scene, preset: str, dt: float | None = None, keyword: str | None = None
+) -> Scene:
+    """``scene`` with the hardware of the actuator that ``keyword`` names (default the one
+    actuator that declares presets) set by its declared ``preset`` (the first, e.g.
+    ``ideal``: as the scene says), each unit's section updated by the preset at the control
+    step ``dt`` [s], default the scene's.
 
     Raises:
-        ValueError: for an unknown preset, naming the keyword and the choices, or a
-            ``realistic`` preset for a scene without thrusters.
+        ValueError: for an unknown preset, naming the keyword and the choices, or a preset
+            for a scene without that actuator.
     """
-    if preset not in PRESETS:
-        choices = ", ".join(PRESETS)
-        raise ValueError(f"thrusters: unknown preset {preset!r}; choose one of {choices}")
-    if preset == "ideal":
+    kind = named(keyword if keyword is not None else preset_keywords()[0])
+    if preset not in kind.presets:
+        choices = ", ".join(kind.presets)
+        raise ValueError(f"{kind.name}: unknown preset {preset!r}; choose one of {choices}")
+    rule = kind.presets[preset]
+    if rule is None:
         return scene
-    if not scene.actuators.thrusters:
+    section = getattr(scene.actuators, kind.name)
+    if not section:
         raise ValueError(
-            f"thrusters: {preset!r} models the scene's thrusters, and scene {scene.name!r} has "
-            "none (point forces are ideal forces with no hardware); use thrusters='ideal', or "
-            "give the scene actuators.thrusters"
+            f"{kind.name}: {preset!r} models the scene's {kind.noun}s, and scene {scene.name!r} "
+            f"has none (point forces are ideal forces with no hardware); use "
+            f"{kind.name}={next(iter(kind.presets))!r}, or give the scene actuators.{kind.name}"
         )
-    on_time = min(REALISTIC_MIN_ON_TIME, scene.dt if dt is None else float(dt))
-    thrusters = [
-        t.model_copy(
-            update={
-                "mode": "on_off",
-                "lag": REALISTIC_LAG,
-                "min_impulse": t.max_force * on_time,
-                "noise": REALISTIC_NOISE,
-            }
-        )
-        for t in scene.actuators.thrusters
-    ]
-    actuators = scene.actuators.model_copy(update={"thrusters": tuple(thrusters)})
+    step = scene.dt if dt is None else float(dt)
+    if isinstance(section, tuple):
+        section = tuple(unit.model_copy(update=rule(unit, step)) for unit in section)
+    else:
+        section = section.model_copy(update=rule(section, step))
+    actuators = scene.actuators.model_copy(update={kind.name: section})
     return scene.model_copy(update={"actuators": actuators})
 
 

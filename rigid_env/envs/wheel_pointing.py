@@ -9,7 +9,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rigid_env.core.effects import Magnetorquers, ReactionWheels
+from rigid_env.core.actuator import kinds, sets_dipole, stores_momentum, where
 from rigid_env.core.geomagnetic import OrbitField
 from rigid_env.core.maths import quat_mul, rotate_inv
 from rigid_env.core.rotation import canonical as canonical_quat
@@ -131,7 +131,7 @@ class WheelPointingTask(TaskBatch):
     def sample(self, rng: np.random.Generator):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         target = canonical_quat(random_quaternion(rng))
-        k = self.wheels.axes.shape[0]
+        k = self.wheels.action_dim
         speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
         if self.orbit is None:  # v1: the orbit phase and the Earth's angle, each uniform
             start = np.array(draw_orbit_start(rng))
@@ -177,28 +177,28 @@ class WheelPointingTask(TaskBatch):
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
-        effects = self.world.force_effects
-        wheels = [e for e in effects if isinstance(e, ReactionWheels)]
-        coils = [e for e in effects if isinstance(e, Magnetorquers)]
+        coils = where(self.world.force_effects, sets_dipole)
         on_orbit = self.world.orbit_field(slice(0, 0)) is not None  # the field is world state
+        wheels = self.world.wheels  # the actuator whose momenta are state (its declaration's)
         if (
-            len(wheels) != 1
-            or wheels[0].axes.shape[0] != 3
+            wheels is None
+            or wheels.action_dim != 3
             or not coils
-            or not (coils[0].orbit or on_orbit)
+            or not (self.world.orbit or on_orbit)
         ):
+            wheel_kind, coil_kind = kinds(stores_momentum)[0], kinds(sets_dipole)[0]
             raise ValueError(
-                "scene: WheelPointing needs three reaction wheels (actuators.reaction_wheels "
+                f"scene: WheelPointing needs three reaction wheels (actuators.{wheel_kind.name} "
                 "with three axes) and magnetorquers on an orbit (the scene's orbit: and field: "
-                "sections, or actuators.magnetorquers: {max_dipole: A m^2, orbit: {altitude: m, "
-                "inclination: deg}})"
+                f"sections, or actuators.{coil_kind.name}: {{max_dipole: A m^2, orbit: "
+                "{altitude: m, inclination: deg}})"
             )
-        self.wheels: ReactionWheels = wheels[0]
-        """The scene's wheels."""
+        self.wheels = wheels
+        """The scene's wheels (their spec: axes, inertia, limits)."""
         self.capacity = float(self.numbers["capacity"][0])
         """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
-        self.orbit: OrbitField | None = None if on_orbit else coils[0].orbit
-        """The orbit the coils' field follows (a scene's magnetorquers.orbit), or None where the
+        self.orbit: OrbitField | None = None if on_orbit else self.world.orbit
+        """The orbit the coils' field follows (a scene's coils' ``orbit``), or None where the
         orbit is world state (the scene's ``orbit:`` and ``field:``: v1)."""
         self.position = self.scene.initial_state(1).x[0]
         """Where the body stays [m] (v0's scene: the gravity gradient's distance); from v1 the

@@ -16,22 +16,12 @@ ROOT = Path(__file__).resolve().parents[2]
 OWN = ("rigid_env/core/actuator.py", "rigid_env/core/actuators/")
 """The actuator modules, where the classes and names belong."""
 
-TESTS_CLASS = {
-    "rigid_env/envs/bdot_detumble.py",  # its coils on an orbit (the orbit's work is beside it)
-    "rigid_env/envs/wheel_pointing.py",  # its wheels and coils
-}
+TESTS_CLASS: set[str] = set()
 """Files that still ``isinstance`` an actuator class."""
 NAMES_ONE = {
-    "rigid_env/bench/peers_cases.py",  # scenes written as dicts
     "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
-    "rigid_env/core/effects.py",  # the specs' scene keys (name = "thrusters", ...)
     "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
-    "rigid_env/envs/__init__.py",  # the "thrusters" preset keyword of the envs
-    "rigid_env/envs/batch.py",  # the same keyword, read
-    "rigid_env/envs/bdot_detumble.py",
-    "rigid_env/envs/hardware.py",  # the "thrusters" preset, rewriting the scene's thrusters
-    "rigid_env/envs/wheel_pointing.py",
-    "rigid_env/scene_sections.py",  # the sections themselves and the wheels/hardware rule
+    "rigid_env/envs/__init__.py",  # a variant's registered kwargs (registering imports no core)
 }
 """Files that still name an actuator (a string or an attribute of its scene key)."""
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from pydantic import ValidationError
 
+from rigid_env.core.actuators.thrusters import REALISTIC_LAG
 from rigid_env.envs.hardware import (
     FAULT_ROW,
     NO_FAULT,
-    REALISTIC_LAG,
     Fault,
     ThrusterFaults,
     apply_faults,

@@ -145,7 +145,7 @@ def test_frame_draws_the_delivered_thrust() -> None:
     in a step without command; the other thrusters show none."""
     import math
 
-    from rigid_env.envs.hardware import REALISTIC_LAG
+    from rigid_env.core.actuators.thrusters import REALISTIC_LAG
 
     env = gym.make("RigidEnv/Detumble-v0", thrusters="realistic")
     env.reset(seed=0)

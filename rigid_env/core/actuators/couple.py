@@ -121,6 +121,7 @@ COUPLES = Actuator(
     section="rigid_env.scene_sections:ThrusterCoupleSpec",
     bound=map_bound,
     torque_at=map_torque,
+    full_scale=lambda spec: spec.max_force,
     # both thrusters fire: 2 |u| max_force of impulse per second
     fuel=lambda spec: 2.0 * spec.max_force,
     fuel_unit="N s",

@@ -1,0 +1,168 @@
+"""A task batch's resets: where an episode's world starts by name (:data:`WORLD_STARTS`), the
+envs' new episodes and their randomisation (mass properties, thrust, misalignment, faults)
+(:class:`Resets`, a part of :class:`rigid_env.envs.batch.TaskBatch`)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rigid_env.core.actuator import listed
+from rigid_env.core.layout import MAPS
+from rigid_env.core.state import BodyModel
+from rigid_env.core.world import World
+from rigid_env.envs.hardware import (
+    NO_FAULT,
+    draw_fault,
+    misaligned,
+)
+from rigid_env.envs.orbit_draws import place_on_orbit
+from rigid_env.envs.sampling import (
+    mass_property_draws,
+    random_mass_properties,
+    random_thrust,
+)
+
+FloatArray = NDArray[np.float64]
+
+
+def _start_orbit_time(world: World, rows: NDArray[np.int64], t: FloatArray) -> None:
+    world.orbit_time[rows] = t
+
+
+def _start_wheel_speed(world: World, rows: NDArray[np.int64], speed: FloatArray) -> None:
+    world.set_wheel_speed(speed, rows)
+
+
+WORLD_STARTS: dict[str, Callable[[World, NDArray[np.int64], FloatArray], None]] = {
+    "orbit_time": _start_orbit_time,
+    "orbit_start": place_on_orbit,
+    "wheel_speed": _start_wheel_speed,
+}
+"""Where an episode's world starts, by name, as a task's :meth:`TaskBatch.sample` may draw it:
+``orbit_time`` the time along the orbit [s] (K,); ``orbit_start`` the orbit phase and the
+Earth's rotation angle at the epoch [rad] (K, 2) where the orbit is world state
+(:func:`rigid_env.envs.orbit_draws.place_on_orbit`); ``wheel_speed`` each wheel's speed
+relative to the body [rad/s] (K, wheels)."""
+
+
+class Resets:
+    """The part of :class:`~rigid_env.envs.batch.TaskBatch` this module names (its attributes
+    are the batch's)."""
+
+    def reset_envs(
+        self, idx: Sequence[int] | NDArray[np.int64], rngs: Sequence[np.random.Generator]
+    ) -> None:
+        """Start new episodes for envs ``idx``, each drawing from ``rngs[k]`` (one per index),
+        and observe them (:attr:`obs` rows ``idx``; sensor noise from the same generators)."""
+        idx = np.asarray(idx, dtype=np.int64)
+        s = self.world.state
+        draws = []
+        r = self.randomization
+        randomized = r.physical or r.thrust > 0.0 or r.hardware or r.drawn_repeat
+        # Each env draws its initial state, then its episode's randomisation, from its own
+        # generator: all the envs' states, then all their randomisations (the draws of many at
+        # once), unless envs share a generator: then env by env, in order.
+        shared = randomized and len({id(g) for g in rngs}) < len(rngs)
+        groups = [[k] for k in range(idx.size)] if shared else [list(range(idx.size))]
+        for group in groups:
+            for k in group:
+                draws.append(self.sample(rngs[k]))
+                if np.shape(draws[-1][4]) != (self.target_dim,):
+                    raise ValueError(
+                        f"{type(self).__name__}.sample: drew a target of shape "
+                        f"{np.shape(draws[-1][4])}, the task declares target_dim = "
+                        f"{self.target_dim}; return a target of target_dim numbers (or declare "
+                        "its size in target_dim)"
+                    )
+            if randomized and group:
+                self._randomize(idx[group], [rngs[k] for k in group])
+        if randomized and self.randomization.physical and idx.size:
+            model = self.world.model  # each body's mass properties drawn above, set at once
+            self.world.set_model(BodyModel(model.mass, model.inertia))
+        self.world.restart(idx)  # valves closed, dop853 from its own first guess
+        if draws:
+            x, v, q, w, target = (np.array(c) for c in zip(*(d[:5] for d in draws), strict=True))
+            s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
+            if self.target_dim:
+                self.target[idx, : self.target_dim] = target
+            if len(draws[0]) > 5:
+                for name in draws[0][5]:
+                    WORLD_STARTS[name](self.world, idx, np.array([d[5][name] for d in draws]))
+        self.steps[idx] = 0
+        self.record[idx] = 0
+        self.last_action[idx] = 0.0
+        self.command[idx] = 0.0
+        self.world.failed[idx] = False
+        if idx.size == 0:
+            return
+        self._own_obs(keep=True)  # rows idx are written below, the others kept
+        self._read_world(idx, reset=True)
+        if self._draws:
+            self.streams.follow(rngs, idx)
+        self._pass_rows(idx, stepped=False)
+        self._observe_period(idx)
+        if self.sensors is not None:
+            self.sensors.reset(self, idx, rngs)
+
+    def _randomize(self, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
+        """The episode draws of the envs ``rows`` (``rngs``: their generators, one each): their
+        mass properties and thrust scales from their uniform draws (all the envs' in one
+        compiled pass), then env by env their thrusters' misalignment, fault and control
+        period."""
+        r = self.randomization
+        physical = mass_property_draws(r)
+        thrust = self.action_dim if r.thrust > 0.0 else 0
+        if physical + thrust:
+            self.streams.follow(rngs, rows)
+            u = self.streams.randoms(rows, physical + thrust)
+        if r.physical:
+            if self.world.model.n == 1:  # first randomised reset: give every body its own copy
+                self.world.set_model(
+                    BodyModel(
+                        np.repeat(self.base_model.mass, self.n),
+                        np.repeat(self.base_model.inertia, self.n, axis=0),
+                    )
+                )
+            mass, inertia = random_mass_properties(
+                u[:, :physical], r, self.base_model.mass[0], self.base_model.inertia[0]
+            )
+            model = self.world.model  # set in the world by reset_envs, once for all its envs
+            model.mass[rows] = mass
+            model.inertia[rows] = inertia
+        if thrust:
+            if self.thrust_scale is None:  # first randomised reset: scales, and a command apart
+                self.thrust_scale = np.ones((self.n, self.action_dim))
+                self.command = self.last_action * self.thrust_scale
+            self.thrust_scale[rows] = random_thrust(u[:, physical:], r)
+        if not (r.hardware or r.drawn_repeat):
+            return
+        for i, rng in zip(rows.tolist(), rngs, strict=True):
+            if r.thruster_misalignment > 0.0:
+                self._misalign(i, rng, r.thruster_misalignment)
+            if r.thruster_faults is not None:
+                fault = draw_fault(rng, r.thruster_faults, self.action_dim)
+                self.fault_rows[i] = NO_FAULT if fault is None else fault.row
+            if r.drawn_repeat:
+                choices = r.action_repeat
+                self.repeats[i] = choices[int(rng.integers(len(choices)))]
+
+    def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
+        """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""
+        if self.world.body_maps is None:  # first misaligned reset: every body its own maps
+            maps = np.broadcast_to(
+                self.world.params[MAPS : MAPS + 6 * self.action_dim].reshape(-1, 6),
+                (self.n, self.action_dim, 6),
+            )
+            self.world.set_body_maps(maps[:, :, :3], maps[:, :, 3:])
+        maps = self.world.body_maps
+        k = 0
+        for a, spec in listed(self.world.force_effects):
+            rows = spec.action_dim
+            if a.tilted is not None:  # its directions turned, as it declares
+                force, torque = a.tilted(spec, lambda d: misaligned(d, rng, degrees))
+                maps[i, k : k + rows, :3] = force
+                maps[i, k : k + rows, 3:] = torque
+            k += rows
