@@ -174,3 +174,41 @@ def test_tolerances_on_a_wheel_world_object_name_no_integrator_that_refuses_whee
         world.with_settings(rtol=1e-6)
     msg = _one_line(exc, "rtol", "reaction wheels", "substeps")
     assert "dop853" not in msg
+
+
+OUTSIDE_MODULES = {
+    "declares_nothing": "X = 1\n",
+    "raises_on_import": "raise RuntimeError('boom at import')\n",
+    "broken_syntax": "def oops(:\n",
+}
+
+
+@pytest.mark.parametrize("var", ["RIGID_ENV_ACTUATORS", "RIGID_ENV_EFFECTS", "RIGID_ENV_SENSORS"])
+@pytest.mark.parametrize("module", ["no_such_module_xyz", *OUTSIDE_MODULES])
+def test_an_outside_module_that_does_not_load_is_one_line_naming_the_variable(
+    tmp_path, var, module
+) -> None:
+    """In Python, the registry's error names the variable, the module and why (the module's own
+    error chained beneath); our commands print that one line and no traceback."""
+    import os
+    import subprocess
+    import sys
+
+    for name, text in OUTSIDE_MODULES.items():
+        (tmp_path / name).with_suffix(".py").write_text(text)
+    env = os.environ | {var: module, "PYTHONPATH": str(tmp_path)}
+    make = "import gymnasium as gym, rigid_env; gym.make('RigidEnv/Detumble-v0').reset(seed=0)"
+    lib = subprocess.run([sys.executable, "-c", make], env=env, capture_output=True, text=True,
+                         timeout=600, check=False)  # fmt: skip
+    assert lib.returncode != 0
+    last = lib.stderr.strip().splitlines()[-1]
+    assert var in last and module in last, last
+    if var == "RIGID_ENV_SENSORS":  # read when an env is made, not by the command line's import
+        return
+    rigid_env = Path(sys.executable).with_name("rigid-env")
+    cmd = [str(rigid_env), "simulate", str(SCENES / "detumble.yaml"), "--steps", "1", "--out",
+           str(tmp_path / "o.npz")]  # fmt: skip
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600, check=False)
+    assert run.returncode != 0
+    assert "Traceback" not in run.stderr
+    assert run.stderr.count("\n") == 1 and run.stderr.startswith("rigid-env: error: " + var)
