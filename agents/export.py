@@ -102,6 +102,10 @@ def export_onnx(model_path: Path, out: Path, force: bool = False) -> Path:
     """
     import onnx
 
+    if out.is_dir() and not out.is_symlink():  # --force would not replace a folder
+        raise ExportError(
+            f"{out}: is a folder; give the ONNX file's name, such as {out / 'policy.onnx'}"
+        )
     if (out.exists() or out.is_symlink()) and not force:
         raise ExportError(f"{out}: exists; pass --force to replace it, or choose another path")
     if out.is_dir():

@@ -212,3 +212,18 @@ def test_an_outside_module_that_does_not_load_is_one_line_naming_the_variable(
     assert run.returncode != 0
     assert "Traceback" not in run.stderr
     assert run.stderr.count("\n") == 1 and run.stderr.startswith("rigid-env: error: " + var)
+
+
+def test_export_onto_a_folder_asks_for_a_file_name_not_force(tmp_path, capsys) -> None:
+    """``rigid-env export MODEL --onnx DIR``: before, "exists; pass --force to replace it", and
+    --force cannot replace a folder; now one line asking for a file name in it."""
+    pytest.importorskip("onnx")
+    from rigid_env.cli import main
+
+    model = Path(__file__).resolve().parents[2] / "agents" / "pretrained" / "ppo_detumble.zip"
+    for force in ([], ["--force"]):
+        assert main(["export", str(model), "--onnx", str(tmp_path), *force]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "is a folder" in err and "policy.onnx" in err, err
+        assert "--force" not in err
+    assert tmp_path.is_dir()
