@@ -227,3 +227,24 @@ def test_export_onto_a_folder_asks_for_a_file_name_not_force(tmp_path, capsys) -
         assert err.count("\n") == 1 and "is a folder" in err and "policy.onnx" in err, err
         assert "--force" not in err
     assert tmp_path.is_dir()
+
+
+def test_export_never_writes_over_its_own_model(tmp_path, capsys) -> None:
+    """``rigid-env export M --onnx M --force`` replaced the policy by its ONNX export (the
+    audit lost agents/pretrained/ppo_detumble.zip that way); now refused, the files intact."""
+    pytest.importorskip("onnx")
+    import shutil
+
+    from rigid_env.cli import main
+
+    pre = Path(__file__).resolve().parents[2] / "agents" / "pretrained"
+    for name in ("ppo_detumble.zip", "ppo_detumble.json", "ppo_detumble_vecnormalize.pkl"):
+        shutil.copy(pre / name, tmp_path / name)
+    model = tmp_path / "ppo_detumble.zip"
+    for target in ("ppo_detumble.zip", "ppo_detumble.json", "ppo_detumble_vecnormalize.pkl"):
+        before = (tmp_path / target).read_bytes()
+        argv = ["export", str(model), "--onnx", str(tmp_path / target), "--force"]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "model's own file" in err, err
+        assert (tmp_path / target).read_bytes() == before
