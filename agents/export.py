@@ -102,6 +102,18 @@ def export_onnx(model_path: Path, out: Path, force: bool = False) -> Path:
     """
     import onnx
 
+    companions = [model_path, model_path.with_suffix(".json")]
+    companions += list(model_path.parent.glob(f"{model_path.stem}*vecnormalize*.pkl"))
+    if out.exists() and any(p.exists() and out.samefile(p) for p in companions):
+        raise ExportError(  # --force would replace the policy (or its companion) by its export
+            f"{out}: is the model's own file ({model_path.name} or its sidecar/statistics); "
+            "give the ONNX file another name, such as "
+            f"{model_path.with_suffix('.onnx')}"
+        )
+    if out.is_dir() and not out.is_symlink():  # --force would not replace a folder
+        raise ExportError(
+            f"{out}: is a folder; give the ONNX file's name, such as {out / 'policy.onnx'}"
+        )
     if (out.exists() or out.is_symlink()) and not force:
         raise ExportError(f"{out}: exists; pass --force to replace it, or choose another path")
     if out.is_dir():

@@ -92,6 +92,23 @@ def plugin_modules() -> list[str]:
     return modules_named(ENV_VAR)
 
 
+def import_named(env_var: str, module: str) -> Any:
+    """The module ``module`` named in the environment variable ``env_var``, imported.
+
+    Raises:
+        ImportError: one line naming the variable, the module and why it did not import (the
+            module's own error chained beneath, for its traceback).
+    """
+    try:
+        return importlib.import_module(module)
+    except Exception as exc:  # a missing module, a syntax error in it, an error it raises
+        why = str(exc).splitlines()[0] if str(exc) else ""
+        raise ImportError(
+            f"{env_var}: module {module!r} did not import ({type(exc).__name__}: {why}); check "
+            f"the name and PYTHONPATH, or leave it out of {env_var}"
+        ) from exc
+
+
 def declared_in(env_var: str, built_in: Any, attr: str, kind: str) -> tuple[Any, ...]:
     """A registry of declarations: ``built_in``, then the sequence ``attr`` of each module named
     in ``env_var`` (:func:`modules_named`), each declaration's ``name`` its own.
@@ -101,7 +118,7 @@ def declared_in(env_var: str, built_in: Any, attr: str, kind: str) -> tuple[Any,
     """
     found = list(built_in)
     for module in modules_named(env_var):
-        declared = getattr(importlib.import_module(module), attr, None)
+        declared = getattr(import_named(env_var, module), attr, None)
         if declared is None:
             raise ValueError(f"{env_var}: module {module!r} has no {attr} (a sequence of {kind})")
         found.extend(declared)

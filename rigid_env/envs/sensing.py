@@ -31,6 +31,7 @@ from numpy.typing import NDArray
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
 from rigid_env import knobs
+from rigid_env.core.effect import import_named
 from rigid_env.core.rotation import quat_to_matrix
 from rigid_env.envs.kernels import FINE_SPIN, W_OBS_BOUND
 from rigid_env.envs.sensor import Sensor
@@ -54,7 +55,9 @@ def _registry() -> tuple[tuple[Sensor, ...], dict[str, Any]]:
     out: list[Sensor] = []
     truths: dict[str, Any] = {}
     for module in names:
-        loaded = importlib.import_module(module)
+        loaded = (
+            importlib.import_module(module) if module in BUILT_IN else import_named(ENV_VAR, module)
+        )
         declared = getattr(loaded, "SENSORS", None)
         if declared is None:
             raise ImportError(f"{ENV_VAR}: module {module} has no SENSORS; declare a sequence")

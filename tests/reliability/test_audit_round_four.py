@@ -174,3 +174,77 @@ def test_tolerances_on_a_wheel_world_object_name_no_integrator_that_refuses_whee
         world.with_settings(rtol=1e-6)
     msg = _one_line(exc, "rtol", "reaction wheels", "substeps")
     assert "dop853" not in msg
+
+
+OUTSIDE_MODULES = {
+    "declares_nothing": "X = 1\n",
+    "raises_on_import": "raise RuntimeError('boom at import')\n",
+    "broken_syntax": "def oops(:\n",
+}
+
+
+@pytest.mark.parametrize("var", ["RIGID_ENV_ACTUATORS", "RIGID_ENV_EFFECTS", "RIGID_ENV_SENSORS"])
+@pytest.mark.parametrize("module", ["no_such_module_xyz", *OUTSIDE_MODULES])
+def test_an_outside_module_that_does_not_load_is_one_line_naming_the_variable(
+    tmp_path, var, module
+) -> None:
+    """In Python, the registry's error names the variable, the module and why (the module's own
+    error chained beneath); our commands print that one line and no traceback."""
+    import os
+    import subprocess
+    import sys
+
+    for name, text in OUTSIDE_MODULES.items():
+        (tmp_path / name).with_suffix(".py").write_text(text)
+    env = os.environ | {var: module, "PYTHONPATH": str(tmp_path)}
+    make = "import gymnasium as gym, rigid_env; gym.make('RigidEnv/Detumble-v0').reset(seed=0)"
+    lib = subprocess.run([sys.executable, "-c", make], env=env, capture_output=True, text=True,
+                         timeout=600, check=False)  # fmt: skip
+    assert lib.returncode != 0
+    last = lib.stderr.strip().splitlines()[-1]
+    assert var in last and module in last, last
+    if var == "RIGID_ENV_SENSORS":  # read when an env is made, not by the command line's import
+        return
+    rigid_env = Path(sys.executable).with_name("rigid-env")
+    cmd = [str(rigid_env), "simulate", str(SCENES / "detumble.yaml"), "--steps", "1", "--out",
+           str(tmp_path / "o.npz")]  # fmt: skip
+    run = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=600, check=False)
+    assert run.returncode != 0
+    assert "Traceback" not in run.stderr
+    assert run.stderr.count("\n") == 1 and run.stderr.startswith("rigid-env: error: " + var)
+
+
+def test_export_onto_a_folder_asks_for_a_file_name_not_force(tmp_path, capsys) -> None:
+    """``rigid-env export MODEL --onnx DIR``: before, "exists; pass --force to replace it", and
+    --force cannot replace a folder; now one line asking for a file name in it."""
+    pytest.importorskip("onnx")
+    from rigid_env.cli import main
+
+    model = Path(__file__).resolve().parents[2] / "agents" / "pretrained" / "ppo_detumble.zip"
+    for force in ([], ["--force"]):
+        assert main(["export", str(model), "--onnx", str(tmp_path), *force]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "is a folder" in err and "policy.onnx" in err, err
+        assert "--force" not in err
+    assert tmp_path.is_dir()
+
+
+def test_export_never_writes_over_its_own_model(tmp_path, capsys) -> None:
+    """``rigid-env export M --onnx M --force`` replaced the policy by its ONNX export (the
+    audit lost agents/pretrained/ppo_detumble.zip that way); now refused, the files intact."""
+    pytest.importorskip("onnx")
+    import shutil
+
+    from rigid_env.cli import main
+
+    pre = Path(__file__).resolve().parents[2] / "agents" / "pretrained"
+    for name in ("ppo_detumble.zip", "ppo_detumble.json", "ppo_detumble_vecnormalize.pkl"):
+        shutil.copy(pre / name, tmp_path / name)
+    model = tmp_path / "ppo_detumble.zip"
+    for target in ("ppo_detumble.zip", "ppo_detumble.json", "ppo_detumble_vecnormalize.pkl"):
+        before = (tmp_path / target).read_bytes()
+        argv = ["export", str(model), "--onnx", str(tmp_path / target), "--force"]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "model's own file" in err, err
+        assert (tmp_path / target).read_bytes() == before
