@@ -1,28 +1,28 @@
 """Three rates of each learner on one task, in one run: env step; step + inference; step +
 inference + training (issue 45).
 
-    rigid-env bench learn --rates-only [--tasks detumble] [--learners sb3 rsl_rl skrl]
+    rigid-env bench learn --rates-only [--tasks detumble] [--learners sb3 rsl_rl skrl sbx]
                           [--repeats 3] [--threads 1] [--out DIR] [--force]
 
 Learners: ``sb3`` (the SB3 path with the task's shipped config, ``configs/agents/ppo_<task>
 .yaml``: its own n_envs and rollout), ``rsl_rl`` (``configs/agents/rsl_ppo_<task>.yaml``, the
-learner of :mod:`rigid_env.agents.parallel`) and ``skrl`` (skrl's PPO, the peer rsl-rl was
-chosen against, on the rsl_rl config's envs and PPO arguments). Each learner steps its own env
+learner of :mod:`rigid_env.agents.parallel`), ``skrl`` (skrl's PPO, the peer rsl-rl was chosen
+against, on the rsl_rl config's envs and PPO arguments) and ``sbx`` (sbx-rl's PPO, whose update
+is one JIT-compiled function per minibatch, on the same config). Each learner steps its own env
 stack (SB3's ``VecNormalize`` over the batched task, same-step resets), with zero commands for
-the first rate, over one whole episode of every env (the body coasts and its episode ends at
-the time limit, so each env's reset, costly under randomisation, counts once per episode;
-uniform random commands spin it past the task's bounds and resets would set the rate) and its
-own policy for the others; *+ inference* is what a rollout
-does per step (the policy and value forward, sampling, the step), *full* is the learner's own
-training loop over whole rollouts, updates included. Every learner runs on ``--threads`` torch
-and Numba threads (default 1: on a shared machine a second thread that finds its core busy
-spins and costs more than it gives). Each rate is the median of ``--repeats`` timed
-stretches of at least 2 s (whole rollouts), the learners interleaved (a stretch of each in
-turn), after a warm-up stretch that compiles the kernels; every stretch also spans at least
-the task's time limit in vector steps (whole rollouts), so that each rate pays the resets once
-per env and episode (under the training randomisation a reset rebuilds the env's model, about
-1 ms per env here: a stretch of one rollout would count them in one stretch and miss them in
-the next).
+the first rate, over one whole episode of every env (the body coasts and its episode ends at the
+time limit, so each env's reset, costly under randomisation, counts once per episode; uniform
+random commands spin it past the task's bounds and resets would set the rate) and its own policy
+for the others; *+ inference* is what a rollout does per step (the policy and value forward,
+sampling, the step), *full* is the learner's own training loop over whole rollouts, updates
+included. Every learner runs on ``--threads`` torch and Numba threads (default 1: on a shared
+machine a second thread that finds its core busy spins and costs more than it gives). Each rate
+is the median of ``--repeats`` timed stretches of at least 2 s (whole rollouts), the learners
+interleaved (a stretch of each in turn), after a warm-up stretch that compiles the kernels;
+every stretch also spans at least the task's time limit in vector steps (whole rollouts), so
+that each rate pays the resets once per env and episode (under the training randomisation a
+reset rebuilds the env's model, about 1 ms per env here: a stretch of one rollout would count
+them in one stretch and miss them in the next).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ import numpy as np
 
 from rigid_env.resources import data_path
 
-LEARNERS = ("sb3", "rsl_rl", "skrl")
+LEARNERS = ("sb3", "rsl_rl", "skrl", "sbx")
 STRETCH_S = 2.0
 """Least wall-clock of one timed stretch (whole rollouts, repeated until it is reached)."""
 RATES = ("env", "inference", "full")
@@ -170,7 +170,39 @@ def _skrl(cfg: Any) -> dict[str, Callable[[], int]]:
     return {"env": env, "inference": inference, "full": full}
 
 
-BUILDERS = {"sb3": _sb3, "rsl_rl": _rsl, "skrl": _skrl}
+def _sbx(cfg: Any) -> dict[str, Callable[[], int]]:
+    from rigid_env.agents.parallel.learner import ppo_arguments
+    from rigid_env.agents.parallel.sbx_peer import make_sbx, sample
+    from rigid_env.agents.train import make_vec_env
+
+    venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    model = make_sbx(cfg, venv)
+    n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
+    coast = np.zeros((n, len(venv.action_space.low)), dtype=np.float32)
+    state = {"obs": venv.reset()}
+
+    def env() -> int:
+        for _ in range(episode):
+            venv.step(coast)
+        return n * episode
+
+    def inference() -> int:
+        obs = state["obs"]
+        for _ in range(steps):
+            actions, _ = sample(model, obs)
+            obs, *_ = venv.step(actions)
+        state["obs"] = obs
+        return n * steps
+
+    def full() -> int:
+        before = model.num_timesteps
+        model.learn(n * steps, reset_num_timesteps=False)
+        return model.num_timesteps - before
+
+    return {"env": env, "inference": inference, "full": full}
+
+
+BUILDERS = {"sb3": _sb3, "rsl_rl": _rsl, "skrl": _skrl, "sbx": _sbx}
 
 
 def config_of(task: str, learner: str) -> Path:
@@ -199,7 +231,11 @@ def measure(
     from rigid_env.agents.parallel.learner import ppo_arguments
     from rigid_env.agents.train import limit_threads
 
-    for k, module in (("rsl_rl", "rsl_rl"), ("skrl", "skrl")):
+    if "sbx" in learners and threads == 1:  # XLA's CPU client on one thread, like torch's
+        from rigid_env.bench.learn_sbx import one_xla_thread
+
+        one_xla_thread()
+    for k, module in (("rsl_rl", "rsl_rl"), ("skrl", "skrl"), ("sbx", "sbx")):
         if k in learners and importlib.util.find_spec(module) is None:
             raise ValueError(f"--learners: {k} is not installed; pip install 'rigid_env[bench]', "
                              f"or leave {k} out of --learners")  # fmt: skip
