@@ -22,7 +22,9 @@ interleaved (a stretch of each in turn), after a warm-up stretch that compiles t
 every stretch also spans at least the task's time limit in vector steps (whole rollouts), so
 that each rate pays the resets once per env and episode (under the training randomisation a
 reset rebuilds the env's model, about 1 ms per env here: a stretch of one rollout would count
-them in one stretch and miss them in the next).
+them in one stretch and miss them in the next). *update's share* is the part of the full rate's
+wall-clock spent in the learner's update (SB3's and sbx-rl's ``train``, rsl-rl's and skrl's
+``update``: every epoch's forward, backward and optimiser step); the rest is the rollout.
 """
 
 from __future__ import annotations
@@ -57,6 +59,26 @@ class RateRow:
     env: float
     inference: float
     full: float
+    update_share: float  # of the full rate's wall-clock, the update's (median of the stretches)
+
+
+UPDATE_SECONDS = [0.0]
+"""Wall-clock spent in the learners' updates so far (:func:`_time_calls`)."""
+
+
+def _time_calls(obj: Any, name: str) -> None:
+    """Add the wall-clock of every call of ``obj.name`` (the learner's update: SB3's and
+    sbx-rl's ``train``, rsl-rl's and skrl's ``update``) to :data:`UPDATE_SECONDS`."""
+    method = getattr(obj, name)
+
+    def timed(*args: Any, **kwargs: Any) -> Any:
+        t = time.perf_counter()
+        try:
+            return method(*args, **kwargs)
+        finally:
+            UPDATE_SECONDS[0] += time.perf_counter() - t
+
+    setattr(obj, name, timed)
 
 
 def _episode(cfg: Any) -> int:
@@ -76,6 +98,7 @@ def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
 
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     model = _new_model(cfg, venv, Path("/nonexistent"), 0)
+    _time_calls(model, "train")
     model.tensorboard_log = None
     n, steps, episode = cfg.n_envs, model.n_steps, _episode(cfg)
     low, high = venv.action_space.low, venv.action_space.high
@@ -113,6 +136,7 @@ def _rsl(cfg: Any) -> dict[str, Callable[[], int]]:
 
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     runner = make_runner(cfg, venv, int(gym.spec(cfg.env_id).max_episode_steps))
+    _time_calls(runner.alg, "update")
     env_ = runner.env
     n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
 
@@ -146,6 +170,7 @@ def _skrl(cfg: Any) -> dict[str, Callable[[], int]]:
 
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     agent, env_ = make_skrl(cfg, venv)
+    _time_calls(agent, "update")
     n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
     state = {"obs": env_.reset()[0]}
 
@@ -177,6 +202,7 @@ def _sbx(cfg: Any) -> dict[str, Callable[[], int]]:
 
     venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
     model = make_sbx(cfg, venv)
+    _time_calls(model, "train")
     n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
     coast = np.zeros((n, len(venv.action_space.low)), dtype=np.float32)
     state = {"obs": venv.reset()}
@@ -252,20 +278,25 @@ def measure(
         for rate in RATES:
             stretches[k][rate]()
     seconds: dict[tuple[str, str], list[float]] = {}
+    shares: dict[str, list[float]] = {}
     for _ in range(repeats):
         for rate in RATES:
             for k in learners:
-                t, made = time.perf_counter(), 0
+                t, made, u = time.perf_counter(), 0, UPDATE_SECONDS[0]
                 least = cfgs[k].n_envs * _episode(cfgs[k]) if whole_episodes else 1
                 while made < least or time.perf_counter() - t < stretch_s:
                     made += stretches[k][rate]()
-                seconds.setdefault((k, rate), []).append(made / (time.perf_counter() - t))
+                wall = time.perf_counter() - t
+                seconds.setdefault((k, rate), []).append(made / wall)
+                if rate == "full":
+                    shares.setdefault(k, []).append((UPDATE_SECONDS[0] - u) / wall)
     rows = []
     for k in learners:
         a = ppo_arguments(cfgs[k])
         rates = {rate: float(np.median(seconds[(k, rate)])) for rate in RATES}
         rows.append(RateRow(task, k, config_of(task, k).name, cfgs[k].n_envs, a["n_steps"],
-                            a["batch_size"], threads, **rates))  # fmt: skip
+                            a["batch_size"], threads, **rates,
+                            update_share=float(np.median(shares[k]))))  # fmt: skip
     return rows
 
 
@@ -273,14 +304,14 @@ def markdown(rows: list[RateRow]) -> list[str]:
     """The rates table, with each learner's full rate against the SB3 path's."""
     lines = [
         "| task | learner | config | n_envs x n_steps | minibatch | env [steps/s] | "
-        "+ inference [steps/s] | full PPO [steps/s] | full / SB3's |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "+ inference [steps/s] | full PPO [steps/s] | full / SB3's | update's share of full |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         sb3 = next((s.full for s in rows if s.task == r.task and s.learner == "sb3"), np.nan)
         lines.append(
             f"| {r.task} | {r.learner} | {r.config} | {r.n_envs} x {r.n_steps} | "
             f"{r.batch_size} | {r.env:,.0f} | {r.inference:,.0f} | {r.full:,.0f} | "
-            f"{r.full / sb3:.1f}x |"
+            f"{r.full / sb3:.1f}x | {100 * r.update_share:.0f} % |"
         )
     return lines

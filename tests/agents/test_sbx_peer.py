@@ -86,3 +86,4 @@ def test_rates_benchmark_measures_sbx() -> None:
     rows = measure("detumble", ("sb3", "sbx"), 1, 1, n_envs=64, stretch_s=0.0, whole_episodes=False)
     assert [r.learner for r in rows] == ["sb3", "sbx"] and rows[1].n_envs == 64
     assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
+    assert all(0 < r.update_share < 1 for r in rows)  # the update is part of each full stretch
