@@ -81,6 +81,10 @@ def make_sbx(cfg: TrainConfig, venv: Any) -> BatchedPPO:
         "net_arch": {"pi": pi, "vf": vf},
         "activation_fn": ACTIVATIONS[cfg.policy_kwargs.activation_fn or "tanh"],
         "log_std_init": cfg.policy_kwargs.log_std_init or 0.0,
+        # The action layer starts as SB3's does (orthogonal, gain 0.01: mean actions near 0);
+        # flax's default (LeCun normal) starts them at order 1, and on SB3's own Detumble config
+        # seed 0 then ended at 0.56 success and 5.2x PD's fuel after 500k steps.
+        "ortho_init": True,
     }
     target_kl = None
     if cfg.rsl_rl is not None and cfg.rsl_rl.schedule == "adaptive":

@@ -5,7 +5,7 @@ previous configs and the rsl-rl learner's, in the same run; and the three rates 
                           [--previous-limit 240] [--previous-seeds 0 ...] [--rsl-seeds 0 ...]
                           [--sbx-seeds 0 ...] [--sbx-config PATH] [--out DIR] [--force]
     rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl sbx]
-                          [--repeats 3] [--threads 1] [--out DIR] [--force]
+                          [--sbx-config PATH] [--repeats 3] [--threads 1] [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
@@ -135,7 +135,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--sbx-config",
         type=Path,
-        help="the config sbx-rl trains with (default configs/agents/rsl_ppo_<task>.yaml)",
+        help="the config sbx-rl runs (time to bar and rates; default "
+        "configs/agents/rsl_ppo_<task>.yaml)",
     )
     parser.add_argument(
         "--learners",
@@ -437,7 +438,8 @@ def run_rates(args: argparse.Namespace) -> int:
     rows = []
     t0 = time.perf_counter()
     for task in args.tasks:
-        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs)
+        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs,
+                        sbx_config=args.sbx_config)  # fmt: skip
     lines = [
         "# Three rates of each learner (rigid-env bench learn --rates-only)",
         "",

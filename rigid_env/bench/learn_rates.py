@@ -245,12 +245,14 @@ def measure(
     n_envs: int | None = None,
     stretch_s: float = STRETCH_S,
     whole_episodes: bool = True,
+    sbx_config: Path | None = None,
 ) -> list[RateRow]:
     """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``; ``n_envs``
     replaces the rsl_rl config's (rsl_rl and skrl), its minibatch scaled with it (the same
-    number of minibatches per rollout). A timed stretch lasts at least ``stretch_s`` and, with
-    ``whole_episodes``, one episode's length of vector steps, so that every rate counts the
-    resets at their rate in training (one per env and episode)."""
+    number of minibatches per rollout); ``sbx_config`` replaces sbx's config. A timed stretch
+    lasts at least ``stretch_s`` and, with ``whole_episodes``, one episode's length of vector
+    steps, so that every rate counts the resets at their rate in training (one per env and
+    episode)."""
     import importlib.util
 
     from rigid_env.agents.config import load_config
@@ -266,13 +268,16 @@ def measure(
             raise ValueError(f"--learners: {k} is not installed; pip install 'rigid_env[bench]', "
                              f"or leave {k} out of --learners")  # fmt: skip
     limit_threads(threads)
-    cfgs = {k: load_config(config_of(task, k), {"threads": threads}) for k in learners}
+    paths = {k: config_of(task, k) for k in learners}
+    if sbx_config is not None and "sbx" in paths:
+        paths["sbx"] = sbx_config
+    cfgs = {k: load_config(paths[k], {"threads": threads}) for k in learners}
     for k in learners:
         if k != "sb3" and n_envs is not None:
             hp = cfgs[k].hyperparams.model_dump(exclude_none=True)
             hp["batch_size"] = hp["batch_size"] * n_envs // cfgs[k].n_envs
             wider = {"threads": threads, "n_envs": n_envs, "hyperparams": hp}
-            cfgs[k] = load_config(config_of(task, k), wider)
+            cfgs[k] = load_config(paths[k], wider)
     stretches = {k: BUILDERS[k](cfgs[k]) for k in learners}
     for k in learners:  # warm-up: compile the kernels, fill torch's caches
         for rate in RATES:
@@ -294,7 +299,7 @@ def measure(
     for k in learners:
         a = ppo_arguments(cfgs[k])
         rates = {rate: float(np.median(seconds[(k, rate)])) for rate in RATES}
-        rows.append(RateRow(task, k, config_of(task, k).name, cfgs[k].n_envs, a["n_steps"],
+        rows.append(RateRow(task, k, paths[k].name, cfgs[k].n_envs, a["n_steps"],
                             a["batch_size"], threads, **rates,
                             update_share=float(np.median(shares[k]))))  # fmt: skip
     return rows

@@ -80,10 +80,15 @@ def test_learns_and_samples_in_the_action_space(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_rates_benchmark_measures_sbx() -> None:
-    """`rigid-env bench learn --rates-only --learners sb3 sbx` runs sbx-rl's three loops."""
+    """`rigid-env bench learn --rates-only --learners sb3 sbx --sbx-config ...` runs sbx-rl's
+    three loops on the config it is given (here SB3's shipped one, narrowed to 64 envs)."""
     from rigid_env.bench.learn_rates import RATES, measure
+    from rigid_env.resources import data_path
 
-    rows = measure("detumble", ("sb3", "sbx"), 1, 1, n_envs=64, stretch_s=0.0, whole_episodes=False)
+    shipped = data_path("configs/agents/ppo_detumble.yaml")
+    rows = measure("detumble", ("sb3", "sbx"), 1, 1, n_envs=64, stretch_s=0.0,
+                   whole_episodes=False, sbx_config=shipped)  # fmt: skip
     assert [r.learner for r in rows] == ["sb3", "sbx"] and rows[1].n_envs == 64
+    assert rows[1].config == "ppo_detumble.yaml" and rows[1].batch_size == 512  # 1024 * 64/128
     assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
     assert all(0 < r.update_share < 1 for r in rows)  # the update is part of each full stretch
