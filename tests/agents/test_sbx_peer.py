@@ -92,3 +92,14 @@ def test_rates_benchmark_measures_sbx() -> None:
     assert rows[1].config == "ppo_detumble.yaml" and rows[1].batch_size == 512  # 1024 * 64/128
     assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
     assert all(0 < r.update_share < 1 for r in rows)  # the update is part of each full stretch
+
+
+def test_update_cost_benchmark_prints_one_row_per_minibatch() -> None:
+    """`python -m rigid_env.bench.learn_update 8 16`: a row per size, every cost positive (the
+    costs are the benchmark's to report, not a test's to bound); a size < 2 is refused."""
+    from rigid_env.bench.learn_update import main, measure
+
+    rows = measure([8, 16], stretch_s=0.01, repeats=1)
+    assert [r.split("|")[1].strip() for r in rows] == ["8", "16"]
+    assert all(float(x) > 0 for r in rows for x in r.strip("| x\n").split("|")[1:5])
+    assert main(["1"]) == 2
