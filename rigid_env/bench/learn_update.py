@@ -1,6 +1,7 @@
 """What one PPO minibatch update costs per sample: torch eager against ``jax.jit`` (issue 45).
 
     python -m rigid_env.bench.learn_update [256 1024 4096 16384]
+    python -m rigid_env.bench.learn_update --split [CONFIG]
 
 The update of the learners here (SB3, rsl-rl and skrl run it eagerly in torch; sbx-rl as one
 ``jax.jit``-compiled function): the clipped surrogate and the value loss of two [64, 64] tanh
@@ -10,11 +11,14 @@ thread). The two are interleaved, five stretches of 0.5 s each per minibatch siz
 the medians of wall-clock and process CPU time per sample (on a shared machine CPU time says
 more: a busy neighbour stretches wall-clock, not CPU time). Needs
 ``pip install 'rigid_env[bench]'``.
+
+``--split`` trains SB3's PPO and sbx-rl's on one config (default SB3's shipped Detumble one)
+and prints, in process CPU time, the first iteration (sbx-rl: XLA compiles) and then, over 12
+iterations, the rollout (``collect_rollouts``) and the update (``train``) per iteration.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 import time
 
@@ -117,15 +121,72 @@ def measure(minibatches: list[int], stretch_s: float = 0.5, repeats: int = 5) ->
     return lines
 
 
+def split(config: str, iterations: int = 12) -> list[str]:
+    """CPU seconds of SB3's and sbx-rl's first iteration, then rollout and update per
+    iteration, on ``config`` (one line each)."""
+    from pathlib import Path
+
+    from rigid_env.bench.learn_sbx import one_xla_thread
+
+    one_xla_thread()
+    from rigid_env.agents.config import load_config
+    from rigid_env.agents.parallel.sbx_peer import make_sbx
+    from rigid_env.agents.train import _new_model, limit_threads, make_vec_env
+
+    limit_threads(1)
+    cfg = load_config(Path(config), {"threads": 1})
+    lines = []
+    for who in ("sb3", "sbx"):
+        venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+        if who == "sb3":
+            model = _new_model(cfg, venv, Path("/nonexistent"), 0)
+            model.tensorboard_log = None
+        else:
+            model = make_sbx(cfg, venv)
+        spent = {"collect_rollouts": 0.0, "train": 0.0}
+        for name in spent:
+            method = getattr(model, name)
+
+            def timed(*a, _method=method, _name=name, _spent=spent, **k):
+                c = time.process_time()
+                try:
+                    return _method(*a, **k)
+                finally:
+                    _spent[_name] += time.process_time() - c
+
+            setattr(model, name, timed)
+        steps = cfg.n_envs * model.n_steps
+        c = time.process_time()
+        model.learn(steps)
+        first = time.process_time() - c
+        spent.update(dict.fromkeys(spent, 0.0))
+        c = time.process_time()
+        model.learn(steps * iterations, reset_num_timesteps=False)
+        cpu = time.process_time() - c
+        lines.append(f"{who}: first iteration {first:.2f} CPU-s; then "
+                     f"{steps * iterations / cpu:,.0f} env-steps per CPU-s, rollout "
+                     f"{spent['collect_rollouts'] / iterations * 1e3:.0f} ms + update "
+                     f"{spent['train'] / iterations * 1e3:.0f} ms CPU per iteration of "
+                     f"{steps} env-steps")  # fmt: skip
+        venv.close()
+    return lines
+
+
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else argv
+    if args[:1] == ["--split"]:
+        from rigid_env.resources import data_path
+
+        config = args[1] if len(args) > 1 else str(data_path("configs/agents/ppo_detumble.yaml"))
+        print("\n".join(split(config)))
+        return 0
     minibatches = [int(a) for a in args] or [256, 1024, 4096, 16384]
     if any(m < 2 for m in minibatches):
         print("learn_update: each minibatch size must be >= 2 (advantages are normalised)")
         return 2
     from rigid_env.bench import report
 
-    print(f"{report.machine()}; load {report.load()}; pid {os.getpid()}")
+    print(f"{report.machine()}; load {report.load()}")
     print("| minibatch | torch wall [us/sample] | jax.jit wall | torch CPU [us/sample] | "
           "jax.jit CPU | CPU torch / jax.jit |\n|---|---|---|---|---|---|")  # fmt: skip
     for line in measure(minibatches):

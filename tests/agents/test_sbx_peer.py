@@ -103,3 +103,13 @@ def test_update_cost_benchmark_prints_one_row_per_minibatch() -> None:
     assert [r.split("|")[1].strip() for r in rows] == ["8", "16"]
     assert all(float(x) > 0 for r in rows for x in r.strip("| x\n").split("|")[1:5])
     assert main(["1"]) == 2
+
+
+def test_cpu_split_reports_both_learners(tmp_path) -> None:
+    """`python -m rigid_env.bench.learn_update --split CONFIG`: a line for SB3 and for sbx-rl."""
+    from rigid_env.bench.learn_update import split
+
+    tiny(tmp_path)
+    lines = split(str(tmp_path / "tiny.yaml"), iterations=1)
+    assert [line.split(":")[0] for line in lines] == ["sb3", "sbx"]
+    assert all("env-steps per CPU-s" in line for line in lines)
