@@ -5,5 +5,6 @@
 SB3 ``PPO`` (the zip every tool of ours reads); ``train.py`` is the run folder around it.
 ``python -m agents.train CONFIG`` runs it when the config says ``learner: rsl_rl``.
 ``skrl_peer.py`` is skrl's PPO on the same env stack, the peer ``rigid-env bench learn
---rates-only`` measures beside it.
+--rates-only`` measures beside it; ``sbx_peer.py`` is sbx-rl's PPO (a ``jax.jit``-compiled
+update), the third peer (``pip install 'rigid_env[bench]'``).
 """

@@ -3,15 +3,16 @@ previous configs and the rsl-rl learner's, in the same run; and the three rates 
 
     rigid-env bench learn [--tasks detumble ...] [--seeds 0 1 2] [--jobs 2]
                           [--previous-limit 240] [--previous-seeds 0 ...] [--rsl-seeds 0 ...]
-                          [--out DIR] [--force]
-    rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl]
-                          [--repeats 3] [--threads 1] [--out DIR] [--force]
+                          [--sbx-seeds 0 ...] [--sbx-config PATH] [--out DIR] [--force]
+    rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl sbx]
+                          [--sbx-config PATH] [--repeats 3] [--threads 1] [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
 budget) and, as the peers, with ``configs/agents/previous/ppo_<task>.yaml`` (the configs before
 issue 24) and, where the task has one, ``configs/agents/rsl_ppo_<task>.yaml`` (rsl-rl's PPO over
-thousands of envs, :mod:`rigid_env.agents.parallel`), shortened: each stops at its first
+thousands of envs, :mod:`rigid_env.agents.parallel`) and, with ``--sbx-seeds``, sbx-rl's PPO
+on that config (:mod:`rigid_env.bench.learn_sbx`), shortened: each stops at its first
 evaluation that meets the bar, or after ``--previous-limit`` seconds of CPU time. All evaluate
 every ``eval.freq`` steps on the same
 100 held-out episodes (:mod:`rigid_env.agents.bar`: at least 95 % success and at most 1.5x
@@ -58,7 +59,7 @@ class LearnRow:
     """One training run's time to bar and final result."""
 
     task: str
-    config: str  # "shipped" | "previous" | "rsl_rl"
+    config: str  # "shipped" | "previous" | "rsl_rl" | "sbx"
     seed: int
     steps: int  # env-steps trained
     seconds: float  # training wall-clock
@@ -123,6 +124,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "after --previous-limit",
     )
     parser.add_argument(
+        "--sbx-seeds",
+        nargs="*",
+        type=_count(0),
+        default=[],
+        help="seeds of sbx-rl's PPO (JIT-compiled update) on the rsl-rl config, or "
+        "--sbx-config (default none: leave it out; pip install 'rigid_env[bench]'); they stop "
+        "at the bar or after --previous-limit",
+    )
+    parser.add_argument(
+        "--sbx-config",
+        type=Path,
+        help="the config sbx-rl runs (time to bar and rates; default "
+        "configs/agents/rsl_ppo_<task>.yaml)",
+    )
+    parser.add_argument(
         "--learners",
         nargs="+",
         choices=LEARNERS,
@@ -134,7 +150,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--n-envs",
         type=_count(1),
-        help="envs of rsl_rl and skrl in the rates (default: the rsl_rl config's; the "
+        help="envs of rsl_rl, skrl and sbx in the rates (default: the rsl_rl config's; the "
         "minibatch scales with it)",
     )
     parser.add_argument(
@@ -305,6 +321,12 @@ def _run_name(task: str, seed: int, previous: bool | str) -> str:
     return load_config(config_path(task, previous), {"seed": seed}).run_name
 
 
+def _sbx_run_name(task: str, seed: int) -> str:
+    from rigid_env.agents.config import load_config
+
+    return f"{load_config(config_path(task, 'rsl_rl'), {'seed': seed}).task}__ppo_sbx__{seed}"
+
+
 def _clear_own_runs(out: Path, planned: list[Path], force: bool) -> None:
     """Make room for the ``planned`` run folders: remove (with ``force``) the ones an earlier
     run of this benchmark wrote, as its manifest in ``out`` lists them, and record the planned
@@ -344,8 +366,12 @@ def _clear_own_runs(out: Path, planned: list[Path], force: bool) -> None:
     manifest.write_text(json.dumps(sorted(own | {str(p.relative_to(out)) for p in planned})))
 
 
-def _worker(job: tuple[str, int, bool | str, str, float]) -> dict[str, Any]:
-    task, seed, previous, runs_dir, limit_s = job
+def _worker(job: tuple[str, int, bool | str, str, float, str | None]) -> dict[str, Any]:
+    task, seed, previous, runs_dir, limit_s, config = job
+    if previous == "sbx":
+        from rigid_env.bench.learn_sbx import train_sbx
+
+        return train_sbx(task, seed, Path(runs_dir), limit_s, config and Path(config))
     return train_one(task, seed, previous, Path(runs_dir), limit_s)
 
 
@@ -370,8 +396,20 @@ def run(args: argparse.Namespace) -> int:
         for seed in seeds
     ]
     planned = [runs_dir / kind / _run_name(task, seed, kind) for task, seed, kind, _ in runs]
+    sbx = [(task, seed) for task in args.tasks for seed in args.sbx_seeds
+           if args.sbx_config or config_path(task, "rsl_rl").exists()]  # fmt: skip
+    if sbx:
+        import importlib.util
+
+        if importlib.util.find_spec("sbx") is None:
+            raise ValueError("--sbx-seeds: sbx-rl is not installed; pip install "
+                             "'rigid_env[bench]', or leave --sbx-seeds out")  # fmt: skip
+        planned += [runs_dir / "sbx" / _sbx_run_name(task, seed) for task, seed in sbx]
     _clear_own_runs(out, planned, args.force)
-    jobs = [(task, seed, kind, str(runs_dir / kind), lim) for task, seed, kind, lim in runs]
+    jobs = [(task, seed, kind, str(runs_dir / kind), lim, None) for task, seed, kind, lim in runs]
+    config = str(args.sbx_config) if args.sbx_config else None
+    jobs += [(task, seed, "sbx", str(runs_dir / "sbx"), args.previous_limit, config)
+             for task, seed in sbx]  # fmt: skip
     t0 = time.perf_counter()
     rows: list[LearnRow] = []
     with mp.get_context("spawn").Pool(args.jobs, maxtasksperchild=1) as pool:
@@ -400,11 +438,13 @@ def run_rates(args: argparse.Namespace) -> int:
     rows = []
     t0 = time.perf_counter()
     for task in args.tasks:
-        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs)
+        rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs,
+                        sbx_config=args.sbx_config)  # fmt: skip
     lines = [
         "# Three rates of each learner (rigid-env bench learn --rates-only)",
         "",
-        f"{report.machine()}; {report.versions('torch', 'stable-baselines3', 'rsl-rl-lib', 'skrl')}"
+        f"{report.machine()}; "
+        f"{report.versions('torch', 'stable-baselines3', 'rsl-rl-lib', 'skrl', 'sbx-rl', 'jax')}"
         f"; load at the end: {report.load()}. {args.threads} thread(s), median of "
         f"{args.repeats} interleaved stretches each; {time.perf_counter() - t0:.0f} s in all.",
         "",
@@ -443,14 +483,16 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
     lines += [
         "",
         "| task | shipped: median (worst) time to bar [s] | previous: median time to bar [s] | "
-        "rsl_rl: median (worst) time to bar [s] | env-steps/s shipped / previous | "
-        "training env-steps/s shipped / previous | training env-steps/s rsl_rl / shipped |",
-        "|---|---|---|---|---|---|---|",
+        "rsl_rl: median (worst) time to bar [s] | sbx: median (worst) time to bar [s] | "
+        "env-steps/s shipped / previous | training env-steps/s shipped / previous | "
+        "training env-steps/s rsl_rl / shipped | training env-steps/s sbx / shipped |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for task in TASKS:
         new = [r for r in rows if r.task == task and r.config == "shipped"]
         old = [r for r in rows if r.task == task and r.config == "previous"]
         rsl = [r for r in rows if r.task == task and r.config == "rsl_rl"]
+        sbx = [r for r in rows if r.task == task and r.config == "sbx"]
         if not new:
             continue
         ratio, training = (
@@ -469,9 +511,15 @@ def _markdown(rows: list[LearnRow], args: argparse.Namespace, total_s: float) ->
             if rsl
             else math.nan
         )
+        sbx_speed = (
+            _median([r.train_steps_per_s for r in sbx])
+            / _median([r.train_steps_per_s for r in new])
+            if sbx
+            else math.nan
+        )
         lines.append(
-            f"| {task} | {_bars(new)} | {old_bar:.1f} | {_bars(rsl)} | {ratio:.2f}x | "
-            f"{training:.2f}x | {rsl_speed:.2f}x |"
+            f"| {task} | {_bars(new)} | {old_bar:.1f} | {_bars(rsl)} | {_bars(sbx)} | "
+            f"{ratio:.2f}x | {training:.2f}x | {rsl_speed:.2f}x | {sbx_speed:.2f}x |"
         )
     return "\n".join(lines) + "\n"
 
@@ -499,7 +547,7 @@ def _figure(rows: list[LearnRow], path: Path) -> None:
             with np.load(r.history) as h:
                 x = h["seconds"]
                 y = [float(np.mean(s)) for s in h["successes"]]
-            style = {"shipped": "-", "previous": ":", "rsl_rl": "--"}[r.config]
+            style = {"shipped": "-", "previous": ":", "rsl_rl": "--", "sbx": "-."}[r.config]
             color = f"C{r.seed}"
             ax.plot(x, y, style, color=color, marker=".", label=f"{r.config} seed {r.seed}")
         ax.axhline(0.95, color="grey", lw=0.8)
