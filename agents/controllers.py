@@ -36,11 +36,13 @@ from rigid_env.envs.bdot_detumble import FIELD_SCALE, BdotDetumbleTask
 from rigid_env.envs.detumble import DetumbleTask
 from rigid_env.envs.reorient import ReorientTask
 from rigid_env.envs.spin_stabilize import SpinStabilizeTask
+from rigid_env.envs.sun_acquisition import SunAcquisitionTask
 from rigid_env.envs.tumbling_fall import FALL_SPEED_SCALE, TumblingFallTask
 from rigid_env.envs.wheel_pointing import WheelPointingTask
 
 from .bdot import avanzini_gain, bdot_rate, bdot_torque
 from .observing import observed, task_of
+from .sun_safe import SunSafeController
 from .wheel_pd import WheelPDController
 
 FloatArray = NDArray[np.float64]
@@ -327,7 +329,9 @@ class RandomController:
         return self.rng.uniform(-1.0, 1.0, size=shape).astype(np.float32)
 
 
-def analytic_controller(env: Any) -> PDController | BdotController | WheelPDController:
+def analytic_controller(
+    env: Any,
+) -> PDController | BdotController | WheelPDController | SunSafeController:
     """The task's analytic baseline: B-dot for a task on magnetorquers alone (:data:`ANALYTIC`),
     else its PD law (:data:`PD_LAWS`)."""
     return ANALYTIC.get(type(task_of(env)), PDController)(env)
@@ -336,10 +340,11 @@ def analytic_controller(env: Any) -> PDController | BdotController | WheelPDCont
 ANALYTIC: dict[type[TaskBatch], type] = {
     BdotDetumbleTask: BdotController,
     WheelPointingTask: WheelPDController,
+    SunAcquisitionTask: SunSafeController,
 }
 """The tasks whose analytic baseline is not a PD law, by task class."""
 
 CONTROLLERS = {"pd": analytic_controller, "zero": ZeroController, "random": RandomController}
 """The baselines a policy is compared with, by the name of their rows: ``pd`` is the task's
 analytic baseline (:func:`analytic_controller`: B-dot on BdotDetumble, the wheels' PD with
-desaturation on WheelPointing)."""
+desaturation on WheelPointing, sun-safe pointing on SunAcquisition)."""

@@ -139,6 +139,7 @@ def _import_pygame(mode: str) -> Any:
 READOUTS: dict[str, tuple[str, Color]] = {
     "target_angle": ("off target {:.1f} deg", TARGET_COLOR),
     "spin_axis_angle": ("spin axis off {:.1f} deg", SPIN_AXIS_COLOR),
+    "sun_angle": ("panel off the Sun {:.1f} deg", TARGET_COLOR),
 }
 """Readouts a view may ask for: the text (formatted with the frame's number) and its colour."""
 

@@ -128,6 +128,12 @@ TASKS: dict[str, Task] = _by_name(
             max_episode_steps=120,
             newest=1,
         ),
+        Task(
+            "SunAcquisition",
+            module="sun_acquisition",
+            scene="sun_acquisition",
+            max_episode_steps=2840,
+        ),
     )
 )
 """Every registered task by name."""

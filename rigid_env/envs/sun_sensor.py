@@ -146,6 +146,16 @@ def measure(settings: SunSensorSettings, dt_s, truth, state, normals):
     return reading, state
 
 
+def face_count(settings: SunSensorSettings) -> int:
+    """One detector per chosen face (a named function: an env holding the sensor pickles)."""
+    return len(settings.faces)
+
+
+def face_columns(settings: SunSensorSettings) -> tuple[str, ...]:
+    """The observation column of each chosen face, ``sun_<face>``."""
+    return tuple(f"sun_{f}" for f in settings.faces)
+
+
 TRUTHS = {"sun": sun_body, "light": sunlight}
 """The truths the sun sensor reads, by name (the registry adds them to
 :data:`rigid_env.envs.sensing.TRUTHS`)."""
@@ -156,8 +166,8 @@ SENSORS = (
         settings=SunSensorSettings,
         reads=("sun", "light"),
         measure=measure,
-        noise=(Noise("sigma", lambda s: len(s.faces)),),
-        columns=lambda s: tuple(f"sun_{f}" for f in s.faces),
+        noise=(Noise("sigma", face_count),),
+        columns=face_columns,
         bound=1.0,
         example={"sigma": 0.01},
     ),

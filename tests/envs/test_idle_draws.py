@@ -24,7 +24,7 @@ DRAWS = {
     "thruster_faults": {"probability": 1.0, "within_steps": 1, "kinds": ["stuck_on"]},
     "action_repeat": [2, 3],
 }
-NO_THRUSTERS = ("BdotDetumble", "WheelPointing")
+NO_THRUSTERS = ("BdotDetumble", "WheelPointing", "SunAcquisition")
 """Tasks whose scenes carry coils and wheels alone: torques only, no thruster to tilt or fail
 and no force for a mass to resist."""
 

@@ -99,13 +99,15 @@ OFF = [
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_sensors_off_is_the_default_episode_bit_for_bit(env_id):
     """Without sensors (None, empty, every key None, or every noise and the delay 0) an env
-    runs no sensor at all: the same observations, rewards and generator state as an env made
-    without the keyword, over 40 steps across episodes (10 steps each)."""
+    runs no sensor at all but those its task observes through always (SunAcquisition's sun
+    sensors, its ``built_in_sensors``): the same observations, rewards and generator state as
+    an env made without the keyword, over 40 steps across episodes (10 steps each)."""
     actions = actions_for(env_id, 40, 1)[:, 0]
     plain = single_rollout(env_id, 7, actions, max_episode_steps=10)
     for off in OFF:
         env = gym.make(env_id, sensors=off)
-        assert env.unwrapped.task.sensors is None
+        suite, own = env.unwrapped.task.sensors, getattr(env.unwrapped.task, "built_in_sensors", {})
+        assert (suite is None) if not own else ({s.key for s, _ in suite.parts} == set(own))
         env.close()
         obs, rewards, _, state = single_rollout(
             env_id, 7, actions, max_episode_steps=10, sensors=off
