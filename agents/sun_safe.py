@@ -32,7 +32,7 @@ from rigid_env.core.rotation import cross
 from rigid_env.envs.sun_acquisition import FIELD_SCALE, PANEL_AXIS, SunAcquisitionTask
 
 from .observing import observed, task_of
-from .wheel_pd import desaturating_dipole, pd_torque
+from .wheel_pd import desaturating_dipole, pd_torque, wheel_commands
 
 FloatArray = NDArray[np.float64]
 
@@ -134,17 +134,9 @@ class SunSafeController:
         u_coils = np.clip(dipole / self.max_dipole, -1.0, 1.0)
         coil_torque = cross(u_coils * self.max_dipole, field)
         tau = pd_torque(phi, w, h, inertia, self.gains) - coil_torque
-        # Each wheel's speed from its momentum (h_k = a_k . h for orthogonal axes) and the
-        # friction its motor must overcome there; a wheel (nearly) at rest must first break its
-        # Coulomb friction in the direction it is asked to turn (else it sticks, and the
-        # coils' torque it should take up turns the body: 0.5 deg/s before the damping's
-        # command passes the friction at these gains).
-        momenta = h @ wheels.axes.T
-        omega = momenta / wheels.inertia - w @ wheels.axes.T
-        wanted = -(tau @ wheels.axes.T)
-        turning = np.where(np.abs(omega) > AT_REST, np.sign(omega), np.sign(wanted))
-        friction = wheels.viscous * omega + wheels.coulomb * turning
-        motor = wanted + friction
-        u = np.hstack([u_coils, np.clip(motor / wheels.max_torque, -1.0, 1.0)])
+        # A wheel (nearly) at rest must first break its Coulomb friction in the direction it is
+        # asked to turn (else it sticks, and the coils' torque it should take up turns the
+        # body: 0.5 deg/s before the damping's command passes the friction at these gains).
+        u = np.hstack([u_coils, wheel_commands(tau, w, h, wheels, AT_REST)])
         u = u.astype(np.float32)
         return u[0] if single else u

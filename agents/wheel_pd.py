@@ -46,6 +46,24 @@ def desaturating_dipole(h: FloatArray, field: FloatArray, gain: float) -> FloatA
     return gain * cross(h, field) / np.where(b2 > 0.0, b2, np.inf)
 
 
+def wheel_commands(tau: FloatArray, w: FloatArray, h: FloatArray, wheels: Any,
+                   at_rest: float | None = None) -> FloatArray:  # fmt: skip
+    """(N, K) the wheels' commands in [-1, 1] that put the body torque ``tau`` [N m] on the body
+    at the rate ``w`` [rad/s] with the wheels' momentum ``h`` [N m s] (body frame): each
+    motor's ``-a_k . tau`` plus the friction it must overcome at the wheel's speed (``h_k = a_k
+    . h`` for orthogonal axes). A wheel slower than ``at_rest`` [rad/s] must first break its
+    Coulomb friction in the direction it is asked to turn (else it sticks); with ``at_rest``
+    None the friction takes the sign of the speed."""
+    momenta = h @ wheels.axes.T
+    omega = momenta / wheels.inertia - w @ wheels.axes.T
+    wanted = -(tau @ wheels.axes.T)
+    turning = np.sign(omega)
+    if at_rest is not None:
+        turning = np.where(np.abs(omega) > at_rest, turning, np.sign(wanted))
+    friction = wheels.viscous * omega + wheels.coulomb * turning
+    return np.clip((wanted + friction) / wheels.max_torque, -1.0, 1.0)
+
+
 class WheelPDController:
     """The PD on the wheels with cross-product desaturation on the coils, from the observed
     gyro, error quaternion, wheels' momentum and magnetometer field, and the scene's model.
@@ -88,12 +106,6 @@ class WheelPDController:
         u_coils = np.clip(dipole / self.max_dipole, -1.0, 1.0)
         coil_torque = cross(u_coils * self.max_dipole, field)
         tau = pd_torque(phi, w, h, inertia, self.gains) - coil_torque
-        # Each wheel's speed from its momentum (h_k = a_k . h for orthogonal axes) and the
-        # friction its motor must overcome there.
-        momenta = h @ wheels.axes.T
-        omega = momenta / wheels.inertia - w @ wheels.axes.T
-        friction = wheels.viscous * omega + wheels.coulomb * np.sign(omega)
-        motor = -(tau @ wheels.axes.T) + friction
-        u = np.hstack([u_coils, np.clip(motor / wheels.max_torque, -1.0, 1.0)])
+        u = np.hstack([u_coils, wheel_commands(tau, w, h, wheels)])
         u = u.astype(np.float32)
         return u[0] if single else u

@@ -89,6 +89,18 @@ def _episode(cfg: Any) -> int:
     return int(gym.spec(cfg.env_id).max_episode_steps)
 
 
+def _coasting(step: Callable[[Any], Any], action: Any, n: int, episode: int) -> Callable[[], int]:
+    """The env rate's stretch: ``episode`` steps of the ``n`` envs under the fixed ``action``
+    (zero commands: no policy in the loop); returns the env-steps it made."""
+
+    def env() -> int:
+        for _ in range(episode):
+            step(action)
+        return n * episode
+
+    return env
+
+
 def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
     """Stretches of the SB3 path, each returning the env-steps it made."""
     import torch
@@ -105,10 +117,7 @@ def _sb3(cfg: Any) -> dict[str, Callable[[], int]]:
     coast = np.zeros((n, len(low)), dtype=np.float32)
     state = {"obs": venv.reset()}
 
-    def env() -> int:
-        for _ in range(episode):
-            venv.step(coast)
-        return n * episode
+    env = _coasting(venv.step, coast, n, episode)
 
     def inference() -> int:
         obs = state["obs"]
@@ -140,10 +149,7 @@ def _rsl(cfg: Any) -> dict[str, Callable[[], int]]:
     env_ = runner.env
     n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
 
-    def env() -> int:
-        for _ in range(episode):
-            env_.step(torch.zeros(n, env_.num_actions))
-        return n * episode
+    env = _coasting(env_.step, torch.zeros(n, env_.num_actions), n, episode)
 
     def inference() -> int:
         obs = env_.get_observations()
@@ -174,10 +180,7 @@ def _skrl(cfg: Any) -> dict[str, Callable[[], int]]:
     n, steps, episode = cfg.n_envs, ppo_arguments(cfg)["n_steps"], _episode(cfg)
     state = {"obs": env_.reset()[0]}
 
-    def env() -> int:
-        for _ in range(episode):
-            env_.step(torch.zeros(n, len(venv.action_space.low)))
-        return n * episode
+    env = _coasting(env_.step, torch.zeros(n, len(venv.action_space.low)), n, episode)
 
     def inference() -> int:
         obs = state["obs"]
@@ -207,10 +210,7 @@ def _sbx(cfg: Any) -> dict[str, Callable[[], int]]:
     coast = np.zeros((n, len(venv.action_space.low)), dtype=np.float32)
     state = {"obs": venv.reset()}
 
-    def env() -> int:
-        for _ in range(episode):
-            venv.step(coast)
-        return n * episode
+    env = _coasting(venv.step, coast, n, episode)
 
     def inference() -> int:
         obs = state["obs"]
