@@ -19,13 +19,14 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import zipfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rigid_env.core.actuator import meaning_keys, meaning_rows, specs
+from rigid_env.core.actuator import meaning_keys, meaning_rows, named, specs
 
 ATTRIBUTE = "action_meaning"
 """The model attribute (and key of the zip's ``data`` JSON) that holds the record."""
@@ -136,8 +137,22 @@ def mismatch(want: dict[str, Any], got: dict[str, Any]) -> str | None:
     if key in COMMAND_KEYS:
         fix = f"pass {key}={a} (--env-kwargs {key}={a})"
     else:
-        fix = "use the scene and env_kwargs it was trained with (its actuators and limits)"
+        fix = f"use the scene and env_kwargs it was trained with ({_scene_keys(key)})"
     return f"{key}: the model's actions mean {_describe(a)}, this env's {_describe(b)}; {fix}"
+
+
+def _scene_keys(key: str) -> str:
+    """The scene keys that set what differs at ``key`` of a record (``actuators[0]
+    (magnetorquers).dipole [A m^2]``: its section's :attr:`~rigid_env.core.actuator.Actuator.
+    scene_keys`), or the actuators' list where the kinds or their counts differ."""
+    kind = re.match(r"actuators\[\d+\] \((\w+)\)\.(?!kind$|count$)", key)
+    try:
+        keys = named(kind.group(1)).scene_keys if kind else ()
+    except KeyError:  # a kind an outside module registered and this process does not know
+        keys = ()
+    if not keys:
+        return "its scene's actuators: their kinds, counts and limits"
+    return f"its scene's actuators.{kind.group(1)}: " + ", ".join(keys)
 
 
 def stamp_file(model_path: Path, record: dict[str, Any]) -> None:

@@ -162,6 +162,9 @@ class Actuator:
         meaning: ``spec -> {key: (K, ...) rows}``: what one component does at ``u = 1`` (the
             record every loader compares, ``agents.meaning``).
         meaning_keys: the env keywords that change what its actions mean (``command``).
+        scene_keys: the keys of its scene section that set what one command component does
+            (its :attr:`meaning`), which a refusal of a policy trained on other ones names
+            (none: the refusal names the actuators section as a whole).
         state_rows: ``(specs, A) -> rows`` of state its units (``specs``: the world's of this
             kind) carry after ``x, v, q, w`` in a world of ``A`` command components (None:
             none).
@@ -207,6 +210,7 @@ class Actuator:
     draw: Callable[[Any], tuple[FloatArray, FloatArray]] = _points
     meaning: Callable[[Any], dict[str, FloatArray]] = _map_rows
     meaning_keys: tuple[str, ...] = ()
+    scene_keys: tuple[str, ...] = ()
     state_rows: Callable[[list, int], int] | None = None
     check_world: Callable[[list], None] | None = None
     rates: str | None = None

@@ -147,9 +147,11 @@ def _scene(**magnetorquers: object) -> dict:
 @pytest.mark.parametrize(
     ("env_kwargs", "named"),
     [
-        ({"scene": _scene(max_dipole=20.0)}, "dipole [A m^2]"),  # the issue's 100x coils
-        ({"scene": _scene(max_dipole=0.21)}, "dipole [A m^2]"),  # 5 % stronger
-        ({"scene": _scene(axes=[[0, 1, 0], [1, 0, 0], [0, 0, 1]])}, "dipole [A m^2]"),
+        # the issue's 100x coils, 5 % stronger, swapped: named by the record's row and by the
+        # scene keys that set it (what the user edits)
+        ({"scene": _scene(max_dipole=20.0)}, "magnetorquers: axes, max_dipole"),
+        ({"scene": _scene(max_dipole=0.21)}, "dipole [A m^2]"),
+        ({"scene": _scene(axes=[[0, 1, 0], [1, 0, 0], [0, 0, 1]])}, "magnetorquers: axes"),
         ({"command": "dipole"}, "command"),
     ],
 )
@@ -223,3 +225,37 @@ def test_stamp_file_keeps_every_other_entry(tmp_path):
     with zipfile.ZipFile(src) as a, zipfile.ZipFile(dst) as b:
         assert a.namelist() == b.namelist()
         assert all(a.read(n) == b.read(n) for n in a.namelist() if n != "data")
+
+
+def _section_fields(annotation: object) -> set[str]:
+    """The fields of the pydantic model inside a scene section's annotation (``tuple[X, ...]``,
+    ``Annotated[X | None, ...]``)."""
+    from typing import get_args
+
+    from pydantic import BaseModel
+
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return set(annotation.model_fields)
+    return set().union(*(_section_fields(arg) for arg in get_args(annotation)))
+
+
+def test_every_actuators_scene_keys_are_keys_of_its_scene_section():
+    """The keys a refusal names are ones a user can edit: each declaration's scene keys are
+    fields of its section of the scene's ``actuators`` mapping."""
+    from rigid_env.core.actuator import actuators
+    from rigid_env.scene_sections import ActuatorsSpec
+
+    for kind in actuators():
+        fields = _section_fields(ActuatorsSpec.model_fields[kind.name].annotation)
+        assert kind.scene_keys and set(kind.scene_keys) <= fields, (kind.name, fields)
+
+
+def test_a_wheel_policy_on_stronger_motors_names_the_motor_limit():
+    """WheelPointing with motors 10x stronger: the refusal names the wheels' scene keys."""
+    env = gym.make("RigidEnv/WheelPointing-v1")
+    record = meaning_of(env)
+    stronger = json.loads(json.dumps(record))
+    wheels = next(a for a in stronger["actuators"] if a["kind"] == "reaction_wheels")
+    wheels["motor torque [N m]"] = (10.0 * np.asarray(wheels["motor torque [N m]"])).tolist()
+    problem = mismatch(record, stronger)
+    assert "actuators.reaction_wheels: axes, max_torque" in problem and "\n" not in problem

@@ -62,5 +62,6 @@ ACTUATORS = (
         section="outside_actuator:AxisTorquersSpec",
         bound=lambda spec, field=None: (0.0, float(np.abs(spec.max_torque) * len(spec.axes))),
         torque_at=lambda spec, u, field=None: np.asarray(u) @ spec.torque_map,
+        scene_keys=("axes", "max_torque"),
     ),
 )

@@ -127,5 +127,6 @@ COUPLES = Actuator(
     fuel_unit="N s",
     draw=_draw,
     meaning=lambda spec: {"torque [N m]": spec.torque_map, "thrust [N]": spec.max_force[:, None]},
+    scene_keys=("points", "direction", "max_force"),
 )
 """The thruster couples' declaration."""

@@ -139,6 +139,7 @@ MAGNETORQUERS = Actuator(
     fuel_unit="A m^2 s",
     draw=lambda spec: (np.zeros_like(spec.axes), spec.axes),
     meaning=lambda spec: {"dipole [A m^2]": spec.dipole_map},
+    scene_keys=("axes", "max_dipole"),
     meaning_keys=("command",),  # BdotDetumble's: coil dipoles, or wanted torques
     world_input="field",
 )

@@ -74,4 +74,5 @@ POINT_FORCES = Actuator(
     fuel=force_fuel,
     fuel_unit="N s",
     draw=_draw,
+    scene_keys=("points", "max_force"),
 )

@@ -149,6 +149,7 @@ REACTION_WHEELS = Actuator(
     full_scale=lambda spec: spec.max_torque,
     draw=lambda spec: (np.zeros_like(spec.axes), spec.axes),
     meaning=lambda spec: {"motor torque [N m]": spec.axes * np.asarray(spec.max_torque)[:, None]},
+    scene_keys=("axes", "max_torque"),
     state_rows=lambda specs, actions: MAX_WHEELS,
     check_world=_alone,
     rates="rigid_env.core.wheels:gyrostat",

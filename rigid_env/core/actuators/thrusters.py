@@ -224,6 +224,7 @@ THRUSTERS = Actuator(
     fuel=force_fuel,
     fuel_unit="N s",
     draw=_draw,
+    scene_keys=("point", "direction", "max_force"),
     # the lagged levels: one row per component of the world (THRUST + a) where one lags
     state_rows=lambda specs, actions: actions if any(np.any(s.lag > 0.0) for s in specs) else 0,
     rates="rigid_env.core.thrusters:segment_wrench",
