@@ -49,7 +49,7 @@ def wrench(p, c, model, command, i):
     named ``p``; row ``i`` of ``command`` (N, A), or its only row, each ``u_a`` clipped to
     [-1, 1], :func:`rigid_env.core.layout.command_level`): the body-frame ``f_body = sum_a u_a
     F_a``, ``tau_body = sum_a u_a (r_a x F_a)`` (rows of :data:`MAPS`, or the body's own,
-    :func:`map_row`), summed in a fixed order; where magnetorquers act, the dipole ``m_b =
+    :func:`map_row`), summed in a fixed order; where a dipole is commanded, the dipole ``m_b =
     m_res + sum_a u_a m_a`` (body frame) and the field ``B`` (world frame) the command carries
     (:func:`add_component`, :func:`with_field`), else zeros."""
     r = 0 if command.shape[0] == 1 else i
@@ -66,10 +66,10 @@ ZERO_WRENCH = (ZERO3, ZERO3, ZERO3, ZERO3)
 @kernel
 def add_component(act, u, p, c, model, a, i):
     """``act`` plus command component ``a`` at level ``u`` (its map row scaled, and its dipole
-    where magnetorquers act, :func:`rigid_env.core.layout.dipole_row`)."""
+    where a dipole is commanded, :func:`rigid_env.core.layout.dipole_row`)."""
     force, torque = map_row(p, c, model, a, i)
     dipole = act[2]
-    if c.magnetorquers != 0.0:
+    if c.dipoles != 0.0:
         dipole = axpy(dipole, u, dipole_row(p, c, a))
     return axpy(act[0], u, force), axpy(act[1], u, torque), dipole, act[3]
 
@@ -77,9 +77,9 @@ def add_component(act, u, p, c, model, a, i):
 @kernel
 def with_field(act, command, r, c):
     """``act`` with the body's residual dipole added to its dipole and the field of row ``r``
-    of the command (:func:`rigid_env.core.layout.field_of`), where magnetorquers act; zeros
+    of the command (:func:`rigid_env.core.layout.field_of`), where a dipole is commanded; zeros
     where the field comes from the orbit state (:func:`rigid_env.core.orbit_state.where`)."""
-    if c.magnetorquers == 0.0:
+    if c.dipoles == 0.0:
         return act
     residual = (c.residual_dipole_x, c.residual_dipole_y, c.residual_dipole_z)
     # The field of the orbit state (c.field_degree) is set where the body is, per substep.
@@ -93,11 +93,11 @@ def accelerations(x, v, q, w, act, m, c, gyro):
     [rad/s^2] of one body at the state ``(x, v, q, w)``, from the actuation ``act = (force,
     torque, dipole, field)`` (:func:`wrench`; the body-frame force turned to the world frame)
     and the listed effects' forces and torques (:func:`rigid_env.core.compose.effect_terms`,
-    each effect's own function, :mod:`rigid_env.core.forces`); where magnetorquers act, the
+    each effect's own function, :mod:`rigid_env.core.forces`); where a dipole is commanded, the
     torque ``m_b x R^T B`` of its dipole and field; with ``gyro``, Euler's ``I w' = tau - w x
     I w`` (skipped for an isotropic body, where the term vanishes)."""
     fb, tb = act[0], act[1]
-    if c.magnetorquers != 0.0:
+    if c.dipoles != 0.0:
         tb = add(tb, dipole_torque(act[2], act[3], q))
     f = (0.0, 0.0, 0.0)
     if c.actuator_force != 0.0:

@@ -81,11 +81,11 @@ _TAIL = (
     ("noisy", "flag: the command carries A thrust factors after its A components"),
     ("body_maps", "flag: each body has its own actuator maps, model rows from MODEL_WIDTH on"),
     (
-        "magnetorquers",
+        "dipoles",
         "flag: some command components are magnetic dipoles (dipole_row); the "
         "command carries each body's field B (3, world) [T] after its components (field_of)",
     ),
-    ("residual_dipole_x", "the body's own dipole where magnetorquers act, body frame [A m^2]"),
+    ("residual_dipole_x", "the body's own dipole where a dipole is commanded, body frame [A m^2]"),
     ("residual_dipole_y", "its y component"),
     ("residual_dipole_z", "its z component"),
     ("wheels", "flag: the bodies carry reaction wheels (rigid_env.core.wheels)"),
@@ -124,7 +124,7 @@ actuator maps (``Params.body_maps``: a misaligned thruster), rows ``MODEL_WIDTH 
 WRENCH_WIDTH = 17
 """Rows of the world step's scratch columns ``wrenches`` (WRENCH_WIDTH, N): each body's
 actuator force (0:3) and torque (3:6), body frame, held over the world step, its
-:data:`REACH`, where magnetorquers act (``Params.magnetorquers``) its dipole (7:10, body
+:data:`REACH`, where a dipole is commanded (``Params.dipoles``) its dipole (7:10, body
 frame) and the field (10:13, world frame): the four parts of an actuation ``act``
 (:func:`rigid_env.core.dynamics.wrench`); and where the bodies carry reaction wheels each
 wheel's motor torque (from :data:`MOTORS`)."""
@@ -323,8 +323,8 @@ def map_row(p, c, model, a, i):
 @kernel
 def dipole_row(p, c, a):
     """Command component ``a``'s magnetic dipole at ``|u| = 1``, body frame [A m^2] (zero for
-    a thruster): rows after the maps and the thrusters' hardware rows, where magnetorquers act
-    (``c.magnetorquers``)."""
+    a thruster): rows after the maps and the thrusters' hardware rows, where a dipole is commanded
+    (``c.dipoles``)."""
     actions = int(c.actions)
     k = MAPS + 6 * actions + (THRUSTER_WIDTH * actions if c.hardware != 0.0 else 0) + 3 * a
     return (p[k], p[k + 1], p[k + 2])
@@ -333,7 +333,7 @@ def dipole_row(p, c, a):
 @kernel
 def field_of(command, r, c):
     """The field ``B`` [T], world frame, that row ``r`` of the command carries after its ``A``
-    components (and their thrust factors where noisy), where magnetorquers act."""
+    components (and their thrust factors where noisy), where a dipole is commanded."""
     k = int(c.actions) * (2 if c.noisy != 0.0 else 1)
     return (command[r, k], command[r, k + 1], command[r, k + 2])
 
@@ -352,11 +352,11 @@ def load(state, i):
 @kernel
 def load_wrench(wrenches, i, c):
     """Body ``i``'s actuation ``(force, torque, dipole, field)`` from its column of
-    ``wrenches`` (:data:`WRENCH_WIDTH`, N); the dipole and field zero unless magnetorquers
-    act."""
+    ``wrenches`` (:data:`WRENCH_WIDTH`, N); the dipole and field zero unless a dipole
+    is commanded."""
     f = (wrenches[0, i], wrenches[1, i], wrenches[2, i])
     t = (wrenches[3, i], wrenches[4, i], wrenches[5, i])
-    if c.magnetorquers == 0.0:
+    if c.dipoles == 0.0:
         return f, t, ZERO3, ZERO3
     d = (wrenches[7, i], wrenches[8, i], wrenches[9, i])
     return f, t, d, (wrenches[10, i], wrenches[11, i], wrenches[12, i])
@@ -367,7 +367,7 @@ def store_wrench(wrenches, i, act, c):
     """Write body ``i``'s actuation ``act`` into its column of ``wrenches``."""
     wrenches[0, i], wrenches[1, i], wrenches[2, i] = act[0]
     wrenches[3, i], wrenches[4, i], wrenches[5, i] = act[1]
-    if c.magnetorquers != 0.0:
+    if c.dipoles != 0.0:
         wrenches[7, i], wrenches[8, i], wrenches[9, i] = act[2]
         wrenches[10, i], wrenches[11, i], wrenches[12, i] = act[3]
 

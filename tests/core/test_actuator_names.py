@@ -19,9 +19,9 @@ OWN = ("rigid_env/core/actuator.py", "rigid_env/core/actuators/")
 TESTS_CLASS: set[str] = set()
 """Files that still ``isinstance`` an actuator class."""
 NAMES_ONE = {
-    "rigid_env/core/dynamics.py",  # the compiled flag c.magnetorquers (dipole and field)
-    "rigid_env/core/layout.py",  # the flag magnetorquers among the world's parameters
-    "rigid_env/envs/__init__.py",  # a variant's registered kwargs (registering imports no core)
+    # a variant's registered kwargs: the env keyword ``thrusters="realistic"`` that the
+    # thrusters' presets declare (registering imports no core to look it up)
+    "rigid_env/envs/__init__.py",
 }
 """Files that still name an actuator (a string or an attribute of its scene key)."""
 

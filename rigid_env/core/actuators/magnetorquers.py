@@ -74,7 +74,7 @@ class Magnetorquers(LinearActuator):
     def parameters(self) -> dict[str, float]:
         """The flag and the residual dipole; the coils' rows go after the maps (:func:`pack`)."""
         axes = ("residual_dipole_x", "residual_dipole_y", "residual_dipole_z")
-        return {"magnetorquers": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
+        return {"dipoles": 1.0} | dict(zip(axes, self.residual.tolist(), strict=True))
 
 
 """The magnetorquers' declaration."""
@@ -127,8 +127,8 @@ MAGNETORQUERS = Actuator(
         rows=lambda spec: spec.dipole_map,
         default=lambda spec: np.zeros((spec.action_dim, 3)),
     ),
-    flags=("magnetorquers", "residual_dipole_x", "residual_dipole_y", "residual_dipole_z"),
-    rare=("magnetorquers",),
+    flags=("dipoles", "residual_dipole_x", "residual_dipole_y", "residual_dipole_z"),
+    rare=("dipoles",),
     single=True,
     torque_bound=coil_torque_bound,
     bound=_bound,
