@@ -128,7 +128,7 @@ class RigidBodySB3VecEnv(VecEnv):
         act = np.asarray(actions)
         if np.iscomplexobj(act):
             raise ValueError(
-                "actions: complex numbers; send real thruster commands in [-1, 1] "
+                "actions: complex numbers; send real commands in [-1, 1] "
                 "(the imaginary part would be dropped)"
             )
         expected = (self.num_envs, self.task.action_dim)

@@ -16,7 +16,7 @@ from rigid_env.envs.sensors import RowNormals
 
 FloatArray = NDArray[np.float64]
 
-_NON_FINITE_ACTION = "action: contains NaN or inf; send finite thruster commands in [-1, 1]"
+_NON_FINITE_ACTION = "action: contains NaN or inf; send finite commands in [-1, 1]"
 
 
 def as_num_envs(value: Any) -> int:

@@ -74,7 +74,7 @@ def with_preset(
     if not section:
         raise ValueError(
             f"{kind.name}: {preset!r} models the scene's {kind.noun}s, and scene {scene.name!r} "
-            f"has none (point forces are ideal forces with no hardware); use "
+            f"has none (its actuators: {_present(scene)}); use "
             f"{kind.name}={next(iter(kind.presets))!r}, or give the scene actuators.{kind.name}"
         )
     step = scene.dt if dt is None else float(dt)
@@ -84,6 +84,12 @@ def with_preset(
         section = section.model_copy(update=rule(section, step))
     actuators = scene.actuators.model_copy(update={kind.name: section})
     return scene.model_copy(update={"actuators": actuators})
+
+
+def _present(scene: Scene) -> str:
+    """The scene's actuator sections that hold units, by name (``none`` where none does)."""
+    names = [a.name for a in kinds(lambda a: bool(getattr(scene.actuators, a.name, None)))]
+    return ", ".join(names) or "none"
 
 
 class ThrusterFaults(BaseModel):
