@@ -22,9 +22,10 @@ writes ``speed.md`` (one table per measurement), ``speed.csv`` (one row per meas
    them; the no-effect world is measured twice (the noise floor).
 5. ``ppo``: PPO's environment steps per second with our SB3 adapter, ``DummyVecEnv`` and
    ``SubprocVecEnv`` (same PPO settings and number of environments).
-6. ``random``: env-steps per second of the vector env of every shipped policy whose training
-   env draws per episode or step (its config's randomisation and sensors, or a variant's own),
-   and the cost of a reset per env, each beside the same env without those draws.
+6. ``random``: env-steps per second of the vector env of every task (its newest version) and
+   every shipped policy's env, with its shipped randomisation and sensors (its PPO config's,
+   over a variant's own), and the cost of a reset per env, each beside the same env without
+   those draws.
 
 Timing is :mod:`rigid_env.bench.timing`'s (peers interleaved round by round, medians, ratios
 within a run); writing is :mod:`rigid_env.bench.report`'s. This module holds the cases, and
@@ -43,7 +44,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import gymnasium as gym
 import numba
@@ -66,6 +67,7 @@ from rigid_env.bench.speed_rows import (
     RESET,
     SECTIONS,
     SYNC_CASE,
+    WORLD_STEPS,
     Config,
     Results,
     Row,
@@ -633,33 +635,62 @@ def bench_ppo(cfg: Config, res: Results) -> None:
 
 RESET_EVERY = 16
 """A timed reset restarts every 16th env of the N (autoresets restart a few envs at a time)."""
+STEP_BAR, RESET_BAR = 0.5, 20.0
+"""Issue 45's bar: a randomised vector env steps at >= 0.5x its nominal env-steps/s, and its
+reset costs <= 20x the nominal one per env."""
 
 
-def shipped_randomisations() -> dict[str, tuple[str, dict[str, Any], dict[str, Any]]]:
-    """Name -> (env id, nominal kwargs, shipped kwargs) of every shipped policy whose training
-    env draws per episode or per step: its config's ``env_kwargs`` (over a variant's own) hold a
-    randomisation or sensors. The nominal kwargs are the same with both switched off."""
+class Shipped(NamedTuple):
+    """An env as it ships (:func:`shipped_randomisations`)."""
+
+    env_id: str
+    nominal: dict[str, Any]
+    """Its shipped keyword arguments with ``randomization=None, sensors=None``."""
+    shipped: dict[str, Any]
+    """Its PPO config's ``env_kwargs`` (none where the task ships no config)."""
+    draws: str
+    """What it draws per episode or step (``randomization`` and ``sensors`` keys, over a
+    variant's own), ``none`` if nothing."""
+
+
+def _draws(kwargs: dict[str, Any]) -> str:
+    """The ``randomization`` and ``sensors`` keys of ``kwargs`` that are on, or ``none``."""
+    on = [k for k, v in (kwargs.get("randomization") or {}).items() if v]
+    on += [f"sensors.{k}" for k, v in (kwargs.get("sensors") or {}).items() if v]
+    return ", ".join(on) or "none"
+
+
+def shipped_randomisations() -> dict[str, Shipped]:
+    """Name -> :class:`Shipped` of every task's newest id and every shipped policy's id that
+    draws (an older version a policy was trained on, a variant), each with its PPO config's
+    ``env_kwargs`` (``configs/agents/ppo_<stem>.yaml``; none where the task ships no config).
+    A task's newest id that draws nothing is measured too: its two rows are the same env (the
+    noise floor)."""
     import yaml
 
     from rigid_env.agents.shipped import POLICIES
-    from rigid_env.envs import VARIANTS, merge_kwargs
-    from rigid_env.resources import agent_config_path
+    from rigid_env.envs import TASKS, VARIANTS, merge_kwargs
+    from rigid_env.resources import find_data
 
+    newest = {task.env_id: task.module for task in TASKS.values()}
+    stems = newest | POLICIES
     out = {}
-    for env_id, stem in POLICIES.items():
-        config = yaml.safe_load(agent_config_path(f"ppo_{stem}").read_text(encoding="utf-8"))
+    for env_id, stem in stems.items():
+        path = find_data(f"configs/agents/ppo_{stem}.yaml")
+        config = yaml.safe_load(path.read_text(encoding="utf-8")) if path else {}
         shipped = dict(config.get("env_kwargs") or {})
         variant = VARIANTS.get(env_id.split("/")[-1])
         drawn = merge_kwargs(variant.kwargs if variant else {}, shipped)
-        if not (drawn.get("randomization") or drawn.get("sensors")):
-            continue
+        if env_id not in newest and _draws(drawn) == "none":
+            continue  # an older version's policy drawing nothing: its task's newest stands
         nominal = {**shipped, "randomization": None, "sensors": None}
-        out[short_id(env_id)] = (env_id, nominal, shipped)
+        out[short_id(env_id)] = Shipped(env_id, nominal, shipped, _draws(drawn))
     return out
 
 
-def _random_cases(name: str, env_id: str, kwargs: dict[str, Any], n: int) -> list[Case]:
-    """The step and the reset of ``env_id``'s vector env of ``n`` envs made with ``kwargs``."""
+def _random_cases(name: str, env_id: str, kwargs: dict[str, Any], n: int) -> tuple[list[Case], Any]:
+    """The step and the reset of ``env_id``'s vector env of ``n`` envs made with ``kwargs``,
+    and its task batch."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         env = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
@@ -676,44 +707,63 @@ def _random_cases(name: str, env_id: str, kwargs: dict[str, Any], n: int) -> lis
         env.step(actions[i % len(actions)])
         i += 1
 
-    return [
+    cases = [
         Case(name, step, n, close=env.close),
         Case(name + RESET, lambda: task.reset_envs(rows, own), rows.size),
     ]
+    return cases, task
 
 
 def bench_random(cfg: Config, res: Results) -> None:
-    """Env-steps/s and the cost of a reset per env, with and without the shipped draws."""
+    """Env-steps/s and the cost of a reset per env, with and without the shipped draws, of
+    every task and shipped policy; the four cases of an env interleaved round by round."""
     n = cfg.random_size
-    for name, (env_id, nominal, shipped) in shipped_randomisations().items():
-        cases = _random_cases(name, env_id, nominal, n)
-        cases += _random_cases(name + RANDOMISED, env_id, shipped, n)
+    for name, env in shipped_randomisations().items():
+        cases, nominal = _random_cases(name, env.env_id, env.nominal, n)
+        more, shipped = _random_cases(name + RANDOMISED, env.env_id, env.shipped, n)
+        cases += more
         timings = measure(cases, min_time=cfg.min_time, repeats=cfg.repeats, clock=cfg.clock)
+        # World steps per env step: each env's action repeat in the episode it ended the run in.
+        world_steps = {name: float(nominal.repeats.mean()),
+                       name + RANDOMISED: float(shipped.repeats.mean())}  # fmt: skip
         for case in (name, name + RANDOMISED):
+            draws = env.draws if case != name else ""
             t, peer = timings[case], timings[name]
             res.rows.append(
                 _row("random", case, n, "env_steps_per_s", "1/s", t, t.rate, peer=name,
-                     ratio=t.rate / peer.rate)
+                     ratio=t.rate / peer.rate, note=draws)
+            )  # fmt: skip
+            res.rows.append(
+                Row("random", case + WORLD_STEPS, n, "world_steps_per_env_step",
+                    world_steps[case], "1", peer=name + WORLD_STEPS,
+                    ratio=world_steps[case] / world_steps[name])
             )  # fmt: skip
             t, peer = timings[case + RESET], timings[name + RESET]
             res.rows.append(
                 _row("random", case + RESET, n, "us_per_reset_env", "us", t, t.per_unit * 1e6,
                      peer=name + RESET, ratio=t.per_unit / peer.per_unit)
             )  # fmt: skip
-        del cases
+        del cases, more, nominal, shipped
         gc.collect()
         _log(f"  random {name}: done")
     res.notes["random"] = [
         f'`gym.make_vec(id, num_envs={n}, vectorization_mode="vector_entry_point", '
-        "**env_kwargs)` of every shipped policy whose training env draws per episode or step, "
-        "with its config's `env_kwargs` (*randomised*: `configs/agents/ppo_<task>.yaml`, over a "
-        "variant's own) and with the same `randomization=None, sensors=None` (nominal). "
+        "**env_kwargs)` of every task's newest version and every shipped policy's env, with "
+        "its PPO config's `env_kwargs` (*randomised*: `configs/agents/ppo_<task>.yaml`, over a "
+        "variant's own; none where a task ships no config) and with the same "
+        "`randomization=None, sensors=None` (nominal). *draws*: what the randomised env draws "
+        "(none: both rows are the same env, the noise floor). "
         "Steps: random actions drawn beforehand, autoreset as the env does it (an episode's "
         f"reset is part of the step's cost). Resets: `reset_envs` of every {RESET_EVERY}th env, "
-        "each drawing from its own generator; cost per reset env.",
+        "each drawing from its own generator; cost per reset env. The four cases of an env "
+        "are timed round by round.",
         "Ratios: env-steps/s over the nominal env's (higher is faster); time per reset env "
-        "over the nominal env's (lower is faster). An action repeat (TumblingFall) makes an env "
-        "step several world steps, so its env-steps/s fall by that factor for the physics alone.",
+        "over the nominal env's (lower is faster). An action repeat (TumblingFall's config "
+        "draws 2-5 world steps per env step) makes an env step several world steps: *world "
+        "steps / env step* is the mean of the envs' drawn repeats at the end of the run, and "
+        "*per world step* the step ratio times it (the cost of the draws themselves).",
+        f"Bar (issue 45): randomised >= {STEP_BAR:g}x the nominal env-steps/s and a reset <= "
+        f"{RESET_BAR:g}x the nominal one per env.",
     ]
 
 

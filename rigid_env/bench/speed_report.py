@@ -27,6 +27,7 @@ from rigid_env.bench.speed_rows import (
     RESET,
     SECTIONS,
     SYNC_CASE,
+    WORLD_STEPS,
     Results,
     Row,
     short_id,
@@ -248,29 +249,37 @@ def ppo(res: Results) -> tuple[Section, Panel]:
 
 
 def random(res: Results) -> tuple[Section, Panel]:
-    """Each env's steps and resets with its shipped draws beside its nominal ones; bars of the
-    step ratios."""
-    names = [r.case for r in res.section("random") if not r.case.endswith((RANDOMISED, RESET))]
+    """Each env's steps and resets with its shipped draws beside its nominal ones, per env step
+    and per world step, against the bar; bars of the step ratios."""
+    from rigid_env.bench.speed import RESET_BAR, STEP_BAR
+
+    rows = res.section("random")
+    names = [r.case for r in rows if not r.case.endswith((RANDOMISED, RESET, WORLD_STEPS))]
     table, shown = [], []
     for name in names:
-        n = next(r.n for r in res.section("random") if r.case == name)
+        n = next(r.n for r in rows if r.case == name)
         step, rand = res.get("random", name, n), res.get("random", name + RANDOMISED, n)
         reset = res.get("random", name + RESET, n)
         rand_reset = res.get("random", name + RANDOMISED + RESET, n)
-        assert step and rand and reset and rand_reset  # measured together
+        world = res.get("random", name + RANDOMISED + WORLD_STEPS, n)
+        assert step and rand and reset and rand_reset and world  # measured together
+        per_world_step = rand.ratio * world.ratio
+        bar = rand.ratio >= STEP_BAR and rand_reset.ratio <= RESET_BAR
         table.append(
-            [f"`{name}`", str(n), si(step.value), si(rand.value), times(rand.ratio),
-             f"{reset.value:.3g}", f"{rand_reset.value:.3g}", times(rand_reset.ratio)]
+            [f"`{name}`", rand.note, str(n), si(step.value), si(rand.value), times(rand.ratio),
+             f"{world.value:.3g}", times(per_world_step), f"{reset.value:.3g}",
+             f"{rand_reset.value:.3g}", times(rand_reset.ratio), "yes" if bar else "**no**"]
         )  # fmt: skip
         shown.append((name, rand, rand_reset))
     header = [
-        "env", "N", "nominal env-steps/s", "randomised env-steps/s", "x nominal",
-        "nominal us/reset env", "randomised us/reset env", "x nominal",
+        "env", "draws", "N", "nominal env-steps/s", "randomised env-steps/s", "x nominal",
+        "world steps / env step", "x nominal per world step", "nominal us/reset env",
+        "randomised us/reset env", "x nominal", "bar",
     ]  # fmt: skip
     section = Section(
         "6. Randomisation and sensors: the vector env's steps and resets",
         res.notes["random"],
-        [Table(header, table, "lrrrrrrr")],
+        [Table(header, table, "llrrrrrrrrrl")],
     )
     bars = Series(
         "",

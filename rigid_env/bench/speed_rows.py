@@ -28,6 +28,9 @@ RANDOMISED = " randomised"
 without it is its nominal peer)."""
 RESET = " reset"
 """The suffix of a ``random`` case that times resets (per reset env) rather than steps."""
+WORLD_STEPS = " world steps"
+"""The suffix of a ``random`` row that gives the world steps per env step of a case (its
+envs' mean action repeat), not a timing."""
 
 
 @dataclass(frozen=True)

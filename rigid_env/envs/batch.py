@@ -420,7 +420,7 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
             self._read_world(slice(None), reset=False)
         self._pass(self._arrays(world.columns, world.model_columns, self.command, self.target,
                                 self._world_data, noise, self.record, self.obs), True,
-                                self._threaded)  # fmt: skip
+                                K.EVERY_ENV, self._threaded)  # fmt: skip
         if not self._counts_commands:
             self._count_delivered()
         return failed
@@ -475,27 +475,26 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
     def _pass_rows(self, idx: NDArray[np.int64], stepped: bool) -> None:
         """The task's pass over the envs ``idx`` only (after a step of some, or a reset),
         sensor noise drawn from their generators (:attr:`streams`, following them): their rows
-        of the record and the observation written, the others kept."""
-        record, obs = self.record[idx], self.obs[idx]
-        cols = np.ascontiguousarray(self.world.columns[:, idx])
-        model = np.ascontiguousarray(self.world.model_columns[:, idx])
+        of the record and the observation written in place, the others kept."""
         noise = self._no_noise
         if self._sigma > 0.0:
             noise = sensor_noise(self.streams, self._sigma, idx)
-        world = self._world_data[idx] if self._reads_world else self._world_data
-        arrays = self._arrays(cols, model, self.command[idx], self.target[idx], world,
-                              noise, record, obs)  # fmt: skip
-        self._pass(arrays, stepped, threads.threaded(idx.size))
-        self.record[idx], self.obs[idx] = record, obs
+        world = self.world
+        arrays = self._arrays(world.columns, world.model_columns, self.command, self.target,
+                              self._world_data, noise, self.record, self.obs)  # fmt: skip
+        self._pass(arrays, stepped, idx, threads.threaded(idx.size))
 
     def _arrays(self, state, model, command, target, world, noise, record, obs) -> tuple[Any, ...]:
         """The :class:`~rigid_env.envs.kernels.EnvArrays` of a pass, as a plain tuple."""
         return (state, model, command, target, world, noise, record, obs, self.max_force)
 
-    def _pass(self, arrays: tuple[Any, ...], stepped: bool, threaded: bool) -> None:
-        """The task's compiled pass over the envs of ``arrays``, split over the cores if
-        ``threaded`` (many envs; each env is computed alone, so the split changes no number)."""
-        job = (self.numbers, arrays, stepped)
+    def _pass(
+        self, arrays: tuple[Any, ...], stepped: bool, rows: NDArray[np.int64], threaded: bool
+    ) -> None:
+        """The task's compiled pass over the envs ``rows`` of ``arrays``
+        (:data:`~rigid_env.envs.kernels.EVERY_ENV`: all), split over the cores if ``threaded``
+        (many envs; each env is computed alone, so the split changes no number)."""
+        job = (self.numbers, arrays, stepped, rows)
         if threaded:
             threads.call_threaded(lambda t: type(self).task_pass(job, t))
         else:

@@ -20,7 +20,10 @@ The data the pass shares, each declared once by name:
 * the numbers: a structured array of one element, the common fields :data:`COMMON_NUMBERS` and
   the task's parameters, by name (:func:`rigid_env.envs.params.numbers`);
 * :class:`EnvArrays`: the arrays of a pass, handed to Numba as a plain tuple in this order (a
-  named tuple costs about a microsecond per call in Numba's dispatcher; the pass names it).
+  named tuple costs about a microsecond per call in Numba's dispatcher; the pass names it);
+* the rows: the envs a pass computes, in place in the N-row arrays (:data:`EVERY_ENV`: all of
+  them), so that a pass over some envs (those still stepping through an action repeat, those
+  just reset) reads and writes their rows where they are, with no gather and scatter around it.
 """
 
 from __future__ import annotations
@@ -160,13 +163,18 @@ class EnvArrays(NamedTuple):
     """(N | 1, WORLD_WIDTH) each env's :class:`WorldData` (one shared row of zeros where the
     task reads none)."""
     noise: NDArray[np.float64]
-    """(N | 1, 3) sensor noise on the observed ``w`` [rad/s]."""
+    """(K | 1, 3) sensor noise on the observed ``w`` [rad/s]: row ``k`` for the ``k``-th env
+    of the pass (its rows, or every env), or one row shared by all."""
     record: NDArray[np.void]
     """(N,) :data:`RECORD` (written)."""
     obs: NDArray[np.float32]
     """(N, D) observations (written)."""
     max_force: NDArray[np.float64]
     """(A,) each command component's force at ``|u| = 1`` [N], the fuel's weights."""
+
+
+EVERY_ENV = np.empty(0, dtype=np.int64)
+"""The rows of a pass over every env (``0 <= i < N``, in order): no row listed."""
 
 
 @kernel
@@ -201,15 +209,23 @@ def observe_body(c, body, noise, obs, i):
 
 
 @kernel
-def fine_spin(c, state, noise, obs, start, stop):
-    """``tanh((w + noise) / FINE_SPIN)`` of the envs ``start <= i < stop`` into their columns of
-    ``obs`` after the orientation and the scaled ``w``: three loops over the envs with no call
-    or branch, which LLVM vectorises, into a buffer, then copied into the rows."""
+def fine_spin(c, state, noise, obs, rows, start, stop):
+    """``tanh((w + noise) / FINE_SPIN)`` of the envs ``start <= k < stop`` of the pass (env
+    ``rows[k]``, or ``k`` for :data:`EVERY_ENV`) into their columns of ``obs`` after the
+    orientation and the scaled ``w``: three loops over the envs with no call or branch, which
+    LLVM vectorises, into a buffer, then copied into the rows."""
     n = np.uint64(stop - start)
     fine = np.empty((3, n))
     shared = noise.shape[0] == 1
+    every = rows.size == 0
     for k in range(3):
-        row, nk = state[10 + k, start:stop], noise[0, k]
+        if every:
+            row = state[10 + k, start:stop]
+        else:  # the listed envs' w copied contiguous, for the loop to vectorise
+            row = np.empty(n)
+            for e in range(n):
+                row[e] = state[10 + k, rows[start + e]]
+        nk = noise[0, k]
         if shared:  # the same noise for every env (none: zeros)
             for i in range(n):
                 fine[k, i] = tanh((row[i] + nk) / FINE_SPIN)
@@ -218,13 +234,15 @@ def fine_spin(c, state, noise, obs, start, stop):
             for i in range(n):
                 fine[k, i] = tanh((row[i] + noise_k[i]) / FINE_SPIN)
     col = (6 if c.sixd else 4) + 3
-    for i in range(n):
-        obs[start + i, col], obs[start + i, col + 1], obs[start + i, col + 2] = fine[:, i]
+    for e in range(n):
+        i = start + e if every else rows[start + e]
+        obs[i, col], obs[i, col + 1], obs[i, col + 2] = fine[:, e]
 
 
 @_per_task
-def _env(evaluate, c, a, stepped, i):
-    """:func:`env_pass` of env ``i``; returns how many extra observations ``evaluate`` gives."""
+def _env(evaluate, c, a, stepped, i, e):
+    """:func:`env_pass` of env ``i``, the ``e``-th of the pass (its row of the noise); returns
+    how many extra observations ``evaluate`` gives."""
     jw = 0 if a.world.shape[0] == 1 else i
     d = a.world
     field = (d[jw, 0], d[jw, 1], d[jw, 2])
@@ -240,7 +258,7 @@ def _env(evaluate, c, a, stepped, i):
             thrust += u * a.max_force[k]
         effort = magnitude / actions
         rec.fuel = rec.fuel + thrust * c.dt
-    j = 0 if a.noise.shape[0] == 1 else i
+    j = 0 if a.noise.shape[0] == 1 else e
     start = observe_body(c, body, (a.noise[j, 0], a.noise[j, 1], a.noise[j, 2]), a.obs, i)
     t = a.target
     goal = (t[i, 0], t[i, 1], t[i, 2], t[i, 3])
@@ -267,14 +285,16 @@ def _env(evaluate, c, a, stepped, i):
 
 
 @_per_task
-def _envs(evaluate, numbers, arrays, stepped, start, stop):
-    """:func:`env_pass` of the envs ``start <= i < stop``."""
+def _envs(evaluate, numbers, arrays, stepped, rows, start, stop):
+    """:func:`env_pass` of the envs ``start <= k < stop`` of the pass (env ``rows[k]``, or
+    ``k`` for :data:`EVERY_ENV`)."""
     c = numbers[0]
     a = EnvArrays(*arrays)
     extras = -1
-    for i in range(start, stop):
-        extras = _env(evaluate, c, a, stepped, i)
-    fine_spin(c, a.state, a.noise, a.obs, start, stop)
+    every = rows.size == 0
+    for k in range(start, stop):
+        extras = _env(evaluate, c, a, stepped, k if every else rows[k], k)
+    fine_spin(c, a.state, a.noise, a.obs, rows, start, stop)
     return extras
 
 
@@ -287,22 +307,24 @@ def env_pass(evaluate, job, threads):
         evaluate: the task's per-env function ``(body, effort, goal, memory, task, stepped) ->
             Outcome`` of the env's :class:`BodyState`, its effort (mean ``|u|`` of the step), its
             target (a :data:`TARGET_WIDTH`-tuple), its memory and the task's numbers by name.
-        job: ``(numbers, arrays, stepped)``: (1,) the task's numbers (:data:`COMMON_NUMBERS`,
-            then its parameters), the :class:`EnvArrays` as a plain tuple, and whether the
-            bodies were stepped (else reset).
+        job: ``(numbers, arrays, stepped, rows)``: (1,) the task's numbers
+            (:data:`COMMON_NUMBERS`, then its parameters), the :class:`EnvArrays` as a plain
+            tuple, whether the bodies were stepped (else reset), and (K,) int64 the envs to
+            compute, each in its own rows of the arrays, the others left as they are
+            (:data:`EVERY_ENV`: all ``N``).
         threads: split the envs over this many of Numba's threads (each env is computed alone,
             so the split changes no number).
 
     Returns:
         How many extra observations ``evaluate`` returns (-1 when threaded or for no env).
     """
-    numbers, arrays, stepped = job
-    n = arrays[0].shape[1]
+    numbers, arrays, stepped, rows = job
+    n = arrays[0].shape[1] if rows.size == 0 else rows.size
     if threads <= 1:
-        return _envs(evaluate, numbers, arrays, stepped, 0, n)
+        return _envs(evaluate, numbers, arrays, stepped, rows, 0, n)
     for t in prange(threads):
         lo, hi = split_range(0, n, t, threads)
-        _envs(evaluate, numbers, arrays, stepped, lo, hi)
+        _envs(evaluate, numbers, arrays, stepped, rows, lo, hi)
     return -1
 
 
