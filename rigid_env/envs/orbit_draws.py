@@ -20,12 +20,16 @@ def draw_orbit_start(rng: np.random.Generator) -> tuple[float, float]:
 
 
 def place_on_orbit(world: Any, rows: np.ndarray | slice, start: np.ndarray) -> None:
-    """Put the bodies ``rows`` at the epoch of their orbit (clock 0) with ``start`` (K, 2): the
-    mean anomaly and the Earth's rotation angle at the epoch [rad] (:func:`draw_orbit_start`),
-    and their ``x`` there: a uniform phase and angle put the ground track's start at a uniform
-    longitude."""
-    start = np.asarray(start, dtype=np.float64).reshape(-1, 2)
+    """Put the bodies ``rows`` on their orbit with ``start`` (K, 2) or (K, 3): the mean anomaly
+    and the Earth's rotation angle at the epoch [rad] (:func:`draw_orbit_start`), then the
+    clock [s from the epoch] where a third column gives it (else the clock the reset left: the
+    epoch, 0), and their ``x`` there: a uniform phase and angle put the ground track's start at
+    a uniform longitude."""
+    start = np.asarray(start, dtype=np.float64)
+    start = start.reshape(-1, 3 if start.shape[-1] == 3 else 2)
     orbit = world.orbit_rows
     orbit[rows, OrbitRows._fields.index("mean_anomaly")] = start[:, 0]
     orbit[rows, OrbitRows._fields.index("earth_angle")] = start[:, 1]
+    if start.shape[1] == 3:
+        orbit[rows, OrbitRows._fields.index("clock")] = start[:, 2]
     world.state.x[rows] = world.orbit_position(rows)

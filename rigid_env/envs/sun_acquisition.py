@@ -14,6 +14,7 @@ from pydantic import BaseModel
 
 from rigid_env.core.actuator import where
 from rigid_env.core.maths import rotate_inv
+from rigid_env.core.orbit import TROPICAL_YEAR
 from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.envs.batch import TaskBatch
 from rigid_env.envs.environments import RigidBodyEnv, RigidBodyVectorEnv
@@ -70,6 +71,11 @@ class SunAcquisitionParams(TaskParams):
     initial_wheel_speed: Fraction = 0.3
     """Each wheel starts at a speed uniform in +-this fraction of its limit (momentum stored
     before the fault), in [0, 1)."""
+    date_range: Seconds = TROPICAL_YEAR
+    """An episode starts at a time uniform in [0, date_range) [s] after the scene's epoch: the
+    Sun's direction (ECI) goes round the sky over a year, with the orbit's node following it (a
+    sun-synchronous orbit is one because J2 turns the node 360 deg a year), so the attitude
+    does not tell where the Sun is (the sun sensors do); 0: every episode at the epoch."""
 
 
 @kernel
@@ -193,6 +199,9 @@ class SunAcquisitionTask(TaskBatch):
         """The scene's wheels."""
         self.capacity = float(self.numbers["capacity"][0])
         """A wheel's momentum at its speed limit [N m s], the scale of the observed momentum."""
+        self.start_clock = np.zeros(self.n)
+        """Each env's orbit clock at its episode's start [s from the epoch]: the episode's time
+        is the clock less it."""
 
     def angular_velocity_scale(self) -> float:
         return self.params.max_initial_spin
@@ -209,7 +218,7 @@ class SunAcquisitionTask(TaskBatch):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         k = self.world.wheels.axes.shape[0] if self.world.wheels is not None else 0
         speeds = rng.uniform(-1.0, 1.0, 3) * self.params.initial_wheel_speed
-        start = np.array(draw_orbit_start(rng))
+        start = np.array([*draw_orbit_start(rng), rng.uniform(0.0, self.params.date_range)])
         world = {"wheel_speed": speeds[:k] * self.world.wheels.max_speed, "orbit_start": start}
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0), world
 
@@ -222,8 +231,11 @@ class SunAcquisitionTask(TaskBatch):
         sky = _sky(self, idx)
         assert sky is not None  # the orbit is world state (checked at construction)
         to_sun, light = sky
+        clock = self.world.orbit_rows[idx, 0]
+        if reset:
+            self.start_clock[idx] = clock
         self.target[idx, :3] = to_sun * light[:, None]
-        self.target[idx, 3] = self.world.orbit_rows[idx, 0]
+        self.target[idx, 3] = clock - self.start_clock[idx]
 
     def observed_field(self, rows: NDArray[np.int64]) -> tuple[FloatArray, float]:
         """Each env's field in the body frame [T] (its magnetometer's truth), observed over
@@ -294,7 +306,8 @@ class SunAcquisitionEnv(RigidBodyEnv):
     Orientation uniform on SO(3); |w| uniform on [0, ``max_initial_spin``] (5 deg/s) about a
     uniform axis; each wheel's speed uniform in +-``initial_wheel_speed`` (0.3) of its limit;
     the orbit phase and the Earth's rotation angle at the epoch (2025.0) each uniform, so an
-    episode starts in eclipse a third of the time.
+    episode starts in eclipse a third of the time; the date uniform over the ``date_range``
+    (a year) after the epoch, so the Sun may be anywhere on the ecliptic.
 
     ## Episode End
 
@@ -307,11 +320,11 @@ class SunAcquisitionEnv(RigidBodyEnv):
 
     ``max_initial_spin=5 deg/s, success_angle=15 deg, success_rate=0.5 deg/s,
     acquisition_time=600 s, effort_weight=0.01, momentum_weight=0.1, success_bonus=1,
-    initial_wheel_speed=0.3``, plus the common ``integrator`` (one that steps wheels), ``dt,
-    substeps, scene, rotation_repr, randomization, observe_control_period, sensors`` (the
-    coarse sun sensors are added where ``sensors`` leaves them out: six faces, noise ``sigma``
-    0 (``sensors={"sun_sensor": {"sigma": 0.01}}`` adds it); no star tracker)
-    ``, render_mode``.
+    initial_wheel_speed=0.3, date_range=1 year``, plus the common ``integrator`` (one that
+    steps wheels), ``dt, substeps, scene, rotation_repr, randomization,
+    observe_control_period, sensors`` (the coarse sun sensors are added where ``sensors``
+    leaves them out: six faces, noise ``sigma`` 0 (``sensors={"sun_sensor": {"sigma":
+    0.01}}`` adds it); no star tracker) ``, render_mode``.
 
     ## Info
 

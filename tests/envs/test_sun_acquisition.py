@@ -84,7 +84,8 @@ def test_the_sensors_go_dark_where_the_closed_form_puts_the_shadow():
     task = venv.unwrapped.task
     venv.reset(seed=5)
     phases = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    place_on_orbit(task.world, np.arange(n), np.column_stack([phases, np.zeros(n)]))
+    # all at the epoch (clock 0: one Sun), each episode's date drawn by the reset set aside
+    place_on_orbit(task.world, np.arange(n), np.column_stack([phases, np.zeros(n), np.zeros(n)]))
     obs, *_ = venv.step(np.zeros(venv.action_space.shape, np.float32))
     sun, r, clock = measured_sun(task, obs), task.world.state.x, task.world.orbit_rows[:, 0]
     epoch_jd = julian_date(epoch_datetime(task.world.motion.epoch))
@@ -103,6 +104,44 @@ def test_the_sensors_go_dark_where_the_closed_form_puts_the_shadow():
     expected = math.acos(math.sqrt(1.0 - ratio**2) / math.cos(beta)) / math.pi
     assert abs(np.mean(reads_zero) - expected) < 3.0e-3, (np.mean(reads_zero), expected)
     venv.close()
+
+
+def test_the_date_is_drawn_and_the_node_follows_the_sun():
+    """Each episode starts at a date uniform over a year after the epoch (the orbit's clock), so
+    the Sun's right ascension covers the sky from episode to episode, while J2 turns the
+    sun-synchronous node with the Sun: the angle beta between the Sun and the orbit plane stays
+    in the 10:30 orbit's seasonal band (17-27 deg from the node's 22:30 local time, the
+    inclination and the Sun's declination within +-23.44 deg; 12-35 deg kept, for the node's
+    drift from J2's secular rate and the ephemeris over a year, under a degree). With
+    ``date_range=0`` every episode starts at the epoch, as before the draw."""
+    n = 256
+    venv = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    task = venv.unwrapped.task
+    venv.reset(seed=3)
+    rows = task.world.orbit_rows
+    clock = rows[:, 0]
+    year = 365.2421897 * SECONDS_PER_DAY
+    assert np.all((clock >= 0.0) & (clock < year)) and np.ptp(clock) > 0.9 * year
+    assert np.array_equal(task.target[:, 3], np.zeros(n))  # the episode's time starts at 0
+    epoch_jd = julian_date(epoch_datetime(task.world.motion.epoch))
+    sun = np.array([sun_position(epoch_jd + t / SECONDS_PER_DAY) for t in clock])
+    sun /= np.linalg.norm(sun, axis=1, keepdims=True)
+    right_ascension = np.degrees(np.arctan2(sun[:, 1], sun[:, 0])) % 360.0
+    assert np.ptp(np.sort(right_ascension)) > 300.0
+    inclination = rows[:, 3]
+    node = rows[:, 4] + rows[:, 7] * clock
+    normal = np.column_stack(
+        [np.sin(inclination) * np.sin(node), -np.sin(inclination) * np.cos(node),
+         np.cos(inclination)]
+    )  # fmt: skip
+    beta = np.degrees(np.arcsin(np.abs(np.sum(sun * normal, axis=1))))
+    assert np.all((beta > 12.0) & (beta < 35.0)), (beta.min(), beta.max())
+    venv.close()
+    still = gym.make_vec(ENV_ID, num_envs=8, vectorization_mode="vector_entry_point",
+                         date_range=0.0)  # fmt: skip
+    still.reset(seed=3)
+    assert np.array_equal(still.unwrapped.task.world.orbit_rows[:, 0], np.zeros(8))
+    still.close()
 
 
 def test_the_wheels_move_no_total_momentum():
