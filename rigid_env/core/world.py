@@ -305,6 +305,29 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         """(MODEL_WIDTH, N) the model numbers, a column per body: what the compiled step reads."""
         return self._model_cols
 
+    def set_model_rows(self, bodies: Any) -> None:
+        """Lay out again the compiled model rows of the ``bodies`` (an index, slice or mask)
+        after their mass properties were set in place in :attr:`model`'s own per-body arrays, as
+        a randomised reset draws them: the other bodies' rows are left as they are, so a reset
+        of a few of N bodies costs what they do, not N (:meth:`set_model` lays out all N).
+
+        Raises:
+            ValueError: where the bodies share one model row (give each its own with
+                :meth:`set_model` first), or for a mass or moment that is not finite and > 0.
+        """
+        if self.model.mass.shape[0] != self._n or self.model.inertia.shape[0] != self._n:
+            raise ValueError(
+                "model: the bodies share one row of mass properties; give each body its own "
+                "with set_model(BodyModel(masses (N,), moments (N, 3))) first"
+            )
+        rows = np.arange(self._n)[chosen_bodies(self._n, bodies)]
+        drawn = BodyModel(self.model.mass[rows], self.model.inertia[rows])  # checks them
+        if not self._model_cols.flags.writeable:  # one body's: a view of its model's row
+            self._model_cols = self._model_cols.copy()
+            self._set_arrays()
+        self._model_cols[:MODEL_WIDTH, rows] = drawn.rows().T
+        self._check_asymmetry(drawn.inertia, rows)
+
     def set_model(self, model: BodyModel) -> None:
         """Replace the mass properties (per body or shared), e.g. for domain randomisation."""
         if model.n not in (1, self._n):

@@ -86,12 +86,15 @@ class Diagnostics:
             )
         return ""
 
-    def _check_asymmetry(self) -> None:
-        """Warn once (RuntimeWarning) if a body's moments break the triangle inequality by more
-        than :data:`ASYMMETRY_LIMIT`: the integrator's step then errs by that factor more."""
+    def _check_asymmetry(
+        self, inertia: FloatArray | None = None, bodies: NDArray[np.int64] | None = None
+    ) -> None:
+        """Warn once (RuntimeWarning) if a body's moments (``inertia`` (K, 3) of the
+        ``bodies``, default all the model's) break the triangle inequality by more than
+        :data:`ASYMMETRY_LIMIT`: the integrator's step then errs by that factor more."""
         if self.integrator.name == "exact_free" or getattr(self, "_warned_asymmetry", False):
             return
-        inertia = np.atleast_2d(self.model.inertia)
+        inertia = np.atleast_2d(self.model.inertia if inertia is None else inertia)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.abs(np.roll(inertia, -1, axis=1) - np.roll(inertia, -2, axis=1)) / inertia
         worst = np.nanmax(ratio, axis=1)
@@ -99,9 +102,10 @@ class Diagnostics:
             return
         self._warned_asymmetry = True
         b = int(np.argmax(worst))
+        body = b if bodies is None else int(bodies[b])
         exact = "" if self._wheels is not None else "'exact_free' (exact for any moments), or "
         warnings.warn(
-            f"body {b}: principal moments {inertia[b].tolist()} break the triangle inequality "
+            f"body {body}: principal moments {inertia[b].tolist()} break the triangle inequality "
             f"(|I_j - I_k| / I_i = {worst[b]:.3g} > {ASYMMETRY_LIMIT:g}; a real body has at "
             f"most 1): Euler's equations turn w up to {worst[b]:.3g}x faster than |w|^2, and "
             f"integrator {self.integrator.name!r} errs that much more per step; use a dt "

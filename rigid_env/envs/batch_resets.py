@@ -80,8 +80,7 @@ class Resets:
             if randomized and group:
                 self._randomize(idx[group], [rngs[k] for k in group])
         if randomized and self.randomization.physical and idx.size:
-            model = self.world.model  # each body's mass properties drawn above, set at once
-            self.world.set_model(BodyModel(model.mass, model.inertia))
+            self.world.set_model_rows(idx)  # their mass properties drawn above, set at once
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
         if draws:
             x, v, q, w, target = (np.array(c) for c in zip(*(d[:5] for d in draws), strict=True))
