@@ -29,6 +29,7 @@ from rigid_env.core.jit import kernel
 from rigid_env.core.layout import record
 
 FloatArray = NDArray[np.float64]
+_FLOAT64 = np.dtype(np.float64)
 
 EARTH_RADIUS = 6371.2e3  # [m] IGRF reference radius (Alken et al. 2021, eq. 1)
 EARTH_MU = 3.986004418e14  # [m^3/s^2] GM of WGS 84 (NIMA TR8350.2, 3rd ed., Table 3.1)
@@ -254,23 +255,37 @@ class OrbitField:
         )  # fmt: skip
         object.__setattr__(self, "_numbers", np.array(numbers, dtype=np.float64))
 
-    def at(self, t: ArrayLike) -> FloatArray:
+    def at(self, t: ArrayLike, out: FloatArray | None = None) -> FloatArray:
         """(..., 3) field at the orbit's position, ECI [T], at (...) times [s]:
         ``dipole.field(orbit.position(t), t)`` bit for bit (the same operations in the same
         order, one compiled call for the position, the moment and the field's direction; the
         cube ``(R / |r|)^3`` is NumPy's ``power``, whose SIMD loop rounds otherwise than
-        libm's ``pow``)."""
-        times = np.asarray(t, dtype=np.float64)
+        libm's ``pow``). ``out``: an array of the result's shape to write it into (returned)."""
+        times = t
+        if not (type(t) is np.ndarray and t.ndim == 1 and t.dtype is _FLOAT64):
+            times = np.asarray(t, dtype=np.float64)
         flat = np.ascontiguousarray(times.reshape(-1))
-        field, ratio = np.empty((flat.size, 3)), np.empty((flat.size, 1))
+        n = flat.shape[0]
+        direct = (
+            type(out) is np.ndarray
+            and out.shape == (n, 3)
+            and out.dtype is _FLOAT64
+            and out.flags.c_contiguous
+        )
+        field = out if direct else np.empty((n, 3))
+        ratio = np.empty((n, 1))
         bad = _field_along_orbit(flat, self._numbers, field, ratio)
         if bad:
             raise ValueError(
-                f"CircularOrbit.position: t must be finite times [s], got {bad} non-finite "
-                f"of {flat.size}"
+                f"CircularOrbit.position: t must be finite times [s], got {bad} non-finite of {n}"
             )
         _scale_field(ratio**3, self._numbers, field)
-        return field.reshape((*times.shape, 3))
+        if direct:
+            return field
+        if out is None:
+            return field.reshape((*times.shape, 3))
+        out[...] = field.reshape((*times.shape, 3))
+        return out
 
     def rate(self, t: ArrayLike) -> FloatArray:
         """(..., 3) time derivative of :meth:`at`, ECI [T/s], at (...) times [s], analytic.
