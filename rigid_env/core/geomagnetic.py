@@ -20,11 +20,16 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from numbers import Real
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import record
+
 FloatArray = NDArray[np.float64]
+_FLOAT64 = np.dtype(np.float64)
 
 EARTH_RADIUS = 6371.2e3  # [m] IGRF reference radius (Alken et al. 2021, eq. 1)
 EARTH_MU = 3.986004418e14  # [m^3/s^2] GM of WGS 84 (NIMA TR8350.2, 3rd ed., Table 3.1)
@@ -239,10 +244,48 @@ class OrbitField:
                 f"OrbitField: orbit radius {self.orbit.semi_major_axis} m lies inside "
                 f"dipole.radius = {self.dipole.radius} m; raise orbit.altitude"
             )
+        orbit, dipole = self.orbit, self.dipole
+        cos_o, sin_o = math.cos(orbit.raan), math.sin(orbit.raan)
+        cos_i, sin_i = math.cos(orbit.inclination), math.sin(orbit.inclination)
+        numbers = _AlongOrbit(
+            orbit.phase, orbit.mean_motion, orbit.semi_major_axis,
+            cos_o, sin_o, 0.0, -sin_o * cos_i, cos_o * cos_i, sin_i,
+            dipole.longitude, dipole.rotation, math.sin(dipole.tilt), math.cos(dipole.tilt),
+            dipole.radius, dipole.b0,
+        )  # fmt: skip
+        object.__setattr__(self, "_numbers", np.array(numbers, dtype=np.float64))
 
-    def at(self, t: ArrayLike) -> FloatArray:
-        """(..., 3) field at the orbit's position, ECI [T], at (...) times [s]."""
-        return self.dipole.field(self.orbit.position(t), t)
+    def at(self, t: ArrayLike, out: FloatArray | None = None) -> FloatArray:
+        """(..., 3) field at the orbit's position, ECI [T], at (...) times [s]:
+        ``dipole.field(orbit.position(t), t)`` bit for bit (the same operations in the same
+        order, one compiled call for the position, the moment and the field's direction; the
+        cube ``(R / |r|)^3`` is NumPy's ``power``, whose SIMD loop rounds otherwise than
+        libm's ``pow``). ``out``: an array of the result's shape to write it into (returned)."""
+        times = t
+        if not (type(t) is np.ndarray and t.ndim == 1 and t.dtype is _FLOAT64):
+            times = np.asarray(t, dtype=np.float64)
+        flat = np.ascontiguousarray(times.reshape(-1))
+        n = flat.shape[0]
+        direct = (
+            type(out) is np.ndarray
+            and out.shape == (n, 3)
+            and out.dtype is _FLOAT64
+            and out.flags.c_contiguous
+        )
+        field = out if direct else np.empty((n, 3))
+        ratio = np.empty((n, 1))
+        bad = _field_along_orbit(flat, self._numbers, field, ratio)
+        if bad:
+            raise ValueError(
+                f"CircularOrbit.position: t must be finite times [s], got {bad} non-finite of {n}"
+            )
+        _scale_field(ratio**3, self._numbers, field)
+        if direct:
+            return field
+        if out is None:
+            return field.reshape((*times.shape, 3))
+        out[...] = field.reshape((*times.shape, 3))
+        return out
 
     def rate(self, t: ArrayLike) -> FloatArray:
         """(..., 3) time derivative of :meth:`at`, ECI [T/s], at (...) times [s], analytic.
@@ -260,3 +303,73 @@ class OrbitField:
         m_u_dot = np.sum(m_dot * u + m * u_dot, axis=-1, keepdims=True)
         scale = self.dipole.b0 * (self.dipole.radius / s) ** 3
         return scale * (3.0 * (m_u_dot * u + m_u * u_dot) - m_dot)
+
+
+class _AlongOrbit(NamedTuple):
+    """An :class:`OrbitField`'s numbers as :func:`_field_along_orbit` reads them (the order of
+    ``OrbitField._numbers``)."""
+
+    phase: float  # argument of latitude at t = 0 [rad]
+    mean_motion: float  # [rad/s]
+    semi_major_axis: float  # [m]
+    p_x: float  # p: the unit vector to the ascending node, ECI
+    p_y: float
+    p_z: float
+    q_x: float  # q: 90 degrees ahead of p along the motion, ECI
+    q_y: float
+    q_z: float
+    longitude: float  # of the north geomagnetic pole at t = 0, from ECI x [rad]
+    rotation: float  # the Earth's rate about ECI z [rad/s]
+    sin_tilt: float
+    cos_tilt: float
+    radius: float  # the dipole's reference radius R [m]
+    b0: float  # the dipole's field on the magnetic equator at R [T]
+
+
+_ALONG_ORBIT = _AlongOrbit(*([0.0] * len(_AlongOrbit._fields)))
+
+
+@kernel
+def _field_along_orbit(times, numbers, shape, ratio):
+    """For each time ``t`` of ``times`` (n,): the field's direction ``3 (m . u) u - m`` into
+    ``shape`` (n, 3) and ``R / |r|`` into ``ratio`` (n, 1), ``r`` the orbit's position and ``m``
+    the dipole's moment at ``t`` (:meth:`CircularOrbit.position`, :meth:`TiltedDipole.axis`,
+    :meth:`TiltedDipole.field`, in their operations and order: NumPy's ``sum`` and ``norm``
+    over a row add left to right, its ``sin`` and ``cos`` are libm's). Returns how many times
+    were not finite (their rows are left unwritten). ``numbers``: an :class:`_AlongOrbit`."""
+    c = record(numbers, _ALONG_ORBIT)
+    bad = 0
+    for k in range(times.shape[0]):
+        t = times[k]
+        if not math.isfinite(t):
+            bad += 1
+            continue
+        u = c.phase + c.mean_motion * t
+        cos_u, sin_u = math.cos(u), math.sin(u)
+        r0 = c.semi_major_axis * (cos_u * c.p_x + sin_u * c.q_x)
+        r1 = c.semi_major_axis * (cos_u * c.p_y + sin_u * c.q_y)
+        r2 = c.semi_major_axis * (cos_u * c.p_z + sin_u * c.q_z)
+        longitude = c.longitude + c.rotation * t
+        m0 = -(c.sin_tilt * math.cos(longitude))
+        m1 = -(c.sin_tilt * math.sin(longitude))
+        m2 = -c.cos_tilt
+        distance = math.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
+        u0, u1, u2 = r0 / distance, r1 / distance, r2 / distance
+        m_u = 3.0 * ((m0 * u0 + m1 * u1) + m2 * u2)
+        shape[k, 0] = m_u * u0 - m0
+        shape[k, 1] = m_u * u1 - m1
+        shape[k, 2] = m_u * u2 - m2
+        ratio[k, 0] = c.radius / distance
+    return bad
+
+
+@kernel
+def _scale_field(cube, numbers, shape):
+    """Rows of ``shape`` (n, 3) times ``b0 cube`` (``cube`` (n, 1): ``(R / |r|)^3``), in
+    place: :meth:`TiltedDipole.field`'s last two products, in its order."""
+    b0 = record(numbers, _ALONG_ORBIT).b0
+    for k in range(shape.shape[0]):
+        scale = b0 * cube[k, 0]
+        shape[k, 0] = scale * shape[k, 0]
+        shape[k, 1] = scale * shape[k, 1]
+        shape[k, 2] = scale * shape[k, 2]

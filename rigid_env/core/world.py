@@ -26,6 +26,7 @@ from rigid_env.core.effects import (
 )
 from rigid_env.core.integrators import check_wheels, get_integrator
 from rigid_env.core.layout import (
+    BAD_COMMAND,
     FAILED,
     FROZEN,
     HEALTHY,
@@ -202,6 +203,10 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         world sets it at the middle of each body's step (:attr:`orbit_time`; the midpoint rule:
         second order in the field's slow turn); None without magnetorquers."""
         self._orbit = coils[0].orbit if coils else None
+        carried = self.action_dim * (1 + self._noisy) + 3 * self._magnetic
+        self._carry = np.empty((self._n, carried)) if carried > self.action_dim else None
+        """(N, A + ...) the command and what rides after it (:meth:`_carried`), refilled for
+        each step."""
         self.orbit_time = np.zeros(self._n) if self._orbit is not None else None
         """(N,) each body's time along the coils' ``orbit`` [s], advanced by ``dt`` a step and
         cleared by :meth:`restart` (set it to put bodies at other points of the orbit); None
@@ -459,9 +464,9 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         else:  # a view of the state: copied, as the compiled step's arrays must not overlap
             u = command.copy() if command.base is self._cols else command
         if self._orbit is not None:  # each body's field at its step's middle
-            self.magnetic_field[:] = self._orbit.at(self.orbit_time + 0.5 * self._dt)
+            self._orbit.at(self.orbit_time + 0.5 * self._dt, out=self.magnetic_field)
         if self._noisy or self._magnetic:  # the core reads them after the A components
-            u = self._carried(u)
+            u = self._carried(u, finite=False)
         # A failed body is left at its state before the step: by the kernel itself for one
         # substep; for several, and for the other bodies of a batch under "raise" (which leaves
         # the whole world as it was), from this copy.
@@ -474,17 +479,27 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         else:
             entry, arrays = self._integrator.world_step_threads, (*self._arrays, u)
             code = call_threaded(lambda t: entry(arrays, 0, self._n, t))
+        if code == BAD_COMMAND and self._magnetic:  # nothing stepped: name the field if it is
+            self._check_field()  # the one not finite
         if frozen is not None and frozen.any():
             self._cols[THRUST:, frozen] = backup[THRUST:, frozen]
         outcome = self._outcome(code, backup)  # raises where the world was left as it was
-        if self.orbit_time is not None:
+        if self.orbit_time is None:
+            return outcome
+        if self._n == 1:  # a scalar add: NumPy's in-place add costs ~1.5 us on one element
+            self.orbit_time[0] += self._dt
+        else:
             self.orbit_time += self._dt
         return outcome
 
-    def _carried(self, command: FloatArray) -> FloatArray:
+    def _carried(self, command: FloatArray, finite: bool = True) -> FloatArray:
         """(N, A + ...) the command (N | 1, A), then the :attr:`thrust_factors` where noisy and
-        the :attr:`magnetic_field` where magnetorquers act, each checked."""
-        parts = [np.broadcast_to(command, (self._n, self.action_dim))]
+        the :attr:`magnetic_field` where magnetorquers act, each checked (the field's
+        finiteness only with ``finite``: the compiled step refuses a non-finite command, its
+        carried columns included, before it steps, and :meth:`advance` then names the field).
+        The world's own array, refilled at each call."""
+        carry, a = self._carry, self.action_dim
+        carry[:, :a] = command
         if self._noisy:
             f = np.asarray(self.thrust_factors, dtype=np.float64)
             if f.shape != (self._n, self.action_dim) or not np.all(np.isfinite(f) & (f >= 0.0)):
@@ -493,21 +508,27 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
                     f"{self.action_dim}), got shape {f.shape}; draw them with "
                     "draw_thrust_factors"
                 )
-            parts.append(f)
+            carry[:, a : 2 * a] = f
         if self._magnetic:
             try:  # one field (3,) for every body, or each body's (N, 3)
-                b = np.asarray(self.magnetic_field, dtype=np.float64)
-                b = np.broadcast_to(b, (self._n, 3))
+                b = self.magnetic_field
+                carry[:, -3:] = b if type(b) is np.ndarray else np.asarray(b, dtype=np.float64)
             except (TypeError, ValueError):
-                b = np.full((self._n, 3), np.nan)  # refused below, named
-            if not np.all(np.isfinite(b)):
-                got = " ".join(repr(self.magnetic_field).split())
-                raise ValueError(
-                    f"magnetic_field: expected finite fields [T], (3,) or ({self._n}, 3), world "
-                    f"frame, got {got if len(got) <= 60 else got[:57] + '...'}"
-                )
-            parts.append(b)
-        return np.ascontiguousarray(np.concatenate(parts, axis=1))
+                carry[:, -3:] = np.nan  # refused below, named
+                finite = True
+            if finite:
+                self._check_field()
+        return carry
+
+    def _check_field(self) -> None:
+        """A ValueError naming the :attr:`magnetic_field` where :meth:`_carried` carried a
+        number that is not finite (or no field of the shape (3,) or (N, 3))."""
+        if not np.all(np.isfinite(self._carry[:, -3:])):
+            got = " ".join(repr(self.magnetic_field).split())
+            raise ValueError(
+                f"magnetic_field: expected finite fields [T], (3,) or ({self._n}, 3), world "
+                f"frame, got {got if len(got) <= 60 else got[:57] + '...'}"
+            )
 
     def _outcome(self, code: int, backup: FloatArray | None) -> BoolArray:
         """The step's result from the world step's ``code`` (:mod:`rigid_env.core.stepping`)."""

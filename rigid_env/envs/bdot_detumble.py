@@ -164,10 +164,13 @@ class BdotDetumbleTask(TaskBatch):
         """The field along the orbit at each env's time (world frame [T]); from v2 the one the
         compiled step evaluates where the body is on its orbit (:meth:`rigid_env.core.world.
         World.orbit_field`)."""
+        field = self.world_data.field
         if self.orbit is None:
-            self.world_data.field[rows] = self.world.orbit_field(rows)
+            field[rows] = self.world.orbit_field(rows)
+        elif isinstance(rows, slice):  # written in place (a view)
+            self.orbit.at(self.world.orbit_time[rows], out=field[rows])
         else:
-            self.world_data.field[rows] = self.orbit.at(self.world.orbit_time[rows])
+            field[rows] = self.orbit.at(self.world.orbit_time[rows])
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""
@@ -187,7 +190,7 @@ class BdotDetumbleTask(TaskBatch):
         if self.params.command == "dipole":
             return action
         start = self.obs_slices["field_x"].start
-        field = self.obs[:, start : start + 3].astype(np.float64)
+        field = self.obs[:, start : start + 3]  # float32, read as float64 (exactly) there
         return torque_dipoles(action, field, self._to_commands, self._unit_dipole)
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:

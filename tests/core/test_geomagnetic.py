@@ -283,6 +283,60 @@ def test_rate_agrees_with_a_central_difference() -> None:
     assert np.max(np.abs(difference)) > 1e3 * atol  # the comparison is not vacuous
 
 
+# ---- the compiled evaluation along the orbit -------------------------------------------------
+def numpy_trigonometry_is_libm(*angles: np.ndarray) -> bool:
+    """Whether NumPy's sin and cos of every angle given are libm's (Python's ``math``), element
+    by element: then :meth:`OrbitField.at`, whose compiled call takes them from libm, repeats
+    NumPy's path operation for operation (on CPUs where NumPy has SIMD sin and cos of its own,
+    they may differ by an ulp)."""
+    x = np.concatenate([np.ravel(a) for a in angles])
+    return bool(
+        np.array_equal(np.sin(x), [math.sin(v) for v in x])
+        and np.array_equal(np.cos(x), [math.cos(v) for v in x])
+    )
+
+
+def test_field_along_the_orbit_is_the_dipole_field_at_the_orbit_position() -> None:
+    """:meth:`OrbitField.at` (the position, the moment and the field's direction in one compiled
+    call, the cube ``(R / |r|)^3`` by NumPy's ``power``) against
+    ``dipole.field(orbit.position(t), t)`` (NumPy throughout), for BdotDetumble's orbit and
+    eight drawn orbits and dipoles, 2,500 times each, as (n,), () and (2, 5) arrays: the same
+    operations in the same order, so bit for bit where NumPy's sin and cos are libm's; where
+    not, the two differ by their sin and cos: within FIELD_RTOL + 3 ORBIT_RTOL of ``|B|``
+    (the field changes by 3 |B| per relative change of r) plus ``U`` of the angles."""
+    rng = np.random.default_rng(42)
+    alongs = [OrbitField(CircularOrbit(500e3, math.radians(97.4)))]
+    for _ in range(8):
+        orbit = CircularOrbit(
+            rng.uniform(2e5, 4e7), rng.uniform(0.0, math.pi), raan=rng.uniform(-7.0, 7.0),
+            phase=rng.uniform(-7.0, 7.0),
+        )  # fmt: skip
+        dipole = TiltedDipole(
+            rng.uniform(1e-5, 1e-4), rng.uniform(0.0, math.pi), rng.uniform(-7.0, 7.0),
+            rotation=rng.uniform(-1e-3, 1e-3),
+        )  # fmt: skip
+        alongs.append(OrbitField(orbit, dipole))
+    for along in alongs:
+        orbit, dipole = along.orbit, along.dipole
+        t = np.concatenate([rng.uniform(0.0, orbit.period, 2000), rng.uniform(-1e7, 1e7, 500)])
+        numpy_path = dipole.field(orbit.position(t), t)
+        compiled = along.at(t)
+        one_by_one = np.array([along.at(x) for x in t[:40]])
+        grid = along.at(t[:10].reshape(2, 5))
+        assert compiled.shape == (*t.shape, 3) and grid.shape == (2, 5, 3)
+        got = np.concatenate([compiled, one_by_one, grid.reshape(-1, 3)])
+        want = np.concatenate([numpy_path, numpy_path[:40], numpy_path[:10]])
+        argument = orbit.phase + orbit.mean_motion * t
+        longitude = dipole.longitude + dipole.rotation * t
+        if numpy_trigonometry_is_libm(argument, longitude, orbit.raan, orbit.inclination):
+            np.testing.assert_array_equal(got, want)
+        else:
+            size = dipole.b0 * (dipole.radius / orbit.semi_major_axis) ** 3
+            angle = np.max(np.abs(np.concatenate([argument, longitude])))
+            atol = 2 * size * (FIELD_RTOL + 3 * ORBIT_RTOL + 4 * U * angle)
+            np.testing.assert_allclose(got, want, rtol=0, atol=atol)
+
+
 # ---- bad inputs ------------------------------------------------------------------------------
 @pytest.mark.parametrize(
     ("make", "match"),
@@ -304,6 +358,7 @@ def test_rate_agrees_with_a_central_difference() -> None:
         (lambda: DIPOLE.field([1e7, 0.0, 0.0], math.inf), "t must be finite"),
         (lambda: DIPOLE.field(np.full((4, 3), 1e7), np.zeros(5)), "t of shape"),
         (lambda: ORBITS[1].position([0.0, math.nan]), "t must be finite"),
+        (lambda: OrbitField(ORBITS[1]).at([0.0, math.inf]), "t must be finite"),
     ],
 )
 def test_bad_input_is_refused_by_name(make, match: str) -> None:
