@@ -296,6 +296,33 @@ def _with_item(t, k, value):
     return lambda t, k, value: tuple_setitem(t, k, value)
 
 
+def wheel_shape(t: tuple) -> tuple:
+    """K zeros for a K-tuple ``t`` (a world's wheels' rows, their records, a body's momenta):
+    the momenta of K wheels at rest. Compiled, K is a constant of ``t``'s type, so that each
+    loop over the wheels (``for k in range(len(t))``) is one of K constant trips, which the
+    compiler unrolls for the K in use: no slot past the last wheel, no count read at run
+    time."""
+    return (0.0,) * len(t)
+
+
+@overload(wheel_shape, inline="always")
+def _wheel_shape(t):
+    zeros = (0.0,) * len(t)
+    return lambda t: zeros
+
+
+def no_wheel_records(t: tuple) -> tuple:
+    """K :class:`Wheel` records of zeros for a K-tuple ``t`` (:func:`wheel_shape`): the
+    records of a body without wheels, constants the compiler folds."""
+    return (_WHEEL0,) * len(t)
+
+
+@overload(no_wheel_records, inline="always")
+def _no_wheel_records(t):
+    records = (_WHEEL0,) * len(t)
+    return lambda t: records
+
+
 @kernel
 def command_level(command, r, a):
     """Component ``a`` of row ``r`` of the command (N | 1, A), clipped to ``[-1, 1]`` (full
