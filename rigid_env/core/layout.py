@@ -91,6 +91,11 @@ _TAIL = (
     ("wheels", "flag: the bodies carry reaction wheels (rigid_env.core.wheels)"),
     ("wheel_count", "number K of them (1 to MAX_WHEELS)"),
     ("wheel_rows", "offset of the wheels' rows (a Wheel record each) in the parameter array"),
+    (
+        "wheels_coupled",
+        "flag: two wheel axes share a nonzero component, so that one wheel's impulse moves "
+        "another's speed (the speed limit then sweeps again: rigid_env.core.wheels.wheel_laws)",
+    ),
     ("orbit", "flag: each body moves on its orbit, state rows from orbit_row (core.orbit_state)"),
     ("orbit_row", "row of a body's first orbit state row (its clock) in the state columns"),
     ("orbit_mu", "the Earth's gravitational parameter of the orbits [m^3/s^2]"),

@@ -27,6 +27,7 @@ from rigid_env.core.compose import (
     common,
     rare,
     wheeled,
+    wheeled_apart,
 )
 from rigid_env.core.dynamics import (
     ZERO_WRENCH,
@@ -478,7 +479,8 @@ def vector_passes(step, p, model, world, command, bodies, counts):
     c = unpack(p)
     if c.wheels != 0.0 and is_flow(step):
         wrenched = c.actions != c.wheel_count
-        return passes(step, wheeled(c), p, model, world, command, (bodies, wrenched), counts)
+        d = wheeled(c) if c.wheels_coupled != 0.0 else wheeled_apart(c)
+        return passes(step, d, p, model, world, command, (bodies, wrenched), counts)
     return passes(step, common(c), p, model, world, command, (bodies, True), counts)
 
 
@@ -489,11 +491,11 @@ def _vector_passes(step, p, model, world, command, bodies, counts):
         def both(step, p, model, world, command, bodies, counts):
             c = unpack(p)
             if c.wheels != 0.0:
-                if c.actions == c.wheel_count:  # the wheels alone: no wrench (the constant)
-                    return passes(
-                        step, wheeled(c), p, model, world, command, (bodies, False), counts
-                    )
-                return passes(step, wheeled(c), p, model, world, command, (bodies, True), counts)
+                span = (bodies, c.actions != c.wheel_count)  # False: the wheels alone, no wrench
+                if c.wheels_coupled != 0.0:
+                    return wheel_passes(step, wheeled(c), p, model, world, command, span, counts)
+                d = wheeled_apart(c)
+                return wheel_passes(step, d, p, model, world, command, span, counts)
             return passes(step, common(c), p, model, world, command, (bodies, True), counts)
 
         return both
@@ -502,6 +504,16 @@ def _vector_passes(step, p, model, world, command, bodies, counts):
         return passes(step, common(unpack(p)), p, model, world, command, (bodies, True), counts)
 
     return plain
+
+
+@pass_kernel
+def wheel_passes(step, c, p, model, world, command, span, counts):
+    """:func:`passes` of a world with wheels: without a wrench (the constant ``False``) where
+    the command drives only the wheels."""
+    bodies, wrenched = span
+    if wrenched:
+        return passes(step, c, p, model, world, command, (bodies, True), counts)
+    return passes(step, c, p, model, world, command, (bodies, False), counts)
 
 
 @pass_kernel

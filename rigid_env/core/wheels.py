@@ -367,12 +367,13 @@ def wheel_laws(w, hw, drive, c, m, h):
       was ``-coulomb`` held where it is ``+coulomb`` under a larger motor, ``-motor`` (stuck)
       under a smaller one), never past it;
     * the speed limit: a wheel beyond ``+-max_speed`` is put at it, ``dh = J_eff (+-max_speed -
-      Omega)``; then three sweeps of the limit alone (Gauss-Seidel: the other wheels'
-      impulses move the body, so wheel ``j``'s speed by ``a_j . I^-1 a_k dh_k``). Wheels along
-      the body's principal axes do not couple: each is at its limit to rounding after the
-      first sweep. Otherwise what a sweep leaves beyond the limit falls each sweep by ``r =
-      max J_eff |a_j . I^-1 a_k|`` (``J / I``: 2e-3 for a 3U CubeSat's wheel pyramid), to
-      ``r^4`` of the step's overshoot after the four.
+      Omega)``; then, where the wheels couple (``c.wheels_coupled``), three sweeps of the
+      limit alone (Gauss-Seidel: the other wheels' impulses move the body, so wheel ``j``'s
+      speed by ``a_j . I^-1 a_k dh_k``). Wheels whose axes share no nonzero component (along
+      the body's principal axes) do not couple: each is at its limit to rounding after the
+      first sweep, and the three are left out. Otherwise what a sweep leaves beyond the
+      limit falls each sweep by ``r = max J_eff |a_j . I^-1 a_k|`` (``J / I``: 2e-3 for a 3U
+      CubeSat's wheel pyramid), to ``r^4`` of the step's overshoot after the four.
 
     Total momentum: ``I dw = -a_k dh_k`` and ``dh = a_k dh_k``, so ``I w + h`` is unchanged (to
     rounding). Energy: ``T = w.I w / 2 + sum_k h_k^2 / (2 J_k)``; along the impulse ``s`` from 0
@@ -387,6 +388,8 @@ def wheel_laws(w, hw, drive, c, m, h):
     for k in range(len(hw)):
         js = with_item(js, k, effective_inertia(wheels[k], m))
     w, hw = _sweep(w, hw, drive, m, h, js, True)
+    if c.wheels_coupled == 0.0:  # no impulse moved another wheel: each is at its limit
+        return w, hw
     w, hw = _sweep(w, hw, drive, m, h, js, False)
     w, hw = _sweep(w, hw, drive, m, h, js, False)
     return _sweep(w, hw, drive, m, h, js, False)
