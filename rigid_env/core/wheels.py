@@ -2,7 +2,7 @@
 
 Wheel ``k`` spins about the body axis ``a_k`` with axial inertia ``J_k``; its state is its
 axial angular momentum ``h_k = J_k (a_k . w + Omega_k)`` [N m s] (``Omega_k`` its speed
-relative to the body), rows :func:`wheel_row` on in the state columns. With ``h = sum_k a_k
+relative to the body), rows after ``x, v, q, w`` in the state columns. With ``h = sum_k a_k
 h_k`` the body obeys (Markley and Crassidis, "Fundamentals of Spacecraft Attitude Determination
 and Control", Springer 2014, Sec. 3.3.5; Hughes, "Spacecraft Attitude Dynamics", Ch. 9)
 
