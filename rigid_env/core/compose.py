@@ -37,6 +37,10 @@ WHEELS = "wheels"
 """The flag of the reaction wheels: the vectorised passes are compiled twice, seeing it as the
 constant 0 (:func:`common`: a world without wheels, whose loops carry no wheel code) and as the
 constant 1 (:func:`wheeled`: the wheels' momenta ride through the integrator's flow)."""
+WHEELS_COUPLED = "wheels_coupled"
+"""The flag of wheels whose impulses move each other's speeds: the wheeled passes are compiled
+seeing it as the constant 1 (:func:`wheeled`) and 0 (:func:`wheeled_apart`: the speed limit's
+sweeps after the first are left out, :func:`rigid_env.core.wheels.wheel_laws`)."""
 
 
 def _chain(links: list[tuple[int, Callable]], step: Callable) -> Callable:
@@ -141,9 +145,15 @@ def common(c: Params) -> Params:
 
 
 def wheeled(c: Params) -> Params:
-    """``c`` with the :data:`RARE` flags 0 and the :data:`WHEELS` flag 1, as constants (for a
-    world whose bodies carry wheels and nothing rare)."""
-    return c._replace(**dict.fromkeys(RARE, 0.0), **{WHEELS: 1.0})
+    """``c`` with the :data:`RARE` flags 0 and the :data:`WHEELS` and :data:`WHEELS_COUPLED`
+    flags 1, as constants (for a world whose bodies carry wheels and nothing rare)."""
+    return c._replace(**dict.fromkeys(RARE, 0.0), **{WHEELS: 1.0, WHEELS_COUPLED: 1.0})
+
+
+def wheeled_apart(c: Params) -> Params:
+    """:func:`wheeled` with the :data:`WHEELS_COUPLED` flag the constant 0 (wheels whose
+    impulses move no other wheel: the speed limit's one sweep suffices)."""
+    return c._replace(**dict.fromkeys(RARE, 0.0), **{WHEELS: 1.0, WHEELS_COUPLED: 0.0})
 
 
 def _any_set(indices: tuple[int, ...]) -> Callable:
@@ -185,7 +195,8 @@ def _set_flags(zeros: tuple[str, ...], ones: tuple[str, ...]) -> Callable:
 
 
 _common = _set_flags((*RARE, WHEELS), ())
-_wheeled = _set_flags(RARE, (WHEELS,))
+_wheeled = _set_flags(RARE, (WHEELS, WHEELS_COUPLED))
+_wheeled_apart = _set_flags((*RARE, WHEELS_COUPLED), (WHEELS,))
 
 
 @overload(rare, inline="always")
@@ -206,3 +217,8 @@ def _overload_common(c):
 @overload(wheeled, inline="always")
 def _overload_wheeled(c):
     return lambda c: _wheeled(c)
+
+
+@overload(wheeled_apart, inline="always")
+def _overload_wheeled_apart(c):
+    return lambda c: _wheeled_apart(c)

@@ -11,7 +11,14 @@ from __future__ import annotations
 from rigid_env.core.compose import effect_terms
 from rigid_env.core.forces import add, dipole_torque
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import ZERO3, ZERO4, command_level, dipole_row, field_of, map_row
+from rigid_env.core.layout import (
+    ZERO3,
+    command_level,
+    dipole_row,
+    field_of,
+    map_row,
+    wheel_shape,
+)
 from rigid_env.core.maths import axpy, rotate
 
 
@@ -120,7 +127,7 @@ def rigid_rates(x, v, q, w, hw, act, m, c, wheels):
     term included) and no wheel rates (``hw`` stays the constant zeros, whose arithmetic the
     compiler drops as unused)."""
     a, alpha = accelerations(x, v, q, w, act, m, c, True)
-    return a, alpha, ZERO4
+    return a, alpha, wheel_shape(hw)
 
 
 @kernel

@@ -31,7 +31,7 @@ from rigid_env.core.dop853 import dop853
 from rigid_env.core.dynamics import accelerations, gyro_jacobian, gyroscopic, kick
 from rigid_env.core.exact_step import exact_free
 from rigid_env.core.jit import flow_kernel, kernel, threads_kernel, world_kernel
-from rigid_env.core.layout import ZERO4
+from rigid_env.core.layout import ZERO4, with_item
 from rigid_env.core.maths import axpy, normalize, qdot, sincos, solve3, spin
 from rigid_env.core.stepping import advance, over_threads
 from rigid_env.core.wheels import rates
@@ -41,7 +41,7 @@ FloatArray = NDArray[np.float64]
 
 # ---- textbook methods ------------------------------------------------------------------------
 # Each explicit method is written once as a flow ``flow(body, act, m, c, drive, h)`` of ``body =
-# (x, v, q, w, hw)``, ``hw`` the momenta of a body's reaction wheels (a 4-tuple), under the rates
+# (x, v, q, w, hw)``, ``hw`` the momenta of a body's K reaction wheels (a K-tuple), under the rates
 # ``rates(x, v, q, w, hw, act, m, c, drive) -> (a, alpha, hw')`` of rigid_env.core.wheels: the
 # rigid body's own where ``drive`` is None or the bodies carry no wheels (``hw`` then stays the
 # constant zeros, whose arithmetic the compiler drops as unused), else a gyrostat's. The world
@@ -53,6 +53,15 @@ FloatArray = NDArray[np.float64]
 def axpy4(y, h, d):
     """``y + h d`` of 4-tuples."""
     return (y[0] + h * d[0], y[1] + h * d[1], y[2] + h * d[2], y[3] + h * d[3])
+
+
+@kernel
+def axpyk(y, h, d):
+    """``y + h d`` of the wheels' K-tuples (K a constant of their type)."""
+    out = y
+    for k in range(len(y)):
+        out = with_item(out, k, y[k] + h * d[k])
+    return out
 
 
 @flow_kernel
@@ -67,7 +76,7 @@ def explicit_euler_flow(body, act, m, c, drive, h):
     a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     return (
         axpy(x, h, v), axpy(v, h, a), normalize(spin(q, w, h)), axpy(w, h, alpha),
-        axpy4(hw, h, dh),
+        axpyk(hw, h, dh),
     )  # fmt: skip
 
 
@@ -88,7 +97,7 @@ def symplectic_euler_flow(body, act, m, c, drive, h):
     a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
-    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpy4(hw, h, dh)
+    return axpy(x, h, v1), v1, normalize(spin(q, w1, h)), w1, axpyk(hw, h, dh)
 
 
 @kernel
@@ -162,11 +171,11 @@ def leapfrog_flow(body, act, m, c, drive, h):
     x, v, q, w, hw = body
     x_h, q_h = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
     a, alpha, dh = rates(x_h, v, q_h, w, hw, act, m, c, drive)
-    hw1 = axpy4(hw, h, dh)
+    hw1 = axpyk(hw, h, dh)
     if c.velocity_dependent != 0.0 or m.isotropic == 0.0 or c.wheels != 0.0:
         v_m, w_m = axpy(v, 0.5 * h, a), axpy(w, 0.5 * h, alpha)
-        a, alpha, dh = rates(x_h, v_m, q_h, w_m, axpy4(hw, 0.5 * h, dh), act, m, c, drive)
-        hw1 = axpy4(hw, h, dh)
+        a, alpha, dh = rates(x_h, v_m, q_h, w_m, axpyk(hw, 0.5 * h, dh), act, m, c, drive)
+        hw1 = axpyk(hw, h, dh)
     v1 = axpy(v, h, a)
     w1 = axpy(w, h, alpha)
     return axpy(x_h, 0.5 * h, v1), v1, normalize(spin(q_h, w1, 0.5 * h)), w1, hw1
@@ -188,12 +197,12 @@ def midpoint_flow(body, act, m, c, drive, h):
     a, alpha, dh = rates(x, v, q, w, hw, act, m, c, drive)
     v_m = axpy(v, 0.5 * h, a)
     w_m = axpy(w, 0.5 * h, alpha)
-    hw_m = axpy4(hw, 0.5 * h, dh)
+    hw_m = axpyk(hw, 0.5 * h, dh)
     x_m, q_m = axpy(x, 0.5 * h, v), spin(q, w, 0.5 * h)
     a, alpha, dh = rates(x_m, v_m, q_m, w_m, hw_m, act, m, c, drive)
     return (
         axpy(x, h, v_m), axpy(v, h, a), normalize(spin(q, w_m, h)), axpy(w, h, alpha),
-        axpy4(hw, h, dh),
+        axpyk(hw, h, dh),
     )  # fmt: skip
 
 
@@ -215,14 +224,12 @@ def _rk4_sum(y, c, k1, k2, k3, k4):
 
 
 @kernel
-def _rk4_sum4(y, c, k1, k2, k3, k4):
-    """:func:`_rk4_sum` of 4-tuples."""
-    return (
-        y[0] + c * (k1[0] + 2.0 * (k2[0] + k3[0]) + k4[0]),
-        y[1] + c * (k1[1] + 2.0 * (k2[1] + k3[1]) + k4[1]),
-        y[2] + c * (k1[2] + 2.0 * (k2[2] + k3[2]) + k4[2]),
-        y[3] + c * (k1[3] + 2.0 * (k2[3] + k3[3]) + k4[3]),
-    )
+def _rk4_sumk(y, c, k1, k2, k3, k4):
+    """:func:`_rk4_sum` of the wheels' K-tuples."""
+    out = y
+    for k in range(len(y)):
+        out = with_item(out, k, y[k] + c * (k1[k] + 2.0 * (k2[k] + k3[k]) + k4[k]))
+    return out
 
 
 @flow_kernel
@@ -236,18 +243,18 @@ def rk4_flow(body, act, m, c, drive, h):
     a1, b1, r1 = rates(x, v, q, w, hw, act, m, c, drive)
     d1 = qdot(q, w)
     v2, q2, w2 = axpy(v, 0.5 * h, a1), axpy4(q, 0.5 * h, d1), axpy(w, 0.5 * h, b1)
-    a2, b2, r2 = rates(axpy(x, 0.5 * h, v), v2, q2, w2, axpy4(hw, 0.5 * h, r1), act, m, c, drive)
+    a2, b2, r2 = rates(axpy(x, 0.5 * h, v), v2, q2, w2, axpyk(hw, 0.5 * h, r1), act, m, c, drive)
     d2 = qdot(q2, w2)
     v3, q3, w3 = axpy(v, 0.5 * h, a2), axpy4(q, 0.5 * h, d2), axpy(w, 0.5 * h, b2)
-    a3, b3, r3 = rates(axpy(x, 0.5 * h, v2), v3, q3, w3, axpy4(hw, 0.5 * h, r2), act, m, c, drive)
+    a3, b3, r3 = rates(axpy(x, 0.5 * h, v2), v3, q3, w3, axpyk(hw, 0.5 * h, r2), act, m, c, drive)
     d3 = qdot(q3, w3)
     v4, q4, w4 = axpy(v, h, a3), axpy4(q, h, d3), axpy(w, h, b3)
-    a4, b4, r4 = rates(axpy(x, h, v3), v4, q4, w4, axpy4(hw, h, r3), act, m, c, drive)
+    a4, b4, r4 = rates(axpy(x, h, v3), v4, q4, w4, axpyk(hw, h, r3), act, m, c, drive)
     d4 = qdot(q4, w4)
     sixth = h / 6.0
     qv = _rk4_sum((q[1], q[2], q[3]), sixth, d1[1:], d2[1:], d3[1:], d4[1:])
     q1 = (q[0] + sixth * (d1[0] + 2.0 * (d2[0] + d3[0]) + d4[0]), qv[0], qv[1], qv[2])
-    hw1 = _rk4_sum4(hw, sixth, r1, r2, r3, r4)
+    hw1 = _rk4_sumk(hw, sixth, r1, r2, r3, r4)
     return (
         _rk4_sum(x, sixth, v, v2, v3, v4),
         _rk4_sum(v, sixth, a1, a2, a3, a4),

@@ -91,6 +91,11 @@ _TAIL = (
     ("wheels", "flag: the bodies carry reaction wheels (rigid_env.core.wheels)"),
     ("wheel_count", "number K of them (1 to MAX_WHEELS)"),
     ("wheel_rows", "offset of the wheels' rows (a Wheel record each) in the parameter array"),
+    (
+        "wheels_coupled",
+        "flag: two wheel axes share a nonzero component, so that one wheel's impulse moves "
+        "another's speed (the speed limit then sweeps again: rigid_env.core.wheels.wheel_laws)",
+    ),
     ("orbit", "flag: each body moves on its orbit, state rows from orbit_row (core.orbit_state)"),
     ("orbit_row", "row of a body's first orbit state row (its clock) in the state columns"),
     ("orbit_mu", "the Earth's gravitational parameter of the orbits [m^3/s^2]"),
@@ -306,6 +311,33 @@ def with_item(t: tuple, k: int, value: float) -> tuple:
 @overload(with_item, inline="always")
 def _with_item(t, k, value):
     return lambda t, k, value: tuple_setitem(t, k, value)
+
+
+def wheel_shape(t: tuple) -> tuple:
+    """K zeros for a K-tuple ``t`` (a world's wheels' rows, their records, a body's momenta):
+    the momenta of K wheels at rest. Compiled, K is a constant of ``t``'s type, so that each
+    loop over the wheels (``for k in range(len(t))``) is one of K constant trips, which the
+    compiler unrolls for the K in use: no slot past the last wheel, no count read at run
+    time."""
+    return (0.0,) * len(t)
+
+
+@overload(wheel_shape, inline="always")
+def _wheel_shape(t):
+    zeros = (0.0,) * len(t)
+    return lambda t: zeros
+
+
+def no_wheel_records(t: tuple) -> tuple:
+    """K :class:`Wheel` records of zeros for a K-tuple ``t`` (:func:`wheel_shape`): the
+    records of a body without wheels, constants the compiler folds."""
+    return (_WHEEL0,) * len(t)
+
+
+@overload(no_wheel_records, inline="always")
+def _no_wheel_records(t):
+    records = (_WHEEL0,) * len(t)
+    return lambda t: records
 
 
 @kernel

@@ -5,9 +5,9 @@ state. Written once; the compiled integrators (:func:`advance`) and the array in
 
 Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.layout`), the state
 columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
-``wrenches`` (WRENCH_WIDTH, N), the reaction wheels' ``momenta`` (MAX_WHEELS, N) (their rows of
-the state, handed over as their own array: :meth:`rigid_env.core.world.World._wheel_rows`;
-empty without wheels) and the ``command`` (N | 1, A).
+``wrenches`` (WRENCH_WIDTH, N), the reaction wheels' ``momenta``, a K-tuple of (N,) rows (their
+rows of the state, handed over as their own arrays: :meth:`rigid_env.core.world.World._wheel_rows`;
+one row never read without wheels) and the ``command`` (N | 1, A).
 """
 
 from __future__ import annotations
@@ -27,6 +27,7 @@ from rigid_env.core.compose import (
     common,
     rare,
     wheeled,
+    wheeled_apart,
 )
 from rigid_env.core.dynamics import (
     ZERO_WRENCH,
@@ -68,7 +69,6 @@ from rigid_env.core.wheels import (
     wheel_laws,
     wheel_reach,
     wheel_records,
-    wheel_row,
 )
 
 
@@ -205,7 +205,7 @@ def beyond(w, c, ok):
 
 def integrate(step, body, act, m, c, h, counts, i, drive):
     """``step`` of body ``i``, ``body = (x, v, q, w, hw)`` (``hw``: its wheels' momenta, a
-    4-tuple), over ``h``; returns the same five. ``step`` is an explicit method's flow
+    K-tuple), over ``h``; returns the same five. ``step`` is an explicit method's flow
     (:func:`rigid_env.core.jit.flow_kernel`), which advances the wheels too under the
     gyrostat's rates where the bodies carry wheels (``drive``: their numbers and motor
     torques, :func:`rigid_env.core.wheels.wheel_drive`), else the rigid body's; or a per-body step
@@ -298,7 +298,7 @@ def begin_substep(state, momenta, model, i, c):
     (``old``), its model, its ``w`` under the speed limit and its wheels' momenta (the constant
     zeros without wheels)."""
     old = load(state, i)
-    hw = load_wheels(momenta, 0, i, c)
+    hw = load_wheels(momenta, i, c)
     return old, body_model(model, i), limit_speed(old[3], c), hw
 
 
@@ -320,10 +320,12 @@ def end_substep(world, i, states, m, reach, c, last):
     if last:
         v, w = step_maps(v, w, c)
     if c.wheels != 0.0:
-        total = hw[0] + hw[1] + hw[2] + hw[3]
+        total = 0.0
+        for k in range(len(hw)):
+            total += hw[k]
         x = x if total - total == 0.0 else (math.nan, math.nan, math.nan)  # an inf or NaN
     ok, failed = guard(state, status, i, (x, v, q, w), (x0, v0, q0, w0), m, reach)
-    store_wheels(momenta, 0, i, c, hw if ok else hw0)
+    store_wheels(momenta, i, c, hw if ok else hw0)
     return (1 if failed else 0), (beyond(w, c, ok) if last else 0)
 
 
@@ -381,7 +383,7 @@ def body_substep(step, p, model, command, world, when, i, counts):
     if c.orbit != 0.0:  # where the body is at the substep's middle, held over it
         x, field = where(p, c, state, i, 0.5 * (t + t1))
     start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
-    drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
+    drive = wheel_drive(wheel_records(p, c, momenta), c, command, command_row(command, i))
     while t < t1:
         if c.hardware != 0.0:
             end = next_switch(p, c, command, i, t, t1)
@@ -477,7 +479,8 @@ def vector_passes(step, p, model, world, command, bodies, counts):
     c = unpack(p)
     if c.wheels != 0.0 and is_flow(step):
         wrenched = c.actions != c.wheel_count
-        return passes(step, wheeled(c), p, model, world, command, (bodies, wrenched), counts)
+        d = wheeled(c) if c.wheels_coupled != 0.0 else wheeled_apart(c)
+        return passes(step, d, p, model, world, command, (bodies, wrenched), counts)
     return passes(step, common(c), p, model, world, command, (bodies, True), counts)
 
 
@@ -488,11 +491,11 @@ def _vector_passes(step, p, model, world, command, bodies, counts):
         def both(step, p, model, world, command, bodies, counts):
             c = unpack(p)
             if c.wheels != 0.0:
-                if c.actions == c.wheel_count:  # the wheels alone: no wrench (the constant)
-                    return passes(
-                        step, wheeled(c), p, model, world, command, (bodies, False), counts
-                    )
-                return passes(step, wheeled(c), p, model, world, command, (bodies, True), counts)
+                span = (bodies, c.actions != c.wheel_count)  # False: the wheels alone, no wrench
+                if c.wheels_coupled != 0.0:
+                    return wheel_passes(step, wheeled(c), p, model, world, command, span, counts)
+                d = wheeled_apart(c)
+                return wheel_passes(step, d, p, model, world, command, span, counts)
             return passes(step, common(c), p, model, world, command, (bodies, True), counts)
 
         return both
@@ -501,6 +504,16 @@ def _vector_passes(step, p, model, world, command, bodies, counts):
         return passes(step, common(unpack(p)), p, model, world, command, (bodies, True), counts)
 
     return plain
+
+
+@pass_kernel
+def wheel_passes(step, c, p, model, world, command, span, counts):
+    """:func:`passes` of a world with wheels: without a wrench (the constant ``False``) where
+    the command drives only the wheels."""
+    bodies, wrenched = span
+    if wrenched:
+        return passes(step, c, p, model, world, command, (bodies, True), counts)
+    return passes(step, c, p, model, world, command, (bodies, False), counts)
 
 
 @pass_kernel
@@ -515,7 +528,7 @@ def passes(step, c, p, model, world, command, span, counts):
     state, status, wrenches, momenta = world
     commanded = command.shape[1] > 0
     actuated = commanded and wrenched
-    wheels = wheel_records(p, c)  # read once, not per body: the loop keeps its vector form
+    wheels = wheel_records(p, c, momenta)  # read once, not per body: the loop keeps its form
     if actuated:
         for i in range(start, stop):  # each body's wrench, its reach and its wheels' motors
             act = wrench(p, c, model, command, i)
@@ -561,10 +574,14 @@ def over_threads(entry, world, start, stop, threads):
     of ``start <= i < stop`` split into ``threads`` contiguous ranges over Numba's threads
     (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
     called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
-    Python): called in here it would keep the function from being cached."""
+    Python): called in here it would keep the function from being cached. ``world = (p,
+    model, state, status, wrenches, momenta, command[, counts])``: the wheels' ``momenta`` (a
+    tuple of rows) are taken out of it before the loop, as ``prange`` hands its body each tuple
+    it reads as its items, one level deep only."""
     codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
+    head, momenta, tail = world[:5], world[5], world[6:]
     for t in prange(threads):
-        codes[t] = entry(*world, *split_range(start, stop, t, threads))
+        codes[t] = entry(*head, momenta, *tail, *split_range(start, stop, t, threads))
     failures = over = 0
     for t in range(threads):
         if codes[t] == BAD_COMMAND:
@@ -672,12 +689,13 @@ def segment_kicks(p, model, state, wrenches, lengths, fraction):
 
 
 @kernel
-def derivatives(p, model, state, command, out):
+def derivatives(p, model, state, momenta, command, out):
     """``(v', w')`` of every body's state column into ``out`` (N, 6): the linear (world) and
     angular (body, Euler's equations included) accelerations of
     :func:`rigid_env.core.dynamics.accelerations`, the gyrostat's
     (:func:`rigid_env.core.wheels.gyrostat`) at the wheels' momenta in the state columns where
-    the bodies carry wheels: the right-hand side a reference solver needs."""
+    the bodies carry wheels (``momenta``: their rows, as the world step's): the right-hand side
+    a reference solver needs."""
     c = unpack(p)
     for i in range(state.shape[1]):
         act = wrench(p, c, model, command, i)
@@ -688,8 +706,8 @@ def derivatives(p, model, state, command, out):
                 act = (act[0], act[1], act[2], field)
         m = body_model(model, i)
         if c.wheels != 0.0:
-            drive = wheel_drive(wheel_records(p, c), c, command, command_row(command, i))
-            hw = load_wheels(state, wheel_row(c), i, c)
+            drive = wheel_drive(wheel_records(p, c, momenta), c, command, command_row(command, i))
+            hw = load_wheels(momenta, i, c)
             drive = hold(drive, w, hw, m, 0.0)  # Coulomb's sign at this state
             a, alpha, _ = gyrostat(x, v, q, w, hw, act, m, c, drive)
         else:

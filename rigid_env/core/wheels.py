@@ -2,7 +2,7 @@
 
 Wheel ``k`` spins about the body axis ``a_k`` with axial inertia ``J_k``; its state is its
 axial angular momentum ``h_k = J_k (a_k . w + Omega_k)`` [N m s] (``Omega_k`` its speed
-relative to the body), rows :func:`wheel_row` on in the state columns. With ``h = sum_k a_k
+relative to the body), rows after ``x, v, q, w`` in the state columns. With ``h = sum_k a_k
 h_k`` the body obeys (Markley and Crassidis, "Fundamentals of Spacecraft Attitude Determination
 and Control", Springer 2014, Sec. 3.3.5; Hughes, "Spacecraft Attitude Dynamics", Ch. 9)
 
@@ -25,9 +25,11 @@ flow of the body and its wheels (:mod:`rigid_env.core.integrators`), and the wor
 (:func:`gyrostat`) where the bodies carry wheels; the methods built on the free rigid body's
 exact flows refuse wheels (:data:`rigid_env.core.integrators.NO_WHEELS`).
 
-Every body has :data:`~rigid_env.core.layout.MAX_WHEELS` slots of wheels (the 4-tuples of
-momenta and rates), a slot past the last wheel giving zeros by a select (its numbers those of
-the last wheel, so that no read leaves the arrays): no branch, no inner loop, so that the
+A body's K wheels are K-tuples (momenta, rates, records; K at most
+:data:`~rigid_env.core.layout.MAX_WHEELS`), K a constant of their type: the world hands the
+step its wheels' rows as a K-tuple (:meth:`rigid_env.core.world.World._wheel_rows`), and every
+loop over the wheels is one of K constant trips (:func:`~rigid_env.core.layout.wheel_shape`),
+unrolled by the compiler for the K in use: no branch, no inner loop left, so that the
 vectorised passes keep their loops.
 """
 
@@ -39,14 +41,12 @@ from numba.extending import overload
 from rigid_env.core.dynamics import accelerations, rigid_rates
 from rigid_env.core.jit import kernel
 from rigid_env.core.layout import (
-    MAX_WHEELS,
     MOTORS,
-    THRUST,
     ZERO3,
-    ZERO4,
-    Wheel,
     command_level,
+    no_wheel_records,
     wheel,
+    wheel_shape,
     with_item,
 )
 from rigid_env.core.maths import axpy, cross
@@ -59,38 +59,24 @@ def relative_speed(w, hk, axis, inertia):
 
 
 @kernel
-def _slot(c, k):
-    """The wheel whose row slot ``k`` reads: ``k``, or the last wheel past it."""
-    return min(k, int(c.wheel_count) - 1)
-
-
-NO_WHEEL_RECORDS = (Wheel(*([0.0] * len(Wheel._fields))),) * MAX_WHEELS
-"""The wheel records of a body without wheels: constants the compiler folds."""
-NO_DRIVE = (NO_WHEEL_RECORDS, ZERO4, ZERO4)
-"""The drive of a body without wheels (:func:`wheel_drive`)."""
-
-
-@kernel
-def wheel_records(p, c):
-    """The :class:`~rigid_env.core.layout.Wheel` records of the
-    :data:`~rigid_env.core.layout.MAX_WHEELS` slots (past the last wheel its record again),
-    read once before a pass over the bodies; :data:`NO_WHEEL_RECORDS` where the bodies carry
-    no wheels."""
-    if c.wheels == 0.0:
-        return NO_WHEEL_RECORDS
-    wheels = NO_WHEEL_RECORDS
-    for k in range(MAX_WHEELS):
-        wheels = with_item(wheels, k, wheel(p, c, _slot(c, k)))
+def wheel_records(p, c, rows):
+    """The K :class:`~rigid_env.core.layout.Wheel` records of the world's K wheels (K =
+    ``len(rows)``, the wheels' rows of the state: a constant of their type), read once before
+    a pass over the bodies; records of zeros (constants) where the bodies carry no wheels."""
+    wheels = no_wheel_records(rows)
+    if c.wheels != 0.0:
+        for k in range(len(rows)):
+            wheels = with_item(wheels, k, wheel(p, c, k))
     return wheels
 
 
 @kernel
 def motor_torques(wheels, c, command, r):
-    """Each slot's motor torque ``u_k max_torque_k`` [N m] (a 4-tuple) of row ``r`` of the
+    """Each wheel's motor torque ``u_k max_torque_k`` [N m] (a K-tuple) of row ``r`` of the
     command, held over the step (``wheels``: :func:`wheel_records`); zeros without wheels."""
-    motors = ZERO4
+    motors = wheel_shape(wheels)
     if c.wheels != 0.0:
-        for k in range(MAX_WHEELS):
+        for k in range(len(wheels)):
             e = wheels[k]
             level = command_level(command, r, int(e.action))
             motors = with_item(motors, k, level * e.max_torque)
@@ -101,11 +87,12 @@ def motor_torques(wheels, c, command, r):
 def wheel_drive(wheels, c, command, r):
     """``(wheels, motors, held)``: the wheel records (:func:`wheel_records`) and their
     :func:`motor_torques` of row ``r`` of the command (``held``: zeros, the signs that
-    :func:`hold` sets before each flow); :data:`NO_DRIVE` where the bodies carry no wheels.
+    :func:`hold` sets before each flow); zeros where the bodies carry no wheels.
     Numbers only, so that the integrator's flow gets no array."""
+    rest = wheel_shape(wheels)
     if c.wheels == 0.0:
-        return NO_DRIVE
-    return wheels, motor_torques(wheels, c, command, r), ZERO4
+        return wheels, rest, rest
+    return wheels, motor_torques(wheels, c, command, r), rest
 
 
 @kernel
@@ -113,19 +100,19 @@ def store_motors(wrenches, i, motors, c):
     """Body ``i``'s motor torques into its rows of the scratch ``wrenches`` (from
     :data:`rigid_env.core.layout.MOTORS`), where the bodies carry wheels."""
     if c.wheels != 0.0:
-        for k in range(MAX_WHEELS):
+        for k in range(len(motors)):
             wrenches[MOTORS + k, i] = motors[k]
 
 
 @kernel
 def load_drive(wheels, wrenches, i, c):
     """``(wheels, motors, held)`` as :func:`wheel_drive`, the motor torques read from body
-    ``i``'s rows of ``wrenches`` (:func:`store_motors`); :data:`NO_DRIVE` without wheels."""
-    if c.wheels == 0.0:
-        return NO_DRIVE
-    k = MOTORS
-    motors = (wrenches[k, i], wrenches[k + 1, i], wrenches[k + 2, i], wrenches[k + 3, i])
-    return wheels, motors, ZERO4
+    ``i``'s rows of ``wrenches`` (:func:`store_motors`); zeros without wheels."""
+    motors = rest = wheel_shape(wheels)
+    if c.wheels != 0.0:
+        for k in range(len(wheels)):
+            motors = with_item(motors, k, wrenches[MOTORS + k, i])
+    return wheels, motors, rest
 
 
 @kernel
@@ -156,29 +143,20 @@ def _wheel_rate(w, hk, e, motor, held):
 
 
 @kernel
-def _slot_rate(w, hw, c, drive, k):
-    """``(h_k', a_k)`` of the wheel in slot ``k`` (a constant), or zeros past the last wheel,
-    by selects."""
-    wheels, motors, held = drive
-    e = wheels[k]
-    rate = _wheel_rate(w, hw[k], e, motors[k], held[k])
-    on = k < int(c.wheel_count)
-    return (rate if on else 0.0), (_axis(e) if on else ZERO3)
-
-
-@kernel
 def wheel_rates(w, hw, c, drive):
-    """``(hw', h, sum_k a_k h_k')``: the wheels' torques (a 4-tuple, one per slot of
-    :data:`~rigid_env.core.layout.MAX_WHEELS`, zeros past the last wheel), and their momentum
+    """``(hw', h, sum_k a_k h_k')``: the wheels' torques (a K-tuple), and their momentum
     ``h`` and its rate as body-frame 3-vectors, at the body rate ``w`` and momenta ``hw``
     (``drive``: :func:`wheel_drive`)."""
-    r0, a0 = _slot_rate(w, hw, c, drive, 0)
-    r1, a1 = _slot_rate(w, hw, c, drive, 1)
-    r2, a2 = _slot_rate(w, hw, c, drive, 2)
-    r3, a3 = _slot_rate(w, hw, c, drive, 3)
-    h = axpy(axpy(axpy(axpy(ZERO3, hw[0], a0), hw[1], a1), hw[2], a2), hw[3], a3)
-    d = axpy(axpy(axpy(axpy(ZERO3, r0, a0), r1, a1), r2, a2), r3, a3)
-    return (r0, r1, r2, r3), h, d
+    wheels, motors, held = drive
+    rates = wheel_shape(hw)
+    h = d = ZERO3
+    for k in range(len(hw)):
+        e = wheels[k]
+        rate = _wheel_rate(w, hw[k], e, motors[k], held[k])
+        rates = with_item(rates, k, rate)
+        h = axpy(h, hw[k], _axis(e))
+        d = axpy(d, rate, _axis(e))
+    return rates, h, d
 
 
 @kernel
@@ -225,43 +203,28 @@ def _rates(x, v, q, w, hw, act, m, c, drive):
 
 
 # ---- the wheels' rows of the state columns --------------------------------------------------
+# The world step's passes read a world's K wheels' momenta as their own K rows ``momenta`` (a
+# K-tuple of (N,) arrays, row k wheel k's: :meth:`rigid_env.core.world.World._wheel_rows`,
+# views of the state columns after ``x, v, q, w``), which the compiler knows the state's other
+# rows do not overlap; a world without wheels hands one row that is never read.
 @kernel
-def wheel_row(c):
-    """Row of the first wheel's momentum in the state columns: after ``x, v, q, w``
-    (:data:`rigid_env.core.layout.THRUST`; thrusters whose levels lag, the other rows from
-    there, never come with wheels: :func:`rigid_env.core.effects.pack` refuses them). A world
-    with wheels has :data:`~rigid_env.core.layout.MAX_WHEELS` rows of them, zeros past the last
-    wheel (they stay zero: its rates are zero), so that every row is a constant of the pass.
-    The world step's passes read them as their own array ``momenta`` (those rows, row 0 the
-    first wheel's), which the compiler knows the state's other rows do not overlap."""
-    return THRUST
-
-
-@kernel
-def load_wheels(cols, row, i, c):
-    """Body ``i``'s wheel momenta from rows ``row`` on of ``cols`` (the state columns, from
-    :func:`wheel_row`) as a 4-tuple, zeros past the last wheel (the constant zeros where the
-    bodies carry none)."""
-    if c.wheels == 0.0:
-        return ZERO4
-    return cols[row, i], cols[row + 1, i], cols[row + 2, i], cols[row + 3, i]
-
-
-@kernel
-def store_wheels(cols, row, i, c, hw):
-    """Write the wheel momenta ``hw`` into body ``i``'s rows from ``row`` on of ``cols``
-    (nothing without wheels)."""
+def load_wheels(momenta, i, c):
+    """Body ``i``'s wheel momenta from the wheels' rows ``momenta`` as a K-tuple (the
+    constant zeros where the bodies carry none)."""
+    hw = wheel_shape(momenta)
     if c.wheels != 0.0:
-        cols[row, i], cols[row + 1, i], cols[row + 2, i], cols[row + 3, i] = hw
+        for k in range(len(momenta)):
+            hw = with_item(hw, k, momenta[k][i])
+    return hw
 
 
 @kernel
-def _slot_reach(w, hw, wheels, c, k):
-    """Slot ``k``'s term of :func:`wheel_reach` (0 past the last wheel)."""
-    e = wheels[k]
-    omega = max(abs(relative_speed(w, hw[k], _axis(e), e.inertia)), e.max_speed)
-    torque = e.max_torque + e.coulomb + 2.0 * e.viscous * omega
-    return torque if k < int(c.wheel_count) else 0.0
+def store_wheels(momenta, i, c, hw):
+    """Write the wheel momenta ``hw`` into body ``i``'s column of the wheels' rows
+    ``momenta`` (nothing without wheels)."""
+    if c.wheels != 0.0:
+        for k in range(len(momenta)):
+            momenta[k][i] = hw[k]
 
 
 @kernel
@@ -271,8 +234,11 @@ def wheel_reach(w, hw, drive, c, m):
     (max_torque + coulomb + 2 viscous |Omega_k|) / sqrt(I_min)`` with ``|Omega_k|`` at least the
     wheel's limit (``w x h`` does no work on the body)."""
     wheels = drive[0]
-    total = 0.0 + _slot_reach(w, hw, wheels, c, 0) + _slot_reach(w, hw, wheels, c, 1)
-    total += _slot_reach(w, hw, wheels, c, 2) + _slot_reach(w, hw, wheels, c, 3)
+    total = 0.0
+    for k in range(len(hw)):
+        e = wheels[k]
+        omega = max(abs(relative_speed(w, hw[k], _axis(e), e.inertia)), e.max_speed)
+        total += e.max_torque + e.coulomb + 2.0 * e.viscous * omega
     return total * m.inv_sqrt_inertia
 
 
@@ -338,27 +304,18 @@ def hold(drive, w, hw, m, h):
     (:func:`_held_motor`); a wheel the flow carries past it :func:`wheel_laws` puts back at
     it."""
     wheels, motors, _ = drive
-    held = (
-        _held_sign(w, hw, wheels, m, h, 0),
-        _held_sign(w, hw, wheels, m, h, 1),
-        _held_sign(w, hw, wheels, m, h, 2),
-        _held_sign(w, hw, wheels, m, h, 3),
-    )
-    motors = (
-        _held_motor(w, hw, wheels, motors, m, h, 0),
-        _held_motor(w, hw, wheels, motors, m, h, 1),
-        _held_motor(w, hw, wheels, motors, m, h, 2),
-        _held_motor(w, hw, wheels, motors, m, h, 3),
-    )
-    return wheels, motors, held
+    held = cut = wheel_shape(hw)
+    for k in range(len(hw)):
+        held = with_item(held, k, _held_sign(w, hw, wheels, m, h, k))
+        cut = with_item(cut, k, _held_motor(w, hw, wheels, motors, m, h, k))
+    return wheels, cut, held
 
 
 @kernel
-def _impulse(w, hw, drive, c, m, h, k, friction, inertias):
-    """``(w, hw)`` after slot ``k``'s internal impulse (:func:`wheel_laws`; ``inertias``: the
-    slots' :func:`effective_inertia`): with ``friction``
-    (a constant) Coulomb's stick-slip, then the speed limit; unchanged (by selects) past the
-    last wheel, for a pre-fix wheel, and where no law acts."""
+def _impulse(w, hw, drive, m, h, k, friction, inertias):
+    """``(w, hw)`` after wheel ``k``'s internal impulse (:func:`wheel_laws`; ``inertias``: the
+    wheels' :func:`effective_inertia`): with ``friction`` (a constant) Coulomb's stick-slip,
+    then the speed limit; unchanged (by selects) for a pre-fix wheel and where no law acts."""
     wheels, motors, held = drive
     e = wheels[k]
     a = _axis(e)
@@ -377,7 +334,7 @@ def _impulse(w, hw, drive, c, m, h, k, friction, inertias):
     after = omega + dh * (1.0 / e.inertia + _along(e, m))
     target = e.max_speed if after > 0.0 else -e.max_speed
     dh += j * (target - after) if abs(after) > e.max_speed else 0.0
-    on = (k < int(c.wheel_count)) & (e.pre_fix == 0.0) & (dh != 0.0)
+    on = (e.pre_fix == 0.0) & (dh != 0.0)
     w1 = (
         w[0] - dh * a[0] * m.inv_inertia_x,
         w[1] - dh * a[1] * m.inv_inertia_y,
@@ -387,12 +344,12 @@ def _impulse(w, hw, drive, c, m, h, k, friction, inertias):
 
 
 @kernel
-def _limit_sweep(w, hw, drive, c, m, h, js):
-    """One sweep of the speed limit over the slots (:func:`wheel_laws`)."""
-    w, hw = _impulse(w, hw, drive, c, m, h, 0, False, js)
-    w, hw = _impulse(w, hw, drive, c, m, h, 1, False, js)
-    w, hw = _impulse(w, hw, drive, c, m, h, 2, False, js)
-    return _impulse(w, hw, drive, c, m, h, 3, False, js)
+def _sweep(w, hw, drive, m, h, js, friction):
+    """One sweep of the wheels' impulses in wheel order (:func:`wheel_laws`; ``friction``: a
+    constant)."""
+    for k in range(len(hw)):
+        w, hw = _impulse(w, hw, drive, m, h, k, friction, js)
+    return w, hw
 
 
 @kernel
@@ -410,12 +367,13 @@ def wheel_laws(w, hw, drive, c, m, h):
       was ``-coulomb`` held where it is ``+coulomb`` under a larger motor, ``-motor`` (stuck)
       under a smaller one), never past it;
     * the speed limit: a wheel beyond ``+-max_speed`` is put at it, ``dh = J_eff (+-max_speed -
-      Omega)``; then three sweeps of the limit alone (Gauss-Seidel: the other wheels'
-      impulses move the body, so wheel ``j``'s speed by ``a_j . I^-1 a_k dh_k``). Wheels along
-      the body's principal axes do not couple: each is at its limit to rounding after the
-      first sweep. Otherwise what a sweep leaves beyond the limit falls each sweep by ``r =
-      max J_eff |a_j . I^-1 a_k|`` (``J / I``: 2e-3 for a 3U CubeSat's wheel pyramid), to
-      ``r^4`` of the step's overshoot after the four.
+      Omega)``; then, where the wheels couple (``c.wheels_coupled``), three sweeps of the
+      limit alone (Gauss-Seidel: the other wheels' impulses move the body, so wheel ``j``'s
+      speed by ``a_j . I^-1 a_k dh_k``). Wheels whose axes share no nonzero component (along
+      the body's principal axes) do not couple: each is at its limit to rounding after the
+      first sweep, and the three are left out. Otherwise what a sweep leaves beyond the
+      limit falls each sweep by ``r = max J_eff |a_j . I^-1 a_k|`` (``J / I``: 2e-3 for a 3U
+      CubeSat's wheel pyramid), to ``r^4`` of the step's overshoot after the four.
 
     Total momentum: ``I dw = -a_k dh_k`` and ``dh = a_k dh_k``, so ``I w + h`` is unchanged (to
     rounding). Energy: ``T = w.I w / 2 + sum_k h_k^2 / (2 J_k)``; along the impulse ``s`` from 0
@@ -426,19 +384,15 @@ def wheel_laws(w, hw, drive, c, m, h):
     wheel. Where no wheel crosses its limit, none was at rest and none crossed zero, ``(w,
     hw)`` is returned as it came (selects), so the numbers are those of the flow alone."""
     wheels = drive[0]
-    js = (
-        effective_inertia(wheels[0], m),
-        effective_inertia(wheels[1], m),
-        effective_inertia(wheels[2], m),
-        effective_inertia(wheels[3], m),
-    )
-    w, hw = _impulse(w, hw, drive, c, m, h, 0, True, js)
-    w, hw = _impulse(w, hw, drive, c, m, h, 1, True, js)
-    w, hw = _impulse(w, hw, drive, c, m, h, 2, True, js)
-    w, hw = _impulse(w, hw, drive, c, m, h, 3, True, js)
-    w, hw = _limit_sweep(w, hw, drive, c, m, h, js)
-    w, hw = _limit_sweep(w, hw, drive, c, m, h, js)
-    return _limit_sweep(w, hw, drive, c, m, h, js)
+    js = wheel_shape(hw)
+    for k in range(len(hw)):
+        js = with_item(js, k, effective_inertia(wheels[k], m))
+    w, hw = _sweep(w, hw, drive, m, h, js, True)
+    if c.wheels_coupled == 0.0:  # no impulse moved another wheel: each is at its limit
+        return w, hw
+    w, hw = _sweep(w, hw, drive, m, h, js, False)
+    w, hw = _sweep(w, hw, drive, m, h, js, False)
+    return _sweep(w, hw, drive, m, h, js, False)
 
 
 def __getattr__(name: str):

@@ -30,7 +30,6 @@ from rigid_env.core.layout import (
     FAILED,
     FROZEN,
     HEALTHY,
-    MAX_WHEELS,
     MODEL_WIDTH,
     STATE_WIDTH,
     THRUST,
@@ -345,14 +344,16 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         self._check_asymmetry()
         self._set_arrays()
 
-    def _wheel_rows(self, cols: FloatArray) -> FloatArray:
-        """(MAX_WHEELS, N) the wheels' momenta: a view of their rows of the state ``cols``, its
-        own array for the compiled step (the other rows are never read through it, and the
-        compiler vectorises the wheels' passes only where it need not check that the wheels'
-        rows and the state's overlap); an empty one without wheels."""
+    def _wheel_rows(self, cols: FloatArray) -> tuple[FloatArray, ...]:
+        """The K wheels' momenta, a K-tuple of (N,) views of their rows of the state ``cols``,
+        their own arrays for the compiled step (the other rows are never read through them,
+        and the compiler vectorises the wheels' passes only where it need not check that the
+        wheels' rows and the state's overlap). K is a constant of the tuple's type, so that the
+        step is compiled for the K in use (:func:`rigid_env.core.layout.wheel_shape`). Without
+        wheels one empty row, never read (the step's types then need no empty tuple)."""
         if self._wheels is None:
-            return np.zeros((0, self._n))
-        return cols[THRUST : THRUST + MAX_WHEELS]
+            return (np.zeros(0),)
+        return tuple(cols[THRUST + k] for k in range(self._wheels.axes.shape[0]))
 
     def _set_arrays(self) -> None:
         """The compiled step's arrays but the command (whose place is last); an
@@ -611,7 +612,7 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
             if n != self._n:
                 raise ValueError(f"x, v, q, w: each body has its wheels, give {self._n} rows")
             cols = np.ascontiguousarray(np.vstack([cols, self._cols[STATE_WIDTH:]]))
-        derivatives(self.params, model, cols, u, out)
+        derivatives(self.params, model, cols, self._momenta, u, out)
         return out[:, 0:3], out[:, 3:6]
 
     #

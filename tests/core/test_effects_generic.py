@@ -222,7 +222,7 @@ def test_the_vectorised_pass_equals_the_body_by_body_step(method: str) -> None:
     step = INTEGRATORS[method].body
     a, b = world.columns.copy(), world.columns.copy()
     status_a, status_b = np.zeros(n, np.uint8), np.zeros(n, np.uint8)
-    wrenches, momenta = np.zeros((7, n)), np.zeros((0, n))  # (no wheels: no momenta rows)
+    wrenches, momenta = np.zeros((7, n)), (np.zeros(0),)  # (no wheels: one row, never read)
     vectorised, by_body = _vectorised(step), _by_body(step)
     for _ in range(20):
         vectorised(world.params, world.model_columns, a, status_a, wrenches, momenta, command)

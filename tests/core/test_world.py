@@ -497,7 +497,7 @@ def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
             cols,
             np.zeros(n, np.uint8),
             np.zeros((WRENCH_WIDTH, n)),
-            np.zeros((0, n)),  # the wheels' momenta: none
+            (np.zeros(0),),  # the wheels' momenta: none (one row, never read)
         )
         return (*out, carried[id(cols)]) if info.error_control else out
 

@@ -82,8 +82,23 @@ class ReactionWheels(LinearActuator):
         return out
 
     def parameters(self) -> dict[str, float]:
-        """The wheels' flag and count; their rows go last in the parameters (:func:`pack`)."""
-        return {"wheels": 1.0, "wheel_count": float(self.axes.shape[0])}
+        """The wheels' flag and count, and whether they couple (:attr:`coupled`); their rows
+        go last in the parameters (:func:`pack`)."""
+        return {
+            "wheels": 1.0,
+            "wheel_count": float(self.axes.shape[0]),
+            "wheels_coupled": 1.0 if self.coupled else 0.0,
+        }
+
+    @property
+    def coupled(self) -> bool:
+        """Whether one wheel's internal impulse moves another's relative speed: wheel ``j``'s
+        speed moves by ``a_j . I^-1 a_k dh_k`` (:func:`rigid_env.core.wheels.wheel_laws`), zero
+        for every principal inertia ``I`` exactly where no two axes share a nonzero component
+        (three wheels along the body's axes; not a pyramid)."""
+        shared = (self.axes != 0.0).astype(int)
+        overlap = shared @ shared.T
+        return bool(np.any(overlap[~np.eye(len(shared), dtype=bool)] > 0))
 
 
 """The reaction wheels' declaration."""
@@ -142,7 +157,7 @@ REACTION_WHEELS = Actuator(
     record=Wheel,
     unit_rows=lambda spec, first: spec.rows(first),
     rows_at="wheel_rows",
-    flags=("wheels", "wheel_count", "wheel_rows"),
+    flags=("wheels", "wheel_count", "wheel_rows", "wheels_coupled"),
     single=True,
     bound=_bound,
     torque_at=lambda spec, u, field=None: np.zeros(3),  # internal: no external torque
