@@ -102,6 +102,11 @@ class TiltedDipole:
             rotation="[rad/s]",
             radius="> 0 [m]",
         )
+        numbers = _Dipole(
+            self.longitude, self.rotation, math.sin(self.tilt), math.cos(self.tilt),
+            self.radius, self.b0,
+        )  # fmt: skip
+        object.__setattr__(self, "_numbers", np.array(numbers, dtype=np.float64))
 
     @classmethod
     def igrf2020(cls) -> TiltedDipole:
@@ -117,10 +122,10 @@ class TiltedDipole:
         Returns:
             (..., 3) unit vector, ECI.
         """
-        longitude = self.longitude + self.rotation * _times("TiltedDipole.axis", t)
-        sin_tilt, cos_tilt = math.sin(self.tilt), math.cos(self.tilt)
-        x, y = sin_tilt * np.cos(longitude), sin_tilt * np.sin(longitude)
-        return -np.stack([x, y, np.full_like(longitude, cos_tilt)], axis=-1)
+        times = _times("TiltedDipole.axis", t)
+        out = np.empty((times.size, 3))
+        _moments(np.ascontiguousarray(times.reshape(-1)), self._numbers, out)
+        return out.reshape((*times.shape, 3))
 
     def field(self, r: ArrayLike, t: ArrayLike) -> FloatArray:
         """The dipole field ``B = b0 (R / |r|)^3 (3 (m . u) u - m)``, ``u = r / |r|``.
@@ -153,10 +158,12 @@ class TiltedDipole:
                 f"TiltedDipole.field: t of shape {t.shape} must broadcast against r's leading "
                 f"shape {r.shape[:-1]}"
             ) from None
-        m = self.axis(t)
-        u = r / distance
-        m_u = np.sum(m * u, axis=-1, keepdims=True)
-        return self.b0 * (self.radius / distance) ** 3 * (3.0 * m_u * u - m)
+        shape = np.broadcast_shapes(r.shape[:-1], t.shape)
+        flat_r = np.ascontiguousarray(np.broadcast_to(r, (*shape, 3)).reshape(-1, 3))
+        flat_t = np.ascontiguousarray(np.broadcast_to(t, shape).reshape(-1))
+        out = np.empty((flat_t.size, 3))
+        _dipole_field(flat_r, flat_t, self._numbers, out)
+        return out.reshape((*shape, 3))
 
 
 @dataclass(frozen=True)
@@ -190,6 +197,13 @@ class CircularOrbit:
             mu="> 0 [m^3/s^2]",
             radius="> 0 [m]",
         )
+        cos_o, sin_o = math.cos(self.raan), math.sin(self.raan)
+        cos_i, sin_i = math.cos(self.inclination), math.sin(self.inclination)
+        numbers = _Circle(
+            self.phase, self.mean_motion, self.semi_major_axis,
+            cos_o, sin_o, 0.0, -sin_o * cos_i, cos_o * cos_i, sin_i,
+        )  # fmt: skip
+        object.__setattr__(self, "_numbers", np.array(numbers, dtype=np.float64))
 
     @property
     def semi_major_axis(self) -> float:
@@ -210,15 +224,15 @@ class CircularOrbit:
         """``cos(u)`` and ``sin(u)`` (...), ``u = phase + n t``, and the in-plane unit vectors
         ``(p, q)`` (2, 3): ``p`` to the ascending node, ``q`` 90 degrees ahead along the motion."""
         u = self.phase + self.mean_motion * _times(where, t)
-        cos_o, sin_o = math.cos(self.raan), math.sin(self.raan)
-        cos_i, sin_i = math.cos(self.inclination), math.sin(self.inclination)
-        pq = np.array([[cos_o, sin_o, 0.0], [-sin_o * cos_i, cos_o * cos_i, sin_i]])
+        pq = self._numbers[3:9].reshape(2, 3)  # _Circle's p and q
         return np.cos(u)[..., None], np.sin(u)[..., None], pq
 
     def position(self, t: ArrayLike) -> FloatArray:
         """``r = a (cos(u) p + sin(u) q)``: (..., 3) position, ECI [m], at (...) times [s]."""
-        cos_u, sin_u, (p, q) = self._plane(t, "CircularOrbit.position")
-        return self.semi_major_axis * (cos_u * p + sin_u * q)
+        times = _times("CircularOrbit.position", t)
+        out = np.empty((times.size, 3))
+        _positions(np.ascontiguousarray(times.reshape(-1)), self._numbers, out)
+        return out.reshape((*times.shape, 3))
 
     def velocity(self, t: ArrayLike) -> FloatArray:
         """``v = a n (-sin(u) p + cos(u) q)``: (..., 3) velocity, ECI [m/s], at (...) times [s]."""
@@ -244,23 +258,12 @@ class OrbitField:
                 f"OrbitField: orbit radius {self.orbit.semi_major_axis} m lies inside "
                 f"dipole.radius = {self.dipole.radius} m; raise orbit.altitude"
             )
-        orbit, dipole = self.orbit, self.dipole
-        cos_o, sin_o = math.cos(orbit.raan), math.sin(orbit.raan)
-        cos_i, sin_i = math.cos(orbit.inclination), math.sin(orbit.inclination)
-        numbers = _AlongOrbit(
-            orbit.phase, orbit.mean_motion, orbit.semi_major_axis,
-            cos_o, sin_o, 0.0, -sin_o * cos_i, cos_o * cos_i, sin_i,
-            dipole.longitude, dipole.rotation, math.sin(dipole.tilt), math.cos(dipole.tilt),
-            dipole.radius, dipole.b0,
-        )  # fmt: skip
-        object.__setattr__(self, "_numbers", np.array(numbers, dtype=np.float64))
 
     def at(self, t: ArrayLike, out: FloatArray | None = None) -> FloatArray:
         """(..., 3) field at the orbit's position, ECI [T], at (...) times [s]:
-        ``dipole.field(orbit.position(t), t)`` bit for bit (the same operations in the same
-        order, one compiled call for the position, the moment and the field's direction; the
-        cube ``(R / |r|)^3`` is NumPy's ``power``, whose SIMD loop rounds otherwise than
-        libm's ``pow``). ``out``: an array of the result's shape to write it into (returned)."""
+        ``dipole.field(orbit.position(t), t)`` (their compiled passes, without the arrays and
+        checks of each call: one env's step calls it twice). ``out``: an array of the result's
+        shape to write it into (returned)."""
         times = t
         if not (type(t) is np.ndarray and t.ndim == 1 and t.dtype is _FLOAT64):
             times = np.asarray(t, dtype=np.float64)
@@ -273,13 +276,13 @@ class OrbitField:
             and out.flags.c_contiguous
         )
         field = out if direct else np.empty((n, 3))
-        ratio = np.empty((n, 1))
-        bad = _field_along_orbit(flat, self._numbers, field, ratio)
+        r = np.empty((n, 3))
+        bad = _positions(flat, self.orbit._numbers, r)
         if bad:
             raise ValueError(
                 f"CircularOrbit.position: t must be finite times [s], got {bad} non-finite of {n}"
             )
-        _scale_field(ratio**3, self._numbers, field)
+        _dipole_field(r, flat, self.dipole._numbers, field)
         if direct:
             return field
         if out is None:
@@ -305,9 +308,8 @@ class OrbitField:
         return scale * (3.0 * (m_u_dot * u + m_u * u_dot) - m_dot)
 
 
-class _AlongOrbit(NamedTuple):
-    """An :class:`OrbitField`'s numbers as :func:`_field_along_orbit` reads them (the order of
-    ``OrbitField._numbers``)."""
+class _Circle(NamedTuple):
+    """A :class:`CircularOrbit`'s numbers as :func:`_positions` reads them (its ``_numbers``)."""
 
     phase: float  # argument of latitude at t = 0 [rad]
     mean_motion: float  # [rad/s]
@@ -318,26 +320,30 @@ class _AlongOrbit(NamedTuple):
     q_x: float  # q: 90 degrees ahead of p along the motion, ECI
     q_y: float
     q_z: float
+
+
+class _Dipole(NamedTuple):
+    """A :class:`TiltedDipole`'s numbers as :func:`_dipole_field` reads them (its
+    ``_numbers``)."""
+
     longitude: float  # of the north geomagnetic pole at t = 0, from ECI x [rad]
     rotation: float  # the Earth's rate about ECI z [rad/s]
     sin_tilt: float
     cos_tilt: float
-    radius: float  # the dipole's reference radius R [m]
-    b0: float  # the dipole's field on the magnetic equator at R [T]
+    radius: float  # the reference radius R [m]
+    b0: float  # the field on the magnetic equator at R [T]
 
 
-_ALONG_ORBIT = _AlongOrbit(*([0.0] * len(_AlongOrbit._fields)))
+_CIRCLE = _Circle(*([0.0] * len(_Circle._fields)))
+_DIPOLE = _Dipole(*([0.0] * len(_Dipole._fields)))
 
 
 @kernel
-def _field_along_orbit(times, numbers, shape, ratio):
-    """For each time ``t`` of ``times`` (n,): the field's direction ``3 (m . u) u - m`` into
-    ``shape`` (n, 3) and ``R / |r|`` into ``ratio`` (n, 1), ``r`` the orbit's position and ``m``
-    the dipole's moment at ``t`` (:meth:`CircularOrbit.position`, :meth:`TiltedDipole.axis`,
-    :meth:`TiltedDipole.field`, in their operations and order: NumPy's ``sum`` and ``norm``
-    over a row add left to right, its ``sin`` and ``cos`` are libm's). Returns how many times
-    were not finite (their rows are left unwritten). ``numbers``: an :class:`_AlongOrbit`."""
-    c = record(numbers, _ALONG_ORBIT)
+def _positions(times, numbers, out):
+    """Rows of ``out`` (n, 3): ``r = a (cos(u) p + sin(u) q)``, ``u = phase + n t``, at each
+    of ``times`` (n,) (``numbers``: a :class:`_Circle`). Returns how many times were not finite
+    (their rows are left unwritten)."""
+    c = record(numbers, _CIRCLE)
     bad = 0
     for k in range(times.shape[0]):
         t = times[k]
@@ -346,13 +352,49 @@ def _field_along_orbit(times, numbers, shape, ratio):
             continue
         u = c.phase + c.mean_motion * t
         cos_u, sin_u = math.cos(u), math.sin(u)
-        r0 = c.semi_major_axis * (cos_u * c.p_x + sin_u * c.q_x)
-        r1 = c.semi_major_axis * (cos_u * c.p_y + sin_u * c.q_y)
-        r2 = c.semi_major_axis * (cos_u * c.p_z + sin_u * c.q_z)
-        longitude = c.longitude + c.rotation * t
-        m0 = -(c.sin_tilt * math.cos(longitude))
-        m1 = -(c.sin_tilt * math.sin(longitude))
-        m2 = -c.cos_tilt
+        out[k, 0] = c.semi_major_axis * (cos_u * c.p_x + sin_u * c.q_x)
+        out[k, 1] = c.semi_major_axis * (cos_u * c.p_y + sin_u * c.q_y)
+        out[k, 2] = c.semi_major_axis * (cos_u * c.p_z + sin_u * c.q_z)
+    return bad
+
+
+@kernel
+def _moment(c, t):
+    """The unit dipole moment ``m`` at time ``t``: minus the north geomagnetic pole's
+    direction (``c``: a :class:`_Dipole`)."""
+    longitude = c.longitude + c.rotation * t
+    return (-(c.sin_tilt * math.cos(longitude)), -(c.sin_tilt * math.sin(longitude)),
+            -c.cos_tilt)  # fmt: skip
+
+
+@kernel
+def _moments(times, numbers, out):
+    """Rows of ``out`` (n, 3): the moment :func:`_moment` at each of ``times`` (n,)."""
+    c = record(numbers, _DIPOLE)
+    for k in range(times.shape[0]):
+        out[k, 0], out[k, 1], out[k, 2] = _moment(c, times[k])
+
+
+def _dipole_field(r: FloatArray, times: FloatArray, numbers: FloatArray, out: FloatArray) -> None:
+    """Rows of ``out`` (n, 3): ``b0 (R / |r|)^3 (3 (m . u) u - m)``, ``u = r / |r|``, at the
+    positions ``r`` (n, 3) and times (n,) (``numbers``: a :class:`_Dipole`): the direction and
+    ``R / |r|`` compiled, the cube by NumPy's ``power`` (as the field was first written: its
+    SIMD loop rounds otherwise than libm's ``pow`` or ``x * x * x``, and the published
+    BdotDetumble-v0 numbers are NumPy's), then the products."""
+    ratio = np.empty((times.shape[0], 1))
+    _field_shape(r, times, numbers, out, ratio)
+    _scale_field(ratio**3, numbers, out)
+
+
+@kernel
+def _field_shape(r, times, numbers, shape, ratio):
+    """Rows of ``shape`` (n, 3): the field's direction ``3 (m . u) u - m``, and of ``ratio``
+    (n, 1): ``R / |r|``, at the positions ``r`` (n, 3) and times (n,) (NumPy's ``sum`` and
+    ``norm`` over a row add left to right, as here)."""
+    c = record(numbers, _DIPOLE)
+    for k in range(times.shape[0]):
+        m0, m1, m2 = _moment(c, times[k])
+        r0, r1, r2 = r[k, 0], r[k, 1], r[k, 2]
         distance = math.sqrt((r0 * r0 + r1 * r1) + r2 * r2)
         u0, u1, u2 = r0 / distance, r1 / distance, r2 / distance
         m_u = 3.0 * ((m0 * u0 + m1 * u1) + m2 * u2)
@@ -360,14 +402,13 @@ def _field_along_orbit(times, numbers, shape, ratio):
         shape[k, 1] = m_u * u1 - m1
         shape[k, 2] = m_u * u2 - m2
         ratio[k, 0] = c.radius / distance
-    return bad
 
 
 @kernel
 def _scale_field(cube, numbers, shape):
     """Rows of ``shape`` (n, 3) times ``b0 cube`` (``cube`` (n, 1): ``(R / |r|)^3``), in
-    place: :meth:`TiltedDipole.field`'s last two products, in its order."""
-    b0 = record(numbers, _ALONG_ORBIT).b0
+    place, in the order the field was first written: ``(b0 cube) shape``."""
+    b0 = record(numbers, _DIPOLE).b0
     for k in range(shape.shape[0]):
         scale = b0 * cube[k, 0]
         shape[k, 0] = scale * shape[k, 0]

@@ -25,6 +25,7 @@ from rigid_env.core.geomagnetic import (
     TiltedDipole,
 )
 
+from dipole_reference import numpy_orbit_field
 from roundoff import FUNC_RTOL, U
 
 FIELD_RTOL = 64 * U
@@ -297,9 +298,9 @@ def numpy_trigonometry_is_libm(*angles: np.ndarray) -> bool:
 
 
 def test_field_along_the_orbit_is_the_dipole_field_at_the_orbit_position() -> None:
-    """:meth:`OrbitField.at` (the position, the moment and the field's direction in one compiled
-    call, the cube ``(R / |r|)^3`` by NumPy's ``power``) against
-    ``dipole.field(orbit.position(t), t)`` (NumPy throughout), for BdotDetumble's orbit and
+    """:meth:`OrbitField.at` and ``dipole.field(orbit.position(t), t)`` (compiled, the cube
+    ``(R / |r|)^3`` by NumPy's ``power``) against the field as first written in NumPy
+    throughout (``tests/dipole_reference.py``), for BdotDetumble's orbit and
     eight drawn orbits and dipoles, 2,500 times each, as (n,), () and (2, 5) arrays: the same
     operations in the same order, so bit for bit where NumPy's sin and cos are libm's; where
     not, the two differ by their sin and cos: within FIELD_RTOL + 3 ORBIT_RTOL of ``|B|``
@@ -319,13 +320,14 @@ def test_field_along_the_orbit_is_the_dipole_field_at_the_orbit_position() -> No
     for along in alongs:
         orbit, dipole = along.orbit, along.dipole
         t = np.concatenate([rng.uniform(0.0, orbit.period, 2000), rng.uniform(-1e7, 1e7, 500)])
-        numpy_path = dipole.field(orbit.position(t), t)
+        numpy_path = numpy_orbit_field(along, t)
         compiled = along.at(t)
+        parts = dipole.field(orbit.position(t), t)
         one_by_one = np.array([along.at(x) for x in t[:40]])
         grid = along.at(t[:10].reshape(2, 5))
         assert compiled.shape == (*t.shape, 3) and grid.shape == (2, 5, 3)
-        got = np.concatenate([compiled, one_by_one, grid.reshape(-1, 3)])
-        want = np.concatenate([numpy_path, numpy_path[:40], numpy_path[:10]])
+        got = np.concatenate([compiled, one_by_one, grid.reshape(-1, 3), parts])
+        want = np.concatenate([numpy_path, numpy_path[:40], numpy_path[:10], numpy_path])
         argument = orbit.phase + orbit.mean_motion * t
         longitude = dipole.longitude + dipole.rotation * t
         if numpy_trigonometry_is_libm(argument, longitude, orbit.raan, orbit.inclination):

@@ -15,6 +15,8 @@ from agents.controllers import CONTROLLERS, BdotController
 from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.envs.bdot_detumble import FIELD_SCALE
 
+from dipole_reference import numpy_orbit_field
+
 ENV_ID = "RigidEnv/BdotDetumble-v0"
 
 
@@ -66,8 +68,8 @@ def _rollout(seed: int, steps: int) -> list[np.ndarray]:
 
 def test_v0_steps_as_with_numpys_own_field_bit_for_bit(monkeypatch) -> None:
     """v0's field along the orbit (the world's, at each step's middle, and the magnetometer's)
-    comes from one compiled call (:meth:`~rigid_env.core.geomagnetic.OrbitField.at`). With
-    NumPy's own evaluation, ``dipole.field(orbit.position(t), t)``, in its place, a single env
+    comes from compiled passes (:meth:`~rigid_env.core.geomagnetic.OrbitField.at`). With the
+    field as first written in NumPy (``tests/dipole_reference.py``) in its place, a single env
     and eight envs give the same observations, rewards and ends for 100 steps, bit for bit
     (where NumPy's sin and cos are libm's, as the compiled call's are; on other CPUs they
     differ by an ulp, and this test has nothing to compare)."""
@@ -85,7 +87,7 @@ def test_v0_steps_as_with_numpys_own_field_bit_for_bit(monkeypatch) -> None:
     compiled = _rollout(seed=5, steps=100)
 
     def numpy_field(self, t, out=None):
-        field = self.dipole.field(self.orbit.position(t), t)
+        field = numpy_orbit_field(self, t)
         if out is None:
             return field
         out[...] = field
