@@ -20,7 +20,8 @@ TASKS: dict[str, Task] = {name: REGISTERED[name] for name in SHIPPED}
 
 TRAINED_ON: dict[str, int] = {"BdotDetumble": 1, "WheelPointing": 0}
 """The version a shipped policy was trained on, where a newer one came after it (BdotDetumble-v2
-and WheelPointing-v1: the orbit as world state, not trained yet); the others' newest."""
+and WheelPointing-v1: the orbit as world state, not trained yet; WheelPointing-v2: the full
+environment and the 0.1 deg bar, which no policy meets yet); the others' newest."""
 
 
 def shipped_id(name: str) -> str:

@@ -126,7 +126,7 @@ TASKS: dict[str, Task] = _by_name(
             module="wheel_pointing",
             scene="wheel_pointing",
             max_episode_steps=120,
-            newest=1,
+            newest=2,
         ),
         Task(
             "SunAcquisition",

@@ -86,6 +86,13 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
     """``sensors`` keys the task refuses, each with why (it observes what that sensor would
     hide: a one-line error names the sensor and this reason)."""
 
+    @classmethod
+    def default_sensors(cls, version: int) -> dict[str, Any]:
+        """The sensors (their settings by key) that a version of the task turns on where the
+        ``sensors`` keyword leaves them out, beyond any it observes through always (none here;
+        WheelPointing-v2's flight sensors). A sensor given as None stays off."""
+        return {}
+
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Refuse a task that declares more target or memory numbers than the pass holds."""
         super().__init_subclass__(**kwargs)

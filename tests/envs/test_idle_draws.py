@@ -63,6 +63,12 @@ def test_a_randomisation_is_refused_or_acts(env_id, key):
         with pytest.raises(ValueError, match=rf"^randomization\.{key}: [^\n]*; leave {key} out"):
             make(env_id, randomization={key: DRAWS[key]})
         return
+    if key == "sensor_noise" and env_id == "RigidEnv/WheelPointing-v2":  # its gyro is on
+        with pytest.raises(ValueError, match=r"^randomization\.sensor_noise: [^\n]*gyro': None"):
+            make(env_id, randomization={key: DRAWS[key]})
+        drawn = _rollout(env_id, randomization={key: DRAWS[key]}, sensors={"gyro": None})
+        assert not np.array_equal(_rollout(env_id, sensors={"gyro": None}), drawn)
+        return
     plain = _rollout(env_id)
     drawn = _rollout(env_id, randomization={key: DRAWS[key]})
     assert plain.shape != drawn.shape or not np.array_equal(plain, drawn)

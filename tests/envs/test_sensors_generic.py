@@ -46,6 +46,19 @@ TASKS = {env_id: _task(env_id) for env_id in ENV_IDS}
 BUILT_IN = {env_id: set(getattr(TASKS[env_id], "built_in_sensors", {})) for env_id in ENV_IDS}
 """The sensors a task observes through always, added where ``sensors`` leaves them out
 (SunAcquisition's sun sensors): its own tests check them there, not these."""
+OFF = {
+    env_id: dict.fromkeys(type(TASKS[env_id]).default_sensors(TASKS[env_id].version))
+    for env_id in ENV_IDS
+}
+"""The sensors a task's version turns on by default (WheelPointing-v2's flight sensors), each
+switched off: the baseline these tests compare a sensor with is the truth observed."""
+
+
+def alone(env_id: str, **sensors) -> dict:
+    """The env's kwargs with ``sensors`` on and its default sensors off unless given."""
+    return {"sensors": {**OFF[env_id], **sensors}}
+
+
 SUITED = [
     (s, e) for s in SENSORS for e in ENV_IDS if suits(s, TASKS[e]) and s.key not in BUILT_IN[e]
 ]
@@ -93,8 +106,8 @@ def test_draws_are_those_declared_and_all_taken(case):
     settings = sensor.settings.model_validate(sensor.example)
     per_reset, per_sample = sensor.draws(settings)
     assert per_sample > 0 or per_reset > 0
-    on = gym.make(env_id, sensors={sensor.key: sensor.example})
-    off = gym.make(env_id)
+    on = gym.make(env_id, **alone(env_id, **{sensor.key: sensor.example}))
+    off = gym.make(env_id, **alone(env_id))
     on.reset(seed=11)
     off.reset(seed=11)
     expected = off.unwrapped.np_random
@@ -176,8 +189,8 @@ def test_zero_noise_gives_the_truth(case):
     settings = sensor.settings.model_validate(sensor.example)
     quiet = sensor.quiet(settings)
     assert sensor.draws(quiet) == (0, 0)
-    on = gym.make(env_id, sensors={sensor.key: quiet.model_dump()})
-    off = gym.make(env_id)
+    on = gym.make(env_id, **alone(env_id, **{sensor.key: quiet.model_dump()}))
+    off = gym.make(env_id, **alone(env_id))
     obs_on, _ = on.reset(seed=5)
     obs_off, _ = off.reset(seed=5)
     cols = np.ones(obs_on.shape[0], dtype=bool)
@@ -197,8 +210,9 @@ def test_zero_noise_gives_the_truth(case):
     on.close()
     off.close()
 
-    noisy = gym.make(env_id, sensors={sensor.key: sensor.example})
-    obs_true, _ = gym.make(env_id).reset(seed=5)  # the same first state: sensors draw after it
+    noisy = gym.make(env_id, **alone(env_id, **{sensor.key: sensor.example}))
+    # the same first state: sensors draw after it
+    obs_true, _ = gym.make(env_id, **alone(env_id)).reset(seed=5)
     noisy.reset(seed=5)
     task = noisy.unwrapped.task
     rows = np.arange(1)

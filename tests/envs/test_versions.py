@@ -18,7 +18,7 @@ NEWEST = {
     "Reorient": 1,
     "TumblingFall": 1,
     "BdotDetumble": 2,
-    "WheelPointing": 1,
+    "WheelPointing": 2,
 }
 
 
