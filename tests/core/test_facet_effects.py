@@ -1,0 +1,194 @@
+"""The facets' effects in the world step: sunlight (``solar_radiation_pressure``) and air
+(``aerodynamic_drag``) on flat plates, evaluated in the surroundings the orbit state holds over
+each substep, at each stage's attitude.
+
+One plate, a body at rest at a fixed attitude: over one step the angular momentum changes by
+the torque times ``dt``, against the closed forms (Montenbruck and Gill 2000, Sec. 3.4; Vallado
+2013, ch. 8). Error estimate, common to both: the body is isotropic (no gyroscopic term) and
+heavy (``I = 1000 kg m^2``), so over the step of ``dt = 0.1 s`` the torque turns it by ``tau dt^2
+/ (2 I) < 2e-13 rad`` (``|tau| < 4e-6 N m``); the torque's relative change with the angle,
+``|d tau / d theta| / |tau| <= tan(t) + 1 < 60`` up to 89 deg, makes the integral differ from
+``tau dt`` by under ``1e-11`` relative. The surroundings are held over the substep at its middle
+in the world and here alike. So the tolerance ``1e-9`` relative is rounding's and that bound's,
+with room.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pytest
+
+from rigid_env.core import BodyModel, World
+from rigid_env.core.atmosphere import BASE_DENSITY, BASE_HEIGHT
+from rigid_env.core.effects import AerodynamicDrag, SolarRadiationPressure
+from rigid_env.core.facets import facets
+from rigid_env.core.geomagnetic import EARTH_MU, EARTH_ROTATION
+from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, kepler_orbit
+from rigid_env.core.orbit import state as kepler_state
+from rigid_env.core.orbit_state import OrbitMotion
+from rigid_env.core.rotation import quat_rotate_inv
+from rigid_env.core.sun import ASTRONOMICAL_UNIT, SOLAR_PRESSURE, light_conical, sun_position
+from rigid_env.core.timescale import julian_date
+
+INERTIA = 1000.0
+"""Principal moments [kg m^2], all equal (module docstring)."""
+DT = 0.1
+"""The step [s]."""
+EPOCH = dt.datetime(2025, 3, 20, 9, 1)
+"""The March equinox of 2025 (the Sun within 0.01 deg of the equator): an equatorial orbit's
+far side is then deep in the umbra."""
+A = EARTH_EQUATORIAL_RADIUS + 500.0e3
+"""An equatorial circular orbit's radius [m]: 500 km up, a base height of Vallado's table."""
+NORMAL = np.array([1.0, 0.0, 0.0])
+"""The plate's normal, body frame."""
+CENTRE = np.array([0.1, 0.5, -0.2])
+"""The plate's centre from the centre of mass, body frame [m] (off every axis: all three
+torque components act)."""
+AREA = 1.0
+
+
+def plate(specular: float = 0.0, diffuse: float = 0.0, drag_coefficient: float = 2.2):
+    return facets([AREA], [NORMAL], [CENTRE], specular, diffuse, drag_coefficient)
+
+
+def turning(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The unit quaternion ``(w, x, y, z)`` of the shortest turn taking unit ``a`` onto ``b``."""
+    axis = np.cross(a, b)
+    s, c = np.linalg.norm(axis), float(a @ b)
+    if s == 0.0:
+        return np.array([1.0, 0.0, 0.0, 0.0])
+    half = 0.5 * np.arctan2(s, c)
+    return np.concatenate([[np.cos(half)], np.sin(half) * axis / s])
+
+
+def tilted(direction: np.ndarray, angle_deg: float) -> np.ndarray:
+    """The attitude whose plate normal makes ``angle_deg`` with the unit ``direction`` (ECI)."""
+    side = np.cross(direction, [0.0, 0.0, 1.0])
+    side /= np.linalg.norm(side)
+    t = np.radians(angle_deg)
+    return turning(NORMAL, np.cos(t) * direction + np.sin(t) * side)
+
+
+def world_at(effect, anomaly: float) -> World:
+    """A heavy isotropic body at rest on the equatorial orbit, ``anomaly`` [rad] from x."""
+    motion = OrbitMotion(kepler_orbit(A, mean_anomaly=anomaly), epoch=EPOCH)
+    return World(BodyModel(np.array([10.0]), np.full((1, 3), INERTIA)), [effect, motion], "rk4",
+                 DT)  # fmt: skip
+
+
+def middle() -> tuple[np.ndarray, np.ndarray, float]:
+    """The body's position and velocity (ECI) on the orbit at anomaly 0 at the step's middle,
+    and the Julian date then."""
+    r, v = kepler_state(kepler_orbit(A), 0.5 * DT)
+    return np.array(r), np.array(v), julian_date(EPOCH) + 0.5 * DT / 86400.0
+
+
+def srp_closed_form(s_body, pressure, specular, diffuse):
+    """``F = -P A cos t ((1 - rho_s) s + 2 (rho_s cos t + rho_d / 3) n)``, ``tau = c x F``."""
+    cos_t = float(NORMAL @ s_body)
+    force = -pressure * AREA * cos_t * ((1.0 - specular) * s_body
+                                        + 2.0 * (specular * cos_t + diffuse / 3.0) * NORMAL)  # fmt: skip
+    return np.cross(CENTRE, force)
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0, 60.0, 89.0])
+@pytest.mark.parametrize("optics", [(0.0, 0.0), (0.6, 0.0), (0.2, 0.5)])
+def test_sunlight_turns_a_plate_by_the_closed_form(angle: float, optics) -> None:
+    specular, diffuse = optics
+    r, _, jd = middle()
+    sun = np.array(sun_position(jd))
+    to_sun = sun - r
+    distance = np.linalg.norm(to_sun)
+    s = to_sun / distance
+    assert light_conical(r, sun) == 1.0  # the body is on the Sun's side (anomaly 0 near noon)
+    world = world_at(SolarRadiationPressure(plate(specular, diffuse)), 0.0)
+    q = tilted(s, angle)
+    world.state.q[:] = q
+    world.step()
+    pressure = SOLAR_PRESSURE * (ASTRONOMICAL_UNIT / distance) ** 2
+    s_body = quat_rotate_inv(q[None], s[None])[0]
+    expected = srp_closed_form(s_body, pressure, specular, diffuse) * DT
+    got = INERTIA * world.state.w[0]
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+    assert np.all(world.state.v == 0.0)  # torque only
+
+
+def test_no_sunlight_turns_a_plate_in_the_umbra() -> None:
+    """Half an orbit on, behind the Earth at the equinox (the Earth's disk 68 deg wide from 500
+    km, the Sun's 0.27 deg): no light, no torque, to the bit."""
+    r, _ = kepler_state(kepler_orbit(A, mean_anomaly=np.pi), 0.5 * DT)
+    _, _, jd = middle()
+    sun = np.array(sun_position(jd))
+    assert light_conical(np.array(r), sun) == 0.0
+    world = world_at(SolarRadiationPressure(plate(0.3, 0.3)), np.pi)
+    s = (sun - np.array(r)) / np.linalg.norm(sun - np.array(r))
+    world.state.q[:] = tilted(s, 20.0)
+    for _ in range(5):
+        world.step()
+    assert np.array_equal(world.state.w, np.zeros((1, 3)))
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0, 60.0, 89.0])
+def test_air_turns_a_plate_by_hand_arithmetic(angle: float) -> None:
+    """``|F| = 1/2 rho C_d A cos t v^2`` against the flow. On the equatorial prograde circular
+    orbit the air turns with the Earth along the body's path: ``v_rel = sqrt(mu / a) - w_E a``
+    along the velocity; at 500 km (the equator's height is ``a - R_E``), Vallado's table gives
+    ``rho`` = 6.967e-13 kg/m^3, its band's base value."""
+    r, v, _ = middle()
+    speed = np.sqrt(EARTH_MU / A) - EARTH_ROTATION * A
+    u = v / np.linalg.norm(v)
+    rho = 6.967e-13
+    assert BASE_HEIGHT[22] == 500.0e3 and BASE_DENSITY[22] == rho
+    world = world_at(AerodynamicDrag(plate(drag_coefficient=2.2)), 0.0)
+    q = tilted(u, angle)
+    world.state.q[:] = q
+    world.step()
+    u_body = quat_rotate_inv(q[None], u[None])[0]
+    cos_t = float(NORMAL @ u_body)
+    force = -0.5 * rho * 2.2 * AREA * cos_t * speed**2 * u_body
+    expected = np.cross(CENTRE, force) * DT
+    got = INERTIA * world.state.w[0]
+    # the height: the position at the step's middle is 0.1 m off the base height (v DT / 2 = 380
+    # m along, its drop from the circle's tangent is 0; |r| = a exactly): rho as stated
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-9 * np.abs(expected).max())
+
+
+def test_facing_away_gives_nothing() -> None:
+    """Only the front face acts: the plate turned past 90 deg from the Sun gets no light."""
+    r, _, jd = middle()
+    sun = np.array(sun_position(jd))
+    s = (sun - r) / np.linalg.norm(sun - r)
+    world = world_at(SolarRadiationPressure(plate(0.2, 0.2)), 0.0)
+    world.state.q[:] = tilted(s, 91.0)
+    world.step()
+    assert np.array_equal(world.state.w, np.zeros((1, 3)))
+
+
+@pytest.mark.parametrize("effect", [SolarRadiationPressure, AerodynamicDrag])
+def test_a_world_without_an_orbit_refuses_them_in_one_line(effect) -> None:
+    with pytest.raises(ValueError, match=rf"^{effect.name}: reads the .* add an OrbitMotion") as e:
+        World(BodyModel(np.array([1.0]), np.ones((1, 3))), [effect(plate())], "rk4", 0.1)
+    assert "\n" not in str(e.value)
+
+
+def test_the_spec_refuses_plates_that_are_not_facets() -> None:
+    with pytest.raises(ValueError, match=r"^solar_radiation_pressure.plates: expected"):
+        SolarRadiationPressure([1.0])  # type: ignore[arg-type]
+
+
+def test_they_add_nothing_where_they_give_no_torque() -> None:
+    """A world listing sunlight in the umbra steps the same bits as the world without it (the
+    effect adds exact zeros; the guard's reach grows by its bound, zero in the umbra)."""
+    base = World(BodyModel(np.array([10.0]), np.array([[900.0, 1000.0, 1100.0]])),
+                 [OrbitMotion(kepler_orbit(A, mean_anomaly=np.pi), epoch=EPOCH)], "rk4", DT)  # fmt: skip
+    lit = World(BodyModel(np.array([10.0]), np.array([[900.0, 1000.0, 1100.0]])),
+                [SolarRadiationPressure(plate(0.3, 0.3)),
+                 OrbitMotion(kepler_orbit(A, mean_anomaly=np.pi), epoch=EPOCH)], "rk4", DT)  # fmt: skip
+    for w in (base, lit):
+        w.state.w[:] = [0.01, -0.02, 0.03]
+        w.state.q[:] = [0.9, 0.1, -0.3, np.sqrt(1.0 - 0.81 - 0.01 - 0.09)]
+        for _ in range(20):
+            w.step()
+    assert base.columns.tobytes() == lit.columns.tobytes()
