@@ -86,6 +86,8 @@ def world_of(name: str, method: str, **kwargs) -> World:
     if alongside and method == "exact_free":
         pytest.skip("exact_free does not read the orbit state")
     return World(MODEL, [spec, *alongside], method, 0.01, **kwargs)
+
+
 STRONG: dict[str, ForceEffect] = {
     "gravity": Gravity(np.array([0.0, 0.0, -9.81])),
     # mu / |r|^3 = 1 / s^2 at |r| = 100 m: a torque of the order of the spin's own terms
@@ -141,7 +143,7 @@ def pure_torques() -> list[str]:
     gen = np.random.default_rng(0)
     out = []
     for name in NAMES:
-        spec, position = EXAMPLES[name]
+        _, position = EXAMPLES[name]
         world = world_of(name, "rk4", n=8)
         q = gen.standard_normal((8, 4))
         q /= np.linalg.norm(q, axis=1, keepdims=True)
@@ -157,7 +159,7 @@ def pure_torques() -> list[str]:
 def test_a_pure_torque_conserves_linear_momentum(name: str, method: str) -> None:
     """A tumbling body that drifts: with no force ``v`` is unchanged to the bit (every method
     adds ``h * 0``), and ``x = x0 + t v`` to rounding (200 additions: 200 ulps of ``|x|``)."""
-    spec, position = EXAMPLES[name]
+    _, position = EXAMPLES[name]
     s0 = at_rest(position, v=3.0, w=1.0)
     world = world_of(name, method, state=s0.copy())
     for _ in range(200):

@@ -30,6 +30,7 @@ from rigid_env.core.orbit_state import OrbitMotion
 from rigid_env.core.rotation import quat_rotate_inv
 from rigid_env.core.sun import ASTRONOMICAL_UNIT, SOLAR_PRESSURE, light_conical, sun_position
 from rigid_env.core.timescale import julian_date
+from rigid_env.scene import load_scene
 
 INERTIA = 1000.0
 """Principal moments [kg m^2], all equal (module docstring)."""
@@ -88,8 +89,8 @@ def middle() -> tuple[np.ndarray, np.ndarray, float]:
 def srp_closed_form(s_body, pressure, specular, diffuse):
     """``F = -P A cos t ((1 - rho_s) s + 2 (rho_s cos t + rho_d / 3) n)``, ``tau = c x F``."""
     cos_t = float(NORMAL @ s_body)
-    force = -pressure * AREA * cos_t * ((1.0 - specular) * s_body
-                                        + 2.0 * (specular * cos_t + diffuse / 3.0) * NORMAL)  # fmt: skip
+    along_n = 2.0 * (specular * cos_t + diffuse / 3.0)
+    force = -pressure * AREA * cos_t * ((1.0 - specular) * s_body + along_n * NORMAL)
     return np.cross(CENTRE, force)
 
 
@@ -137,7 +138,7 @@ def test_air_turns_a_plate_by_hand_arithmetic(angle: float) -> None:
     along the velocity; at 520 km (the equator's height is ``a - R_E``), Vallado's table gives
     ``rho = 6.967e-13 exp(-20 / 63.822)`` kg/m^3 (the band from 500 km, scale height 63.822
     km)."""
-    r, v, _ = middle()
+    _, v, _ = middle()
     speed = np.sqrt(EARTH_MU / A) - EARTH_ROTATION * A
     u = v / np.linalg.norm(v)
     rho = 6.967e-13 * np.exp(-20.0 / 63.822)
@@ -180,14 +181,93 @@ def test_the_spec_refuses_plates_that_are_not_facets() -> None:
 def test_they_add_nothing_where_they_give_no_torque() -> None:
     """A world listing sunlight in the umbra steps the same bits as the world without it (the
     effect adds exact zeros; the guard's reach grows by its bound, zero in the umbra)."""
-    base = World(BodyModel(np.array([10.0]), np.array([[900.0, 1000.0, 1100.0]])),
-                 [OrbitMotion(kepler_orbit(A, mean_anomaly=np.pi), epoch=EPOCH)], "rk4", DT)  # fmt: skip
-    lit = World(BodyModel(np.array([10.0]), np.array([[900.0, 1000.0, 1100.0]])),
-                [SolarRadiationPressure(plate(0.3, 0.3)),
-                 OrbitMotion(kepler_orbit(A, mean_anomaly=np.pi), epoch=EPOCH)], "rk4", DT)  # fmt: skip
+    model = BodyModel(np.array([10.0]), np.array([[900.0, 1000.0, 1100.0]]))
+    behind = OrbitMotion(kepler_orbit(A, mean_anomaly=np.pi), epoch=EPOCH)
+    base = World(model, [behind], "rk4", DT)
+    lit = World(model, [SolarRadiationPressure(plate(0.3, 0.3)), behind], "rk4", DT)
     for w in (base, lit):
         w.state.w[:] = [0.01, -0.02, 0.03]
         w.state.q[:] = [0.9, 0.1, -0.3, np.sqrt(1.0 - 0.81 - 0.01 - 0.09)]
         for _ in range(20):
             w.step()
     assert base.columns.tobytes() == lit.columns.tobytes()
+
+
+# ---- the scene's sections ---------------------------------------------------------------------
+SCENE = {
+    "dt": 0.1,
+    "integrator": "rk4",
+    "body": {
+        "mass": 4.0,
+        "shape": {"box": [0.1, 0.2, 0.34]},
+        "facets": {"faces": "box", "specular": 0.05, "diffuse": 0.1, "drag_coefficient": 2.2},
+    },
+    "orbit": {"altitude": 4.0e5, "inclination": 51.6, "epoch": 2025.2},
+    "effects": {"solar_radiation_pressure": {}, "aerodynamic_drag": {}},
+}
+
+
+def scene_with(**changes) -> dict:
+    out = {k: (dict(v) if isinstance(v, dict) else v) for k, v in SCENE.items()}
+    for path, value in changes.items():
+        where, key = path.split("__")
+        if value is None:
+            del out[where][key]
+        else:
+            out[where][key] = value
+    return out
+
+
+def test_a_scene_lists_them_with_the_faces_of_its_box() -> None:
+    """``faces: box``: six plates, each face's area, outward normal and centre from the sides
+    (the body frame is the shape frame here: a box's principal axes are its own)."""
+    scene = load_scene(SCENE)
+    plates = scene.facets()
+    assert plates is not None
+    np.testing.assert_array_equal(plates.area, np.repeat([0.2 * 0.34, 0.1 * 0.34, 0.1 * 0.2], 2))
+    signs = np.tile([[1.0], [-1.0]], (3, 1))
+    np.testing.assert_array_equal(plates.normal, np.repeat(np.eye(3), 2, axis=0) * signs)
+    half_sides = [0.05, 0.05, 0.1, 0.1, 0.17, 0.17]
+    np.testing.assert_allclose(np.abs(plates.centre).sum(axis=1), half_sides, rtol=1e-15)
+    world = scene.build_world()
+    assert world.parameters.solar_radiation_pressure == 1.0
+    assert world.parameters.aerodynamic_drag == 1.0
+    assert world.parameters.sunlight == world.parameters.air == 1.0
+    for _ in range(3):
+        world.step()
+    assert np.isfinite(world.state.w).all() and not world.failed.any()
+
+
+def test_a_scene_gives_plates_one_by_one() -> None:
+    plates = [{"area": 0.06, "normal": [0, 0, 1], "centre": [0, 0, 0.05], "specular": 0.1,
+               "diffuse": 0.2}]  # fmt: skip
+    scene = load_scene(scene_with(body__facets={"plates": plates}))
+    got = scene.facets()
+    assert got is not None and got.area.tolist() == [0.06] and got.drag_coefficient[0] == 2.2
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"orbit__": None}, r"solar_radiation_pressure: reads the sunlight .* add an orbit"),
+        ({"body__facets": None}, r"effects\.solar_radiation_pressure: acts on the body's facets"),
+        ({"body__facets": {"faces": "box", "specular": 0.7, "diffuse": 0.5}}, r"above 1"),
+        ({"body__facets": {}}, r"give either plates"),
+        (
+            {"body__facets": {"plates": [{"area": 1.0, "normal": [0, 0, 0], "centre": [0, 0, 0]}]}},
+            r"normal: is zero",
+        ),
+        (
+            {"body__facets": {"plates": [{"area": 0.0, "normal": [0, 0, 1], "centre": [0, 0, 0]}]}},
+            r"area",
+        ),
+        ({"body__shape": {"sphere": 0.2}}, r"facets\.faces: box takes the faces of shape\.box"),
+    ],
+)
+def test_a_bad_scene_is_refused_in_one_line(changes: dict, message: str) -> None:
+    data = scene_with(**{k: v for k, v in changes.items() if k != "orbit__"})
+    if "orbit__" in changes:
+        del data["orbit"]
+    with pytest.raises(ValueError, match=message) as e:
+        load_scene(data)
+    assert "\n" not in str(e.value).strip()
