@@ -57,6 +57,7 @@ from rigid_env.core.effects import (
     ForceEffect,
     StepMap,
 )
+from rigid_env.core.facets import Facets, facets
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.rotation import (
@@ -337,9 +338,25 @@ class Scene(Spec):
         their order),
         then the per-step maps (linear damping, angular damping).
         """
-        forces, maps = self.effects_spec.effects(self.point_to_body)
+        forces, maps = self.effects_spec.effects(self.point_to_body, self.facets())
         motion = [] if self.orbit is None else [self.orbit.motion(self.field)]
         return [*forces, *self._actuator_effects(), *maps, *motion]
+
+    def facets(self) -> Facets | None:
+        """The body's facets (``body.facets``) in the body frame, or None."""
+        spec = self.body.facets
+        if spec is None:
+            return None
+        box = self.body.shape.box if self.body.shape is not None else None
+        rows = spec.rows(box)
+        return facets(
+            [r["area"] for r in rows],
+            self.direction_to_body([r["normal"] for r in rows]),
+            self.point_to_body([r["centre"] for r in rows]),
+            [r["specular"] for r in rows],
+            [r["diffuse"] for r in rows],
+            [r["drag_coefficient"] for r in rows],
+        )
 
     def _actuator_effects(self) -> list[ForceEffect]:
         return self.actuators.actuators(self)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +36,7 @@ from rigid_env.core.actuator import kernel as named_object
 from rigid_env.core.actuator import named
 from rigid_env.core.actuators.couple import ThrusterCouples
 from rigid_env.core.effects import (
+    AerodynamicDrag,
     AngularDamping,
     ForceEffect,
     Gravity,
@@ -46,9 +47,11 @@ from rigid_env.core.effects import (
     PointForces,
     QuadraticDrag,
     ReactionWheels,
+    SolarRadiationPressure,
     StepMap,
     Thrusters,
 )
+from rigid_env.core.facets import Facets
 from rigid_env.core.geomagnetic import CircularOrbit, OrbitField
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.layout import MAX_WHEELS
@@ -232,6 +235,96 @@ class ShapeSpec(Spec):
         return mass_props.capsule(mass, *self.capsule)
 
 
+Fraction = Annotated[float, Field(ge=0, le=1, allow_inf_nan=False), Quantity("")]
+
+
+class PlateSpec(Spec):
+    """One flat plate of the body's surface (only its front face, the side its normal points
+    to, meets the light and the air)."""
+
+    area: Annotated[float, Field(gt=0, allow_inf_nan=False), Quantity("m^2")]
+    """Area [m^2], > 0."""
+    normal: Direction
+    """Outward normal, shape frame (normalised; not zero)."""
+    centre: Position
+    """Centre of pressure, shape frame [m] (a plate's centroid)."""
+    specular: Fraction = 0.0
+    """Fraction of the light reflected as by a mirror, rho_s, in [0, 1]."""
+    diffuse: Fraction = 0.0
+    """Fraction of the light reflected diffusely (Lambert), rho_d, in [0, 1]; rho_s + rho_d
+    <= 1, the rest absorbed (solar cells: about 0.05 and 0.05; white paint: 0.0 and 0.8)."""
+    drag_coefficient: Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("")] = 2.2
+    """C_d, >= 0 (2.2: the usual flat plate in free-molecular flow)."""
+
+    @model_validator(mode="after")
+    def _physical(self) -> PlateSpec:
+        if not any(self.normal):
+            raise FieldError("normal", "is zero", "give the plate's outward direction")
+        if self.specular + self.diffuse > 1.0:
+            raise FieldError(
+                "diffuse", f"specular + diffuse is {self.specular + self.diffuse:g}, above 1",
+                "make them fractions of the light that add up to at most 1",
+            )  # fmt: skip
+        return self
+
+
+class FacetsSpec(Spec):
+    """The body's surface as flat plates, on which sunlight and air act
+    (``effects.solar_radiation_pressure``, ``effects.aerodynamic_drag``): a list of
+    ``plates``, or ``faces: box``, the six faces of the body's box shape with one set of
+    coefficients."""
+
+    plates: Annotated[tuple[PlateSpec, ...], Field(min_length=1)] | None = None
+    """The plates, each {area, normal, centre, specular, diffuse, drag_coefficient}."""
+    faces: Literal["box"] | None = None
+    """``box``: the six faces of ``shape.box`` (area, outward normal, centre from its sides)."""
+    specular: Fraction = 0.0
+    """With ``faces``: each face's rho_s, in [0, 1]."""
+    diffuse: Fraction = 0.0
+    """With ``faces``: each face's rho_d, in [0, 1] (rho_s + rho_d <= 1)."""
+    drag_coefficient: Annotated[float, Field(ge=0, allow_inf_nan=False), Quantity("")] = 2.2
+    """With ``faces``: each face's C_d, >= 0."""
+
+    @model_validator(mode="after")
+    def _one_form(self) -> FacetsSpec:
+        if (self.plates is None) == (self.faces is None):
+            raise ValueError("give either plates: [{area, normal, centre}, ...] or faces: box")
+        if self.plates is not None:
+            given = [k for k in ("specular", "diffuse", "drag_coefficient") if k in
+                     self.model_fields_set]  # fmt: skip
+            if given:
+                raise FieldError(
+                    given[0], "sets the faces' coefficient, and these are plates",
+                    "give it on each plate",
+                )  # fmt: skip
+        elif self.specular + self.diffuse > 1.0:
+            raise FieldError(
+                "diffuse", f"specular + diffuse is {self.specular + self.diffuse:g}, above 1",
+                "make them fractions of the light that add up to at most 1",
+            )  # fmt: skip
+        return self
+
+    def rows(self, sides: tuple[float, float, float] | None) -> list[dict[str, Any]]:
+        """The plates in the shape frame, each a dict of :func:`rigid_env.core.facets.facets`'
+        keywords (``sides``: the box's, for ``faces``)."""
+        if self.plates is not None:
+            return [p.model_dump() for p in self.plates]
+        assert sides is not None  # checked with the body (BodySpec)
+        rows = []
+        for axis in range(3):
+            other = [sides[k] for k in range(3) if k != axis]
+            for sign in (1.0, -1.0):
+                normal = [0.0, 0.0, 0.0]
+                normal[axis] = sign
+                rows.append({
+                    "area": other[0] * other[1], "normal": normal,
+                    "centre": [0.5 * sides[axis] * n for n in normal],
+                    "specular": self.specular, "diffuse": self.diffuse,
+                    "drag_coefficient": self.drag_coefficient,
+                })  # fmt: skip
+        return rows
+
+
 class BodySpec(Spec):
     """Mass properties of the body: a shape, or ``mass`` and ``inertia`` alone (as MuJoCo's
     ``inertial`` without a geometry)."""
@@ -244,6 +337,8 @@ class BodySpec(Spec):
     principal axes along its axes (``inertia`` required)."""
     inertia: Moments | None = None
     """Principal moments about body x, y, z [kg m^2], each > 0, overriding the shape's."""
+    facets: FacetsSpec | None = None
+    """The surface as flat plates, for sunlight and air; left out: none."""
 
     @model_validator(mode="after")
     def _complete_and_physical(self) -> BodySpec:
@@ -267,6 +362,12 @@ class BodySpec(Spec):
                     f"is {self.mass!r} but the point masses sum to {total!r}",
                     "leave body.mass out for a points shape, or make the two agree",
                 )
+        if self.facets is not None and self.facets.faces == "box":
+            if self.shape is None or self.shape.box is None:
+                raise FieldError(
+                    "facets.faces", "box takes the faces of shape.box, and the shape is not a box",
+                    "give the plates: [{area, normal, centre}, ...]",
+                )  # fmt: skip
         if self.inertia is not None:
             _check_triangle(self.inertia)
         elif points is not None:
@@ -436,6 +537,51 @@ class MagneticDipoleSpec(EffectSpec):
         return MagneticDipole(dipole, np.array(self.field))
 
 
+class FacetEffectSpec(EffectSpec):
+    """A torque of the body's facets (``body.facets``) in its surroundings on the orbit."""
+
+    core: ClassVar[type[SolarRadiationPressure | AerodynamicDrag]]
+    reads: ClassVar[str]  # what of the surroundings it reads, for the messages
+
+    def effect(self, to_body: ToBody) -> ForceEffect:
+        raise TypeError(f"{self.core.name}: acts on the body's facets; use effect_on(plates)")
+
+    def effect_on(self, plates: Facets) -> ForceEffect:
+        """The core effect on the body's ``plates`` (body frame)."""
+        return self.core(plates)
+
+    def check(self, scene: Any) -> None:
+        key = f"effects.{self.core.name}"
+        if getattr(scene, "orbit", None) is None:
+            raise FieldError(
+                key, f"reads the {self.reads} where the body is on its orbit, and this scene has "
+                "none", "add an orbit: section (e.g. {altitude: 500000, inclination: 97.4})",
+            )  # fmt: skip
+        if scene.body.facets is None:
+            raise FieldError(
+                key, "acts on the body's facets, and body has none",
+                "add body.facets: {faces: box} or {plates: [{area, normal, centre}, ...]}",
+            )  # fmt: skip
+
+
+class SolarRadiationPressureSpec(FacetEffectSpec):
+    """The torque of sunlight on the body's facets: absorbed, specular and diffuse light, none
+    in the Earth's umbra (the Sun's place and the shadow's cones where the body is on its orbit).
+    Torque only; no keys (the facets carry the coefficients)."""
+
+    core: ClassVar[type[SolarRadiationPressure]] = SolarRadiationPressure
+    reads: ClassVar[str] = "sunlight"
+
+
+class AerodynamicDragSpec(FacetEffectSpec):
+    """The torque of the air on the body's facets, in the atmosphere turning with the Earth at
+    Vallado's exponential density (valid 0 to 1000 km) where the body is on its orbit. Torque
+    only; no keys (the facets carry C_d)."""
+
+    core: ClassVar[type[AerodynamicDrag]] = AerodynamicDrag
+    reads: ClassVar[str] = "air"
+
+
 class DampingSpec(EffectSpec):
     """The seed's per-step damping ``u <- alpha u``."""
 
@@ -476,6 +622,15 @@ class EffectsSpec(Spec):
         MagneticDipoleSpec | None, _present("{dipole: [0, 0, 1], field: [0, 0, 5.0e-5]}")
     ] = None
     """Torque of a constant magnetic field on the body's dipole."""
+    solar_radiation_pressure: Annotated[
+        SolarRadiationPressureSpec | None, _present("{} (with body.facets and an orbit)")
+    ] = None
+    """Torque of sunlight on the body's facets (on an orbit)."""
+    aerodynamic_drag: Annotated[
+        AerodynamicDragSpec | None, _present("{} (with body.facets and an orbit)")
+    ] = None
+    """Torque of the air on the body's facets (on an orbit); not ``quadratic_drag``, which
+    pushes a body through still air."""
     linear_damping: Annotated[LinearDampingSpec | None, _present("{alpha: 0.999}")] = None
     """``v <- alpha v`` each step."""
     angular_damping: Annotated[AngularDampingSpec | None, _present("{alpha: 0.999}")] = None
@@ -487,9 +642,16 @@ class EffectsSpec(Spec):
             if isinstance(section, EffectSpec):
                 section.check(scene)
 
-    def effects(self, to_body: ToBody) -> tuple[list[ForceEffect], list[StepMap]]:
-        """The listed sections' core effects, ``(force effects, step maps)`` in file order."""
-        listed = [s.effect(to_body) for _, s in self if isinstance(s, EffectSpec)]
+    def effects(
+        self, to_body: ToBody, plates: Facets | None = None
+    ) -> tuple[list[ForceEffect], list[StepMap]]:
+        """The listed sections' core effects, ``(force effects, step maps)`` in file order
+        (``plates``: the body's facets, body frame, for the effects on them)."""
+        listed = [
+            s.effect_on(plates) if isinstance(s, FacetEffectSpec) and plates is not None
+            else s.effect(to_body)
+            for _, s in self if isinstance(s, EffectSpec)
+        ]  # fmt: skip
         forces = [e for e in listed if isinstance(e, ForceEffect)]
         return forces, [e for e in listed if isinstance(e, StepMap)]
 

@@ -88,7 +88,15 @@ from rigid_env.core import (
     World,
 )
 from rigid_env.core.actuator import specs
-from rigid_env.core.effects import GravityGradient, ReactionWheels
+from rigid_env.core.effects import (
+    AerodynamicDrag,
+    GravityGradient,
+    ReactionWheels,
+    SolarRadiationPressure,
+)
+from rigid_env.core.facets import facets
+from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, kepler_orbit
+from rigid_env.core.orbit_state import OrbitMotion
 from rigid_env.core.threads import THREAD_MIN_BODIES
 from rigid_env.envs import ENV_IDS
 from rigid_env.resources import scene_path
@@ -460,6 +468,20 @@ def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:
     drag_cp = QuadraticDrag(center_of_pressure=np.array([0.0, 0.0, 0.05]))
     lin, ang = LinearDamping(0.999), AngularDamping(0.999)
     gradient = GravityGradient(3.986e14, np.array([0.0, 0.0, -7.0e6]))  # the bodies in orbit
+    # On an orbit (the position per substep, body by body), then the facets' effects on a
+    # 0.1 x 0.1 x 0.34 m box's six faces (the sunlight's place and shadow, the air's density
+    # and wind per substep; the plates summed per integrator stage).
+    orbit = OrbitMotion(kepler_orbit(EARTH_EQUATORIAL_RADIUS + 5.0e5, inclination=0.9),
+                        epoch=2025.2)  # fmt: skip
+    faces = [(ax, sign) for ax in range(3) for sign in (1.0, -1.0)]
+    sides = np.array([0.1, 0.1, 0.34])
+    plates = facets(
+        [sides[(a + 1) % 3] * sides[(a + 2) % 3] for a, _ in faces],
+        [np.eye(3)[a] * sign for a, sign in faces],
+        [np.eye(3)[a] * sign * 0.5 * sides[a] + [0.0, 0.0, 0.02] for a, sign in faces],
+        0.05,
+        0.1,
+    )
     return {
         NO_EFFECTS: [],
         NOISE_FLOOR: [],
@@ -469,6 +491,9 @@ def effect_variants() -> dict[str, list[ForceEffect | StepMap]]:
         "linear_damping": [lin],
         "angular_damping": [ang],
         "gravity_gradient": [gradient],
+        "orbit": [orbit],
+        "orbit + solar_radiation_pressure": [orbit, SolarRadiationPressure(plates)],
+        "orbit + aerodynamic_drag": [orbit, AerodynamicDrag(plates)],
         "thrusters (command)": [thrusters],
         **{f"thrusters + {name}": [hw] for name, hw in thruster_hardware(thrusters).items()},
         "all of them": [gravity, drag_cp, lin, ang, thrusters],
@@ -539,7 +564,11 @@ def bench_effects(cfg: Config, res: Results) -> None:
         'dampings and the ideal thrusters. "thrusters + X": the thrusters with one hardware '
         "option (lag 0.02 s, a minimum impulse bit of 1 % of max_force dt, on/off firing, "
         "noise 0.05 with the factors drawn each step); an ideal thruster takes the path it "
-        'took before the options existed ("thrusters (command)").',
+        'took before the options existed ("thrusters (command)"). "orbit": the bodies on a '
+        "500 km orbit, their position evaluated per substep (stepped body by body); "
+        '"orbit + X": with the sunlight or the air on the six faces of a 0.1 x 0.1 x 0.34 m box '
+        "(centre of pressure 2 cm off the centre of mass), evaluated per substep and summed per "
+        "integrator stage.",
         "Ratio: time per step over the no-effects world's (lower is faster). "
         f'"{NOISE_FLOOR}" is a second, identical no-effects world measured in the same '
         "rounds: its distance from 1 is the noise floor.",

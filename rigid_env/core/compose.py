@@ -19,6 +19,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
 from rigid_env.core.actuator import actuators, rare_flags
+from rigid_env.core.effect import Effect
 from rigid_env.core.layout import EFFECTS, Params
 
 inline = njit(inline="always", error_model="numpy")
@@ -52,7 +53,18 @@ def _chain(links: list[tuple[int, Callable]], step: Callable) -> Callable:
     return done
 
 
-def _terms_link(k: int, apply: Callable, rest: Callable) -> Callable:
+def _terms_link(k: int, effect: Effect, rest: Callable) -> Callable:
+    apply = effect.apply
+    if effect.reads:  # it takes the surroundings ``a[5]`` after ``c``
+
+        @inline
+        def reading(c, a, out):
+            if c[k] != 0.0:
+                out = apply(a[0], a[1], a[2], a[3], a[4], c, a[5], out[0], out[1])
+            return rest(c, a, out)
+
+        return reading
+
     @inline
     def link(c, a, out):
         if c[k] != 0.0:
@@ -72,6 +84,33 @@ def _bound_link(k: int, bound: Callable, rest: Callable) -> Callable:
     return link
 
 
+def _effect_bound_link(attribute: str) -> Callable:
+    """:func:`_bound_link` of an effect's ``attribute`` bound, ``a = (m, s)``: ``bound(m, c,
+    s)`` for one that reads its surroundings ``s``, else ``bound(m, c)``."""
+
+    def step(k: int, effect: Effect, rest: Callable) -> Callable:
+        bound = getattr(effect, attribute)
+        if effect.reads:
+
+            @inline
+            def reading(c, a, out):
+                if c[k] != 0.0:
+                    out = out + bound(a[0], c, a[1])
+                return rest(c, a, out)
+
+            return reading
+
+        @inline
+        def link(c, a, out):
+            if c[k] != 0.0:
+                out = out + bound(a[0], c)
+            return rest(c, a, out)
+
+        return link
+
+    return step
+
+
 def _links(attribute: str) -> list[tuple[int, Callable]]:
     """``(flag index, kernel)`` of the effects that declare ``attribute``."""
     return [
@@ -81,7 +120,12 @@ def _links(attribute: str) -> list[tuple[int, Callable]]:
     ]
 
 
-_terms = _chain(_links("apply"), _terms_link)
+def _declaring(attribute: str) -> list[tuple[int, Effect]]:
+    """``(flag index, declaration)`` of the effects that declare ``attribute``."""
+    return [(Params._fields.index(e.name), e) for e in EFFECTS if getattr(e, attribute) is not None]
+
+
+_terms = _chain(_declaring("apply"), _terms_link)
 _actuator_torques = _chain(
     [
         (Params._fields.index(a.flags[0]), a.torque_bound)
@@ -90,29 +134,32 @@ _actuator_torques = _chain(
     ],
     _bound_link,
 )
-_forces = _chain(_links("force_bound"), _bound_link)
-_torques = _chain(_links("torque_bound"), _bound_link)
+_forces = _chain(_declaring("force_bound"), _effect_bound_link("force_bound"))
+_torques = _chain(_declaring("torque_bound"), _effect_bound_link("torque_bound"))
 _potentials = _chain(_links("potential_bound"), _bound_link)
 _POTENTIAL_FLAGS = tuple(k for k, _ in _links("potential_bound"))
 
 
 @inline
-def effect_terms(x, v, q, w, m, c, f, tau):
+def effect_terms(x, v, q, w, m, c, s, f, tau):
     """``(f, tau)`` with every listed effect's force (world) [N] and torque (body) [N m] added,
-    in the registry's order."""
-    return _terms(c, (x, v, q, w, m), (f, tau))
+    in the registry's order; ``s``: the body's surroundings
+    (:class:`rigid_env.core.layout.Surroundings`), for the effects that read them."""
+    return _terms(c, (x, v, q, w, m, s), (f, tau))
 
 
 @inline
-def add_force_bounds(force, m, c):
-    """``force`` [N] plus the most force the listed effects supply."""
-    return _forces(c, (m,), force)
+def add_force_bounds(force, m, c, s):
+    """``force`` [N] plus the most force the listed effects supply (in the surroundings ``s``,
+    for the effects that read them)."""
+    return _forces(c, (m, s), force)
 
 
 @inline
-def add_torque_bounds(torque, m, c):
-    """``torque`` [N m] plus the most torque the listed effects supply."""
-    return _torques(c, (m,), torque)
+def add_torque_bounds(torque, m, c, s):
+    """``torque`` [N m] plus the most torque the listed effects supply (in the surroundings
+    ``s``, for the effects that read them)."""
+    return _torques(c, (m, s), torque)
 
 
 @inline

@@ -17,6 +17,7 @@ from rigid_env.core.layout import (
     dipole_row,
     field_of,
     map_row,
+    surroundings_of,
     wheel_shape,
 )
 from rigid_env.core.maths import axpy, rotate
@@ -101,7 +102,9 @@ def accelerations(x, v, q, w, act, m, c, gyro):
     torque, dipole, field)`` (:func:`wrench`; the body-frame force turned to the world frame)
     and the listed effects' forces and torques (:func:`rigid_env.core.compose.effect_terms`,
     each effect's own function, :mod:`rigid_env.core.forces`); where a dipole is commanded, the
-    torque ``m_b x R^T B`` of its dipole and field; with ``gyro``, Euler's ``I w' = tau - w x
+    torque ``m_b x R^T B`` of its dipole and field; on the per-body path, the surroundings
+    ``act`` carries as its fifth part for the effects that read them
+    (:func:`rigid_env.core.layout.surroundings_of`); with ``gyro``, Euler's ``I w' = tau - w x
     I w`` (skipped for an isotropic body, where the term vanishes)."""
     fb, tb = act[0], act[1]
     if c.dipoles != 0.0:
@@ -109,7 +112,8 @@ def accelerations(x, v, q, w, act, m, c, gyro):
     f = (0.0, 0.0, 0.0)
     if c.actuator_force != 0.0:
         f = rotate(q, fb)
-    (fx, fy, fz), (tx, ty, tz) = effect_terms(x, v, q, w, m, c, f, tb)
+    s = surroundings_of(act)
+    (fx, fy, fz), (tx, ty, tz) = effect_terms(x, v, q, w, m, c, s, f, tb)
     if gyro and m.isotropic == 0.0:
         g = gyroscopic(w, m)
         tx -= g[0]

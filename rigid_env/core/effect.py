@@ -69,6 +69,14 @@ class Effect:
             of the most potential energy it can release over the step from position ``x`` (the
             span of its potential over the states reachable in a step); None: not conservative.
             Its work then needs no force or torque bound.
+        reads: what it reads of the body's surroundings on its orbit, by name: ``"sunlight"``
+            (the Sun's place and the light reaching the body), ``"air"`` (the air's velocity
+            and density); the world's flags of those names are set where it is listed, and the
+            per-body step then evaluates them at each substep's middle and holds them over it
+            (:class:`rigid_env.core.layout.Surroundings`). An effect that reads any takes them
+            as ``s`` after ``c``: ``apply(x, v, q, w, m, c, s, f, tau)``, ``force_bound(m, c,
+            s)``, ``torque_bound(m, c, s)``; it must be ``rare`` (only the per-body path
+            carries them), and a world lists it only with an orbit.
     """
 
     name: str
@@ -79,6 +87,30 @@ class Effect:
     force_bound: Callable | None = None
     torque_bound: Callable | None = None
     potential_bound: Callable | None = None
+    reads: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        unknown = [r for r in self.reads if r not in SURROUNDINGS]
+        if unknown:
+            raise ValueError(
+                f"Effect {self.name!r}: reads {unknown[0]!r}, which the orbit does not give; "
+                f"choose from {', '.join(SURROUNDINGS)}"
+            )
+        if self.reads and not self.rare:
+            raise ValueError(
+                f"Effect {self.name!r}: reads {self.reads[0]!r}, which only the per-body path "
+                "carries; declare it rare=True"
+            )
+        if self.reads and self.potential_bound is not None:
+            raise ValueError(
+                f"Effect {self.name!r}: one that reads its surroundings declares force and "
+                "torque bounds, not a potential_bound"
+            )
+
+
+SURROUNDINGS = ("sunlight", "air")
+"""What an effect may read of its surroundings (:attr:`Effect.reads`), each a flag of the
+world's parameters."""
 
 
 def modules_named(env_var: str) -> list[str]:

@@ -20,6 +20,12 @@ from typing import ClassVar
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core.facets import (
+    Facets,
+    drag_torque_arm,
+    plate_rows,
+    srp_torque_arm,
+)
 from rigid_env.core.inertia import checked_floats
 from rigid_env.core.layout import (
     EFFECTS,
@@ -228,6 +234,70 @@ class MagneticDipole(ForceEffect):
 
 
 @dataclass(frozen=True)
+class _FacetEffect(ForceEffect):
+    """A torque of the body's flat plates in its surroundings on the orbit (a world lists it
+    only with an :class:`rigid_env.core.orbit_state.OrbitMotion`, which sets those each
+    substep).
+
+    Attributes:
+        plates: the body's facets (:func:`rigid_env.core.facets.facets`), body frame.
+    """
+
+    plates: Facets
+    slots: ClassVar[tuple[str, str, str]]  # the names of its rows' offset, count and arm
+    rows_name: ClassVar[str]
+    """The parameter naming where :meth:`parameter_rows` start (:func:`pack`)."""
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.plates, Facets):
+            raise ValueError(
+                f"{self.name}.plates: expected the body's facets (rigid_env.core.facets.facets), "
+                f"got {type(self.plates).__name__}"
+            )
+
+    def arm(self) -> float:
+        """The most torque over the surroundings' pressure [m^3] (its bound's factor)."""
+        raise NotImplementedError
+
+    def parameters(self) -> dict[str, float]:
+        _, count, arm = self.slots
+        return {self.name: 1.0, count: float(self.plates.area.size), arm: self.arm()}
+
+    def parameter_rows(self) -> FloatArray:
+        """The plates' numbers (:func:`rigid_env.core.facets.plate_rows`)."""
+        return plate_rows(self.plates)
+
+
+@dataclass(frozen=True)
+class SolarRadiationPressure(_FacetEffect):
+    """The torque of sunlight on the body's facets (absorbed, specular and diffuse light; none
+    in the Earth's umbra, part of it in the penumbra), at each stage's attitude in the sunlight
+    where the body is on its orbit (:func:`rigid_env.core.forces.solar_radiation_pressure`).
+    Torque only."""
+
+    name: ClassVar[str] = "solar_radiation_pressure"
+    slots: ClassVar[tuple[str, str, str]] = ("srp_rows", "srp_plates", "srp_arm")
+    rows_name: ClassVar[str] = "srp_rows"
+
+    def arm(self) -> float:
+        return srp_torque_arm(self.plates)
+
+
+@dataclass(frozen=True)
+class AerodynamicDrag(_FacetEffect):
+    """The torque of the air on the body's facets, in the atmosphere turning with the Earth
+    (Vallado's exponential density, 0 to 1000 km), at each stage's attitude where the body is
+    on its orbit (:func:`rigid_env.core.forces.aerodynamic_drag`). Torque only."""
+
+    name: ClassVar[str] = "aerodynamic_drag"
+    slots: ClassVar[tuple[str, str, str]] = ("aero_rows", "aero_plates", "aero_arm")
+    rows_name: ClassVar[str] = "aero_rows"
+
+    def arm(self) -> float:
+        return drag_torque_arm(self.plates)
+
+
+@dataclass(frozen=True)
 class _Damping(StepMap):
     """A velocity scaled by ``alpha`` once per world step.
 
@@ -401,6 +471,15 @@ def pack(
         tail.extend(rows_of)
     for e in effects:
         named |= e.parameters()
+    for declared in EFFECTS:  # what the listed effects read where the body is on its orbit
+        if declared.reads and named[declared.name] != 0.0:
+            if named["orbit"] == 0.0:
+                raise ValueError(
+                    f"{declared.name}: reads the {declared.reads[0]} where the body is on its "
+                    "orbit, and this world has none; add an OrbitMotion (a scene's orbit: "
+                    f"section), or leave {declared.name} out"
+                )
+            named |= dict.fromkeys(declared.reads, 1.0)
     if max_angular_speed is not None:
         named |= {"max_speed": 1.0, "max_speed_value": max_angular_speed}
     if stable_angle is not None:

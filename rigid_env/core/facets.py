@@ -116,6 +116,59 @@ def facets(
     )
 
 
+PLATE_NUMBERS = 10
+"""Numbers of one facet in :func:`plate_rows`: area, normal (3), centre (3), specular, diffuse,
+drag coefficient."""
+
+
+def plate_rows(plates: Facets) -> FloatArray:
+    """(10 K,) the facets as one row of numbers, column by column (area (K), normal (K, 3) and
+    centre (K, 3) raveled, specular, diffuse, drag coefficient): what :func:`plates_at` reads."""
+    return np.concatenate([
+        plates.area, plates.normal.ravel(), plates.centre.ravel(), plates.specular,
+        plates.diffuse, plates.drag_coefficient,
+    ])  # fmt: skip
+
+
+@kernel
+def plates_at(numbers, start, count):
+    """The :class:`Facets` of :func:`plate_rows`, ``count`` of them, from ``numbers[start:]``
+    (views, no copies; ``start`` and ``count`` may be floats of the parameters)."""
+    k, n = int(start), int(count)
+    return Facets(
+        numbers[k : k + n],
+        numbers[k + n : k + 4 * n].reshape((n, 3)),
+        numbers[k + 4 * n : k + 7 * n].reshape((n, 3)),
+        numbers[k + 7 * n : k + 8 * n],
+        numbers[k + 8 * n : k + 9 * n],
+        numbers[k + 9 * n : k + 10 * n],
+    )
+
+
+@kernel
+def solar_pressure(light, distance):
+    """``P = light SOLAR_PRESSURE (AU / d)^2`` [N/m^2]: the radiation pressure of the Sun's
+    light on a black plate facing it at ``distance`` [m], ``light`` of its disk uncovered."""
+    return light * SOLAR_PRESSURE * (ASTRONOMICAL_UNIT / distance) ** 2
+
+
+def srp_torque_arm(plates: Facets) -> float:
+    """``sum_k |c_k| A_k (1 + rho_s + 2 rho_d / 3)`` [m^3]: the most SRP torque over the
+    pressure (:func:`srp_wrench`). Per facet ``|F| = P A cos t |(1 - rho_s) s + 2 (rho_s cos t
+    + rho_d / 3) n| <= P A cos t ((1 - rho_s) + 2 (rho_s cos t + rho_d / 3)) <= P A (1 + rho_s
+    + 2 rho_d / 3)`` (the triangle inequality, ``0 < cos t <= 1``), and ``|c x F| <= |c| |F|``;
+    at most ``2 P A |c|`` per facet (a mirror)."""
+    gain = 1.0 + plates.specular + 2.0 * plates.diffuse / 3.0
+    return float(np.sum(np.linalg.norm(plates.centre, axis=1) * plates.area * gain))
+
+
+def drag_torque_arm(plates: Facets) -> float:
+    """``sum_k |c_k| C_d A_k / 2`` [m^3]: the most drag torque over ``rho |v_rel|^2``
+    (:func:`drag_wrench`: ``|F| = 1/2 rho C_d A cos t |v_rel|^2`` with ``cos t <= 1``)."""
+    arm = np.linalg.norm(plates.centre, axis=1) * 0.5 * plates.drag_coefficient * plates.area
+    return float(np.sum(arm))
+
+
 @kernel
 def srp_wrench(plates, q, to_sun, light):
     """Solar radiation pressure on the facets (module docstring).
@@ -130,7 +183,7 @@ def srp_wrench(plates, q, to_sun, light):
         ((3) force [N], (3) torque about the centre of mass [N m]), body frame.
     """
     d = math.sqrt(to_sun[0] * to_sun[0] + to_sun[1] * to_sun[1] + to_sun[2] * to_sun[2])
-    pressure = light * SOLAR_PRESSURE * (ASTRONOMICAL_UNIT / d) ** 2
+    pressure = solar_pressure(light, d)
     s = rotate_inv(q, (to_sun[0] / d, to_sun[1] / d, to_sun[2] / d))
     fx = fy = fz = 0.0
     tx = ty = tz = 0.0

@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import record
+from rigid_env.core.reading import record
 
 FloatArray = NDArray[np.float64]
 _FLOAT64 = np.dtype(np.float64)

@@ -15,8 +15,9 @@
 
 Numba compiles a named tuple of floats as it compiles a plain tuple: numbers in registers, where
 an array would cost two atomic reference counts per call. :func:`unpack` and :func:`body_model`
-read one from an array in the declaration's order, one load per field (:func:`_read`); as plain
-Python (``NUMBA_DISABLE_JIT=1``) they build the same named tuple.
+read one from an array in the declaration's order, one load per field
+(:mod:`rigid_env.core.reading`); as plain Python (``NUMBA_DISABLE_JIT=1``) they build the same
+named tuple.
 
 Frames: forces on the centre of mass are world frame, torques and angular velocities body frame
 (principal axes), so the inertia is the constant diagonal ``I``.
@@ -27,14 +28,13 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from numba import types
-from numba.core import cgutils
 from numba.cpython.unsafe.tuple import tuple_setitem
-from numba.extending import intrinsic, overload, register_jitable
+from numba.extending import overload, register_jitable
 from numpy.typing import NDArray
 
 from rigid_env.core.effect import load_effects
 from rigid_env.core.jit import kernel
+from rigid_env.core.reading import _read
 
 FloatArray = NDArray[np.float64]
 
@@ -101,7 +101,20 @@ _TAIL = (
     ("orbit_mu", "the Earth's gravitational parameter of the orbits [m^3/s^2]"),
     ("field_degree", "the IGRF's degree evaluated where the body is (0: none; 1: the dipole)"),
     ("field_rows", "offset of the IGRF's coefficients g, h, g_rate, h_rate in the parameters"),
+    ("orbit_epoch", "the Julian date of the orbits' epoch, UTC [days] (the Sun's place)"),
+    (
+        "sunlight",
+        "flag: a listed effect reads the sunlight where the body is (Effect.reads; "
+        "Surroundings.to_sun, .light, set per substep from the orbit state)",
+    ),
+    (
+        "air",
+        "flag: a listed effect reads the air where the body is (Effect.reads; "
+        "Surroundings.air_velocity, .air_density, set per substep from the orbit state)",
+    ),
 )
+
+
 EFFECTS = load_effects()
 """The registered effects (:mod:`rigid_env.core.effect`), in the order their terms are summed."""
 _FIELDS = (
@@ -234,40 +247,6 @@ def unpack(p: FloatArray) -> Params:
 def body_model(model: FloatArray, i: int) -> Body:
     """Body ``i``'s model numbers from the model columns (MODEL_WIDTH, N)."""
     return Body(*model[:, i].tolist())
-
-
-@intrinsic
-def _read(typingctx, array, i, like):
-    """The named tuple of ``like``'s type read from ``array``: field ``k`` from ``array[k, i]``
-    (a column of a 2-D array) or ``array[i + k]`` (1-D), one load each, no copies."""
-
-    def codegen(context, builder, sig, args):
-        array_type, index_type, tuple_type = sig.args
-        ary = context.make_array(array_type)(context, builder, args[0])
-        col = context.cast(builder, args[1], index_type, types.intp)
-        out = context.get_constant_undef(tuple_type)
-        for k in range(tuple_type.count):
-            row = context.get_constant(types.intp, k)
-            at = [row, col] if array_type.ndim == 2 else [builder.add(row, col)]
-            ptr = cgutils.get_item_pointer(
-                context, builder, array_type, ary, at, wraparound=False, boundscheck=False
-            )
-            out = builder.insert_value(out, builder.load(ptr), k)
-        return out
-
-    return like(array, i, like), codegen
-
-
-def record(numbers: FloatArray, like: tuple) -> tuple:
-    """The named tuple of ``like``'s type (a NamedTuple of floats) from the head of the 1-D
-    ``numbers``, field by field in order; compiled, one load per field (an array crosses into
-    compiled code far faster than a tuple of numbers)."""
-    return type(like)(*numbers[: len(like)].tolist())
-
-
-@overload(record, inline="always")
-def _record(numbers, like):
-    return lambda numbers, like: _read(numbers, 0, like)
 
 
 @overload(unpack, inline="always")
@@ -420,6 +399,48 @@ ZERO3 = (0.0, 0.0, 0.0)
 """The zero 3-vector, a constant the compiler folds."""
 ZERO4 = (0.0, 0.0, 0.0, 0.0)
 """No wheels' momenta (a body without reaction wheels): a constant the compiler folds."""
+
+
+class Surroundings(NamedTuple):
+    """What a body meets where it is, held over a substep as the field is (set at the
+    substep's middle from the orbit state, :func:`rigid_env.core.orbit_state.where`), for the
+    effects that read it (:attr:`rigid_env.core.effect.Effect.reads`): the fifth part of the
+    actuation ``act`` on the per-body path (:func:`surroundings_of`). ECI, SI.
+
+    Attributes:
+        params: the world's parameter array (the effects' rows, as their specs packed them).
+        to_sun: (3) from the body to the Sun [m] (zeros unless ``Params.sunlight``).
+        light: the fraction of the Sun's disk the Earth leaves uncovered, 0 (umbra) to 1.
+        air_velocity: (3) the body's velocity through the turning atmosphere [m/s] (zeros
+            unless ``Params.air``).
+        air_density: the air's density there [kg/m^3].
+    """
+
+    params: FloatArray
+    to_sun: tuple
+    light: float
+    air_velocity: tuple
+    air_density: float
+
+
+NO_PARAMS = np.zeros(0)
+"""An empty parameter array: the constant :data:`NOWHERE` carries."""
+NOWHERE = Surroundings(NO_PARAMS, ZERO3, 0.0, ZERO3, 0.0)
+"""The surroundings of a pass that carries none (the vectorised passes, whose effects that read
+them are constants 0): no sun, no air."""
+
+
+def surroundings_of(act: tuple) -> Surroundings:
+    """The :class:`Surroundings` an actuation carries as its fifth part, else :data:`NOWHERE`;
+    compiled, chosen by the tuple's length (a constant)."""
+    return act[4] if len(act) > 4 else NOWHERE
+
+
+@overload(surroundings_of, inline="always")
+def _surroundings_of(act):
+    if len(act) > 4:
+        return lambda act: act[4]
+    return lambda act: Surroundings(NO_PARAMS, ZERO3, 0.0, ZERO3, 0.0)  # NOWHERE, built here
 
 
 @kernel

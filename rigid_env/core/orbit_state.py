@@ -33,6 +33,7 @@ from typing import ClassVar, NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core.atmosphere import air_velocity, density, height
 from rigid_env.core.effects import StepMap
 from rigid_env.core.igrf import (
     IGRF_REFERENCE_RADIUS,
@@ -42,10 +43,11 @@ from rigid_env.core.igrf import (
 )
 from rigid_env.core.igrf import model as igrf_model
 from rigid_env.core.jit import kernel
-from rigid_env.core.layout import ZERO3, unpack
+from rigid_env.core.layout import ZERO3, Surroundings, unpack
 from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, Orbit
 from rigid_env.core.orbit import state as kepler_state
-from rigid_env.core.timescale import julian_date, sidereal_angle
+from rigid_env.core.sun import light_conical, sun_position
+from rigid_env.core.timescale import SECONDS_PER_DAY, julian_date, sidereal_angle
 
 FloatArray = NDArray[np.float64]
 
@@ -161,10 +163,12 @@ class OrbitMotion(StepMap):
         ])  # fmt: skip
 
     def parameters(self) -> dict[str, float]:
-        """The flag, ``mu`` and the field's degree (its coefficient rows: :meth:`parameter_rows`;
-        the state rows' offset is the world's to set)."""
+        """The flag, ``mu``, the field's degree and the epoch's Julian date (the Sun's place;
+        the field's coefficient rows: :meth:`parameter_rows`; the state rows' offset is the
+        world's to set)."""
         return {"orbit": 1.0, "orbit_mu": float(self.orbit.mu),
-                "field_degree": float(self.field_degree)}  # fmt: skip
+                "field_degree": float(self.field_degree),
+                "orbit_epoch": julian_date(self.epoch)}  # fmt: skip
 
     rows_name: ClassVar[str] = "field_rows"
     """The parameter naming where :meth:`parameter_rows` start
@@ -217,14 +221,39 @@ def body_position(state, c, i, t):
 
 @kernel
 def where(p, c, state, i, t):
-    """``(r, B)``: body ``i``'s position on its orbit ``t`` [s] after its clock (ECI [m]) and
-    the field there (ECI [T]; zeros without a field, ``c.field_degree`` 0)."""
+    """``(r, B, s)``: body ``i``'s position on its orbit ``t`` [s] after its clock (ECI [m]),
+    the field there (ECI [T]; zeros without a field, ``c.field_degree`` 0) and its
+    surroundings there (:func:`surroundings`)."""
     row = int(c.orbit_row)
     clock = state[row, i] + t
-    r, _ = kepler_state(orbit_of(state, row, i, c.orbit_mu), clock)
-    if c.field_degree == 0.0:
-        return r, ZERO3
-    return r, field_inertial(igrf_of(p, c), state[row + 10, i], clock, r)
+    r, v = kepler_state(orbit_of(state, row, i, c.orbit_mu), clock)
+    field = ZERO3
+    if c.field_degree != 0.0:
+        field = field_inertial(igrf_of(p, c), state[row + 10, i], clock, r)
+    return r, field, surroundings(p, c, (r, v), clock)
+
+
+@kernel
+def surroundings(p, c, rv, clock):
+    """The :class:`rigid_env.core.layout.Surroundings` of a body at ``rv = (r, v)`` (ECI [m],
+    [m/s]) ``clock`` [s] after the epoch: where a listed effect reads the sunlight
+    (``c.sunlight``), the vector to the Sun (:func:`rigid_env.core.sun.sun_position` at the
+    epoch's Julian date plus the clock) and the fraction of its disk the Earth leaves
+    uncovered (:func:`rigid_env.core.sun.light_conical`: 0 in the umbra); where one reads the
+    air (``c.air``), the body's velocity through the turning atmosphere
+    (:func:`rigid_env.core.atmosphere.air_velocity`) and Vallado's density at its height
+    (:func:`rigid_env.core.atmosphere.density`, valid 0 to 1000 km); else zeros."""
+    r, v = rv
+    to_sun, light = ZERO3, 0.0
+    if c.sunlight != 0.0:
+        sun = sun_position(c.orbit_epoch + clock / SECONDS_PER_DAY)
+        to_sun = (sun[0] - r[0], sun[1] - r[1], sun[2] - r[2])
+        light = light_conical(r, sun)
+    air, rho = ZERO3, 0.0
+    if c.air != 0.0:
+        air = air_velocity(r, v)
+        rho = density(height(r))
+    return Surroundings(p, to_sun, light, air, rho)
 
 
 @kernel
@@ -241,5 +270,5 @@ def fields_at_clocks(p, state, bodies, out):
     rows of ``out`` (n, 3), ECI [T] (what a magnetometer reads after the step)."""
     c = unpack(p)
     for k in range(bodies.shape[0]):
-        _, b = where(p, c, state, bodies[k], 0.0)
+        _, b, _ = where(p, c, state, bodies[k], 0.0)
         out[k, 0], out[k, 1], out[k, 2] = b

@@ -43,6 +43,7 @@ from rigid_env.core.layout import (
     HEALTHY,
     REACH,
     ZERO3,
+    Surroundings,
     beyond_of,
     body_model,
     failures_of,
@@ -51,6 +52,7 @@ from rigid_env.core.layout import (
     step_code,
     store,
     store_wrench,
+    surroundings_of,
     unpack,
 )
 from rigid_env.core.maths import norm
@@ -174,9 +176,10 @@ def force_reach(act, m, c):
     force and torque bounds (:mod:`rigid_env.core.effect`) and the actuators' declared torque
     bounds (:mod:`rigid_env.core.actuator`): ``(|F| + sum B_F) / sqrt(m) + (|tau| + sum B_tau)
     / sqrt(I_min)``."""
+    s = surroundings_of(act)
     torque = add_actuator_torque_bounds(norm(act[1]), act, c)
-    forces = add_force_bounds(norm(act[0]), m, c)
-    return forces * m.inv_sqrt_mass + add_torque_bounds(torque, m, c) * m.inv_sqrt_inertia
+    forces = add_force_bounds(norm(act[0]), m, c, s)
+    return forces * m.inv_sqrt_mass + add_torque_bounds(torque, m, c, s) * m.inv_sqrt_inertia
 
 
 @kernel
@@ -365,8 +368,10 @@ def body_substep(step, p, model, command, world, when, i, counts):
     substep (which ends at ``dt``) also :func:`step_maps`; then the :func:`guard`.
     Where the bodies move on an orbit (``c.orbit``, :mod:`rigid_env.core.orbit_state`) the
     substep reads where the body is at its middle from the orbit state, held over it: its ``x``
-    (the effects' position: the gravity gradient's direction) and, with a field
-    (``c.field_degree``), the field the magnetorquers act in (the next substep reads its own);
+    (the effects' position: the gravity gradient's direction), with a field
+    (``c.field_degree``) the field the magnetorquers act in, and the surroundings the effects
+    that read them see (:class:`rigid_env.core.layout.Surroundings`: the sunlight, the air),
+    carried as the actuation's fifth part (the next substep reads its own);
     the last substep leaves ``x`` at the orbit's position at the world step's end and advances
     the clock by ``dt``.
     ``world = (state, status)``, ``when = (k, last)``; ``counts`` as :func:`integrate`'s.
@@ -379,9 +384,9 @@ def body_substep(step, p, model, command, world, when, i, counts):
     x, v, q, _ = old
     t = k * c.h
     t1 = c.dt if last else (k + 1) * c.h
-    field = ZERO3
+    field, around = ZERO3, Surroundings(p, ZERO3, 0.0, ZERO3, 0.0)
     if c.orbit != 0.0:  # where the body is at the substep's middle, held over it
-        x, field = where(p, c, state, i, 0.5 * (t + t1))
+        x, field, around = where(p, c, state, i, 0.5 * (t + t1))
     start, span = start_energy(x, v, w, m, c), 0.0  # span: + s B a segment
     drive = wheel_drive(wheel_records(p, c, momenta), c, command, command_row(command, i))
     while t < t1:
@@ -395,11 +400,12 @@ def body_substep(step, p, model, command, world, when, i, counts):
             h = c.h
         if c.field_degree != 0.0:
             act = (act[0], act[1], act[2], field)
-        forces = force_reach(act, m, c)
+        held = (act[0], act[1], act[2], act[3], around)  # and the surroundings, held too
+        forces = force_reach(held, m, c)
         if c.wheels != 0.0:
             forces += wheel_reach(w, hw, drive, c, m)
         span += held_reach(h, forces)
-        x, v, q, w, hw = integrate(step, (x, v, q, w, hw), act, m, c, h, counts, i, drive)
+        x, v, q, w, hw = integrate(step, (x, v, q, w, hw), held, m, c, h, counts, i, drive)
         t = end
     if c.orbit != 0.0 and last:  # the body's position at the world step's end
         x = body_position(state, c, i, t1)
@@ -700,17 +706,19 @@ def derivatives(p, model, state, momenta, command, out):
     for i in range(state.shape[1]):
         act = wrench(p, c, model, command, i)
         x, v, q, w = load(state, i)
-        if c.orbit != 0.0:  # where the body is now, and the field there
-            x, field = where(p, c, state, i, 0.0)
+        around = Surroundings(p, ZERO3, 0.0, ZERO3, 0.0)
+        if c.orbit != 0.0:  # where the body is now, the field and its surroundings there
+            x, field, around = where(p, c, state, i, 0.0)
             if c.field_degree != 0.0:
                 act = (act[0], act[1], act[2], field)
+        held = (act[0], act[1], act[2], act[3], around)
         m = body_model(model, i)
         if c.wheels != 0.0:
             drive = wheel_drive(wheel_records(p, c, momenta), c, command, command_row(command, i))
             hw = load_wheels(momenta, i, c)
             drive = hold(drive, w, hw, m, 0.0)  # Coulomb's sign at this state
-            a, alpha, _ = gyrostat(x, v, q, w, hw, act, m, c, drive)
+            a, alpha, _ = gyrostat(x, v, q, w, hw, held, m, c, drive)
         else:
-            a, alpha = accelerations(x, v, q, w, act, m, c, True)
+            a, alpha = accelerations(x, v, q, w, held, m, c, True)
         out[i, 0], out[i, 1], out[i, 2] = a
         out[i, 3], out[i, 4], out[i, 5] = alpha

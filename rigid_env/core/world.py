@@ -608,9 +608,11 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
                 )
             u = self._carried(u)
         out = np.empty((cols.shape[1], 6))
-        if self._wheels is not None:  # at the wheels' momenta now
+        if self._wheels is not None or self._motion is not None:  # its wheels, its orbit now
             if n != self._n:
-                raise ValueError(f"x, v, q, w: each body has its wheels, give {self._n} rows")
+                raise ValueError(
+                    f"x, v, q, w: each body has its wheels or orbit, give {self._n} rows"
+                )
             cols = np.ascontiguousarray(np.vstack([cols, self._cols[STATE_WIDTH:]]))
         derivatives(self.params, model, cols, self._momenta, u, out)
         return out[:, 0:3], out[:, 3:6]
