@@ -342,12 +342,14 @@ class WheelPointingEnv(RigidBodyEnv):
     ## Version History
 
     * v2: the full environment and the bar as flown (``configs/scenes/wheel_pointing_full.yaml``):
-      v1's orbit, IGRF-14 field, gravity gradient and residual dipole, and the sensors on by
-      default (``FLIGHT_SENSORS``: a tactical-grade gyro, 1e-5 rad/sqrt(s) of angle random walk
-      and a 1e-5 rad/s bias per episode; a magnetometer with 100 nT of noise); success is a
-      hold within 0.1 deg at under 0.01 deg/s (``success_angle`` and ``success_rate``'s
-      defaults), the accuracy LeLaR reports in orbit. The observation's fine error is scaled by
-      the bar, so it resolves hundredths of a degree.
+      v1's orbit, IGRF-14 field, gravity gradient and residual dipole, with sunlight (eclipses
+      included) and air on the body's six faces (``solar_radiation_pressure``,
+      ``aerodynamic_drag``), and the sensors on by default (``FLIGHT_SENSORS``: a
+      tactical-grade gyro, 1e-5 rad/sqrt(s) of angle random walk and a 1e-5 rad/s bias per
+      episode; a magnetometer with 100 nT of noise); success is a hold within 0.1 deg at under
+      0.01 deg/s (``success_angle`` and ``success_rate``'s defaults), the accuracy LeLaR reports
+      in orbit. The observation's fine error is scaled by the bar, so it resolves hundredths of
+      a degree.
     * v1: the body moves on its orbit (``configs/scenes/wheel_pointing_orbit.yaml``: 500 km above
       the equatorial radius 6378.137 km, 97.4 deg, J2's drift on, from the epoch 2025.0), the
       orbit being world state advanced inside the compiled step, so the gravity-gradient

@@ -83,3 +83,14 @@ def test_the_pd_holds_the_fine_bar():
     success = np.asarray(info["success"], dtype=bool)
     assert np.isfinite(obs).all() and success.sum() >= 14, np.flatnonzero(~success)
     env.close()
+
+
+@pytest.mark.parametrize("version", [0, 1, 2])
+def test_sunlight_and_air_act_from_v2_only(version):
+    """v2's scene lists solar radiation pressure and aerodynamic drag on the body's six faces;
+    the earlier versions' scenes do not (their numbers stay as they were)."""
+    env = vector(f"RigidEnv/WheelPointing-v{version}", 1)
+    c = env.unwrapped.task.world.parameters
+    listed = (c.solar_radiation_pressure, c.aerodynamic_drag)
+    assert listed == ((1.0, 1.0) if version == 2 else (0.0, 0.0))
+    env.close()
