@@ -103,6 +103,13 @@ class TrainConfig(BaseModel):
     built and measured for)."""
     env_kwargs: dict[str, Any] = Field(default_factory=dict)
     """Keyword arguments of the environment (as for gym.make); checked by building it once."""
+    train_max_episode_steps: PositiveInt | None = None
+    """Time limit of the training episodes in control steps, >= 1 (left out: the registered
+    one). Evaluations always run the registered, full-length episodes: a task whose episode is
+    long (SunAcquisition's orbit, 2840 steps) may train on shorter segments, which start
+    anywhere its reset draws (an episode's start is drawn on the orbit), and the bar is still
+    judged on the task as registered. A truncated training episode bootstraps from the value
+    of its last observation (SB3's ``TimeLimit.truncated``), as at the registered limit."""
     policy: Literal["MlpPolicy"] = "MlpPolicy"
     """SB3 policy class name (the observations are flat vectors)."""
     policy_kwargs: PolicyKwargs = Field(default_factory=PolicyKwargs)

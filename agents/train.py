@@ -86,7 +86,13 @@ def make_vec_env(
     from .vec_adapter import RigidBodySB3VecEnv
 
     # Infos at episode ends only: SB3 reads no other (a third of the adapter's time per step).
-    venv = RigidBodySB3VecEnv(cfg.env_id, num_envs=n_envs, step_infos=False, **cfg.env_kwargs)
+    venv = RigidBodySB3VecEnv(
+        cfg.env_id,
+        num_envs=n_envs,
+        max_episode_steps=cfg.train_max_episode_steps,
+        step_infos=False,
+        **cfg.env_kwargs,
+    )
     venv.seed(seed)
     venv = VecMonitor(venv)
     if cfg.normalize.obs or cfg.normalize.reward:

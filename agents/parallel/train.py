@@ -75,7 +75,7 @@ def train_parallel(
         steps = 0
     import gymnasium as gym
 
-    limit = gym.spec(cfg.env_id).max_episode_steps
+    limit = cfg.train_max_episode_steps or gym.spec(cfg.env_id).max_episode_steps
     runner = make_runner(cfg, venv, int(limit))
     if start is not None:
         from_sb3(model, runner)

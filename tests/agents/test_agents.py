@@ -210,6 +210,51 @@ def test_config_validation_errors(tmp_path):
         load_config(tmp_path / "missing.yaml")
 
 
+@pytest.mark.parametrize("bad", [0, -3, 2.5, "long"])
+def test_train_max_episode_steps_is_checked(tmp_path, bad):
+    good = yaml.safe_load((ROOT / "configs/agents/ppo_detumble.yaml").read_text())
+    p = tmp_path / "bad.yaml"
+    p.write_text(yaml.safe_dump({**good, "train_max_episode_steps": bad}))
+    with pytest.raises(ConfigError) as exc:
+        load_config(p)
+    msg = str(exc.value)
+    assert "train_max_episode_steps" in msg and str(p) in msg and "\n" not in msg
+
+
+def test_training_episodes_are_cut_short_and_evaluations_are_not(tmp_path):
+    """``train_max_episode_steps`` truncates the training envs' episodes (flagged as a time
+    limit, so PPO bootstraps there) and leaves the evaluation's episodes at the registered
+    length (the bar is judged on the task as registered)."""
+    from agents.train import make_vec_env, train
+
+    limit = 7
+    cfg = load_config(
+        ROOT / "configs/agents/ppo_detumble.yaml",
+        {
+            "train_max_episode_steps": limit,
+            "total_timesteps": 64,
+            "n_envs": 2,
+            "hyperparams": {"n_steps": 32, "batch_size": 32, "n_epochs": 1},
+            "eval": {"freq": 64, "episodes": 2},
+            "checkpoint_freq": 1000,
+        },
+    )
+    venv = make_vec_env(cfg, cfg.n_envs, cfg.seed)
+    venv.reset()
+    ends = []
+    for step in range(1, 2 * limit + 1):
+        _, _, done, infos = venv.step(np.zeros((cfg.n_envs, 6), dtype=np.float32))
+        ends += [
+            (step, info["TimeLimit.truncated"]) for d, info in zip(done, infos, strict=True) if d
+        ]
+    venv.close()
+    assert ends == [(limit, True)] * 2 + [(2 * limit, True)] * 2
+    run = train(cfg, tmp_path, progress=False)
+    evals = np.load(run / "eval" / "evaluations.npz")
+    registered = gym.spec(cfg.env_id).max_episode_steps
+    assert registered > limit and np.all(evals["ep_lengths"] == registered)
+
+
 def _run(args: list[str], timeout: float = 240) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=timeout
