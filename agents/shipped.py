@@ -3,8 +3,9 @@
 baselines and their tests loop over. A registered task not listed here (a new one, before
 anyone trains it) is an environment like any other, and the suite stays green without it.
 
-Registered variants of a task (:data:`rigid_env.envs.VARIANTS`) may ship a PPO configuration and
-policy too (:data:`VARIANTS`); the demo plays the tasks only, the policy tests every policy."""
+Registered variants of a task (:data:`rigid_env.envs.VARIANTS`) and newer versions of a task whose
+policy plays an older one may ship a PPO configuration and policy too (:data:`VARIANTS`); the demo
+plays the tasks only, the policy tests every policy."""
 
 from __future__ import annotations
 
@@ -33,9 +34,14 @@ def shipped_id(name: str) -> str:
 ENV_IDS = [shipped_id(name) for name in TASKS]
 """The id each shipped task's policy was trained on (its newest but for :data:`TRAINED_ON`)."""
 
-VARIANTS: dict[str, str] = {"RigidEnv/DetumbleFaults-v0": "detumble_faults"}
-"""Variant id -> the stem of its files: ``configs/agents/ppo_<stem>.yaml`` and
-``agents/pretrained/ppo_<stem>.zip`` (PPO only)."""
+VARIANTS: dict[str, str] = {
+    "RigidEnv/DetumbleFaults-v0": "detumble_faults",
+    "RigidEnv/WheelPointing-v2": "wheel_pointing_full",
+}
+"""Id -> the stem of its files: ``configs/agents/ppo_<stem>.yaml`` and
+``agents/pretrained/ppo_<stem>.zip`` (PPO only), for a policy that ships beside its task's: a
+registered variant's, or a newer version's where the task's policy plays an older one
+(WheelPointing-v2, the full environment at the 0.1 deg bar, beside the 1 deg policy of v0)."""
 
 POLICIES: dict[str, str] = {
     **{shipped_id(name): task.module for name, task in TASKS.items()},
