@@ -59,6 +59,7 @@ from rigid_env.core.effects import (
 )
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.plan import Guard, Tolerances
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -341,6 +342,15 @@ class Scene(Spec):
         motion = [] if self.orbit is None else [self.orbit.motion(self.field)]
         return [*forces, *self._actuator_effects(), *maps, *motion]
 
+    def tolerances(self) -> Tolerances | None:
+        """The file's ``rtol`` and ``atol`` as an error-controlled integrator's
+        :class:`Tolerances` (the defaults for one left out); None for a fixed-step integrator
+        (which the file gives none: :meth:`_error_controlled`)."""
+        if not INTEGRATORS[self.integrator].error_control:
+            return None
+        given = {k: getattr(self, k) for k in ("rtol", "atol") if getattr(self, k) is not None}
+        return Tolerances(**given)
+
     def _actuator_effects(self) -> list[ForceEffect]:
         return self.actuators.actuators(self)
 
@@ -370,19 +380,20 @@ class Scene(Spec):
         integrator: str | None = None,
         dt: float | None = None,
         substeps: int | None = None,
-        on_error: Literal["raise", "freeze"] = "raise",
         rtol: float | None = None,
         atol: float | None = None,
-        **world: Any,
+        on_error: Literal["raise", "freeze"] = "raise",
     ) -> World:
-        """A :class:`World` of ``n`` bodies in the initial state.
+        """A :class:`World` of ``n`` bodies in the initial state, its :class:`Guard` of the
+        file's ``max_angular_speed`` and ``on_error``, its :class:`Tolerances` of the file's
+        ``rtol`` and ``atol`` (an error-controlled integrator's; the rest their defaults: a
+        world with others is ``world.with_settings(tolerances=...)``).
 
         Args:
             n: number of bodies.
             integrator, dt, substeps, rtol, atol: overrides of the file's values (None keeps
-                them).
-            on_error: passed to :class:`World` (``"raise"`` or ``"freeze"``).
-            world: further :class:`World` settings (``max_substeps``, ``adaptive``).
+                them), checked as the file's.
+            on_error: the guard's ``"raise"`` or ``"freeze"`` (:class:`Guard`).
 
         Raises:
             SceneError: if an override is invalid.
@@ -400,11 +411,8 @@ class Scene(Spec):
             dt=scene.dt,
             substeps=scene.substeps,
             state=scene.initial_state(n),
-            max_angular_speed=scene.max_angular_speed,
-            on_error=on_error,
-            rtol=scene.rtol,
-            atol=scene.atol,
-            **world,
+            guard=Guard(scene.max_angular_speed, on_error),
+            tolerances=scene.tolerances(),
         )
         scene.actuators.start(built)
         return built
