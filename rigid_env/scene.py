@@ -345,7 +345,7 @@ class Scene(Spec):
     def tolerances(self) -> Tolerances | None:
         """The file's ``rtol`` and ``atol`` as an error-controlled integrator's
         :class:`Tolerances` (the defaults for one left out); None for a fixed-step integrator
-        (which the file gives none: :meth:`_error_controlled`)."""
+        (a file gives it none: the scene refuses them)."""
         if not INTEGRATORS[self.integrator].error_control:
             return None
         given = {k: getattr(self, k) for k in ("rtol", "atol") if getattr(self, k) is not None}
@@ -384,10 +384,10 @@ class Scene(Spec):
         atol: float | None = None,
         on_error: Literal["raise", "freeze"] = "raise",
     ) -> World:
-        """A :class:`World` of ``n`` bodies in the initial state, its :class:`Guard` of the
-        file's ``max_angular_speed`` and ``on_error``, its :class:`Tolerances` of the file's
-        ``rtol`` and ``atol`` (an error-controlled integrator's; the rest their defaults: a
-        world with others is ``world.with_settings(tolerances=...)``).
+        """A :class:`World` of ``n`` bodies in the initial state: its :class:`Guard` of the
+        file's ``max_angular_speed`` and ``on_error``, its :class:`Tolerances` the file's
+        (:meth:`tolerances`; ``max_substeps`` and ``adaptive`` their defaults, others by
+        ``world.with_settings(tolerances=...)``).
 
         Args:
             n: number of bodies.

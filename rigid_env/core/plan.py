@@ -80,9 +80,9 @@ class Guard:
     """
 
     max_angular_speed: float | None = None
-    """The limit on ``|w|`` [rad/s], a finite number > 0, or None (off): as PhysX's
+    """The limit on ``|w|`` [rad/s], a finite number > 0, or None (off). As PhysX's
     ``setMaxAngularVelocity``, a faster ``w`` is scaled down to it, direction kept, before every
-    substep and after the last. A safety valve, not physics: it removes energy and momentum."""
+    substep and after the last. A safety valve, not physics; it removes energy and momentum."""
     on_error: Literal["raise", "freeze"] = "raise"
     """``"raise"`` raises :class:`rigid_env.core.world_errors.NumericalInstabilityError` when a
     state turns non-finite (the world left as it was); ``"freeze"`` keeps failed bodies at their
@@ -123,7 +123,7 @@ class Tolerances:
     non-finite one does (:class:`rigid_env.core.world_errors.SubstepLimitError` under
     ``on_error="raise"``, frozen with a warning under ``"freeze"``)."""
     adaptive: bool = True
-    """False turns the control off: the integrator then takes one fixed step of
+    """False turns the control off, the integrator then taking one fixed step of
     ``dt / substeps`` per substep (to measure its order)."""
 
     def __post_init__(self) -> None:

@@ -73,7 +73,7 @@ class Settings:
 
     @property
     def max_angular_speed(self) -> float | None:
-        """The limit on ``|w|`` [rad/s] or None: the :attr:`guard`'s (read-only)."""
+        """The :attr:`guard`'s limit on ``|w|`` [rad/s], or None (read-only)."""
         return self._plan.guard.max_angular_speed
 
     @max_angular_speed.setter
@@ -82,7 +82,7 @@ class Settings:
 
     @property
     def on_error(self) -> str:
-        """``'raise'`` or ``'freeze'``: the :attr:`guard`'s (read-only)."""
+        """The :attr:`guard`'s ``'raise'`` or ``'freeze'`` (read-only)."""
         return self._plan.guard.on_error
 
     @on_error.setter
