@@ -342,15 +342,6 @@ class Scene(Spec):
         motion = [] if self.orbit is None else [self.orbit.motion(self.field)]
         return [*forces, *self._actuator_effects(), *maps, *motion]
 
-    def tolerances(self) -> Tolerances | None:
-        """The file's ``rtol`` and ``atol`` as an error-controlled integrator's
-        :class:`Tolerances` (the defaults for one left out); None for a fixed-step integrator
-        (a file gives it none: the scene refuses them)."""
-        if not INTEGRATORS[self.integrator].error_control:
-            return None
-        given = {k: getattr(self, k) for k in ("rtol", "atol") if getattr(self, k) is not None}
-        return Tolerances(**given)
-
     def _actuator_effects(self) -> list[ForceEffect]:
         return self.actuators.actuators(self)
 
@@ -372,6 +363,15 @@ class Scene(Spec):
         return State(
             np.tile(x, (n, 1)), np.tile(v, (n, 1)), np.tile(q, (n, 1)), np.tile(w_body, (n, 1))
         )
+
+    def tolerances(self) -> Tolerances | None:
+        """The file's ``rtol`` and ``atol`` as an error-controlled integrator's
+        :class:`Tolerances` (the defaults for one left out); None for a fixed-step integrator
+        (a file gives it none: the scene refuses them)."""
+        if not INTEGRATORS[self.integrator].error_control:
+            return None
+        given = {k: getattr(self, k) for k in ("rtol", "atol") if getattr(self, k) is not None}
+        return Tolerances(**given)
 
     def build_world(
         self,
