@@ -670,7 +670,7 @@ def _summary(
     integrator, dt, substeps = world.integrator.name, world.dt, world.substeps
     stepping = f"{substeps} substep{'s' if substeps != 1 else ''} per step"
     if world.tolerances is not None:
-        stepping = f"rtol {world.tolerances[0]:g}, atol {world.tolerances[1]:g}"
+        stepping = f"rtol {world.tolerances.rtol:g}, atol {world.tolerances.atol:g}"
     steps = arrays["t"].shape[0] - 1
     l_norm = np.linalg.norm(arrays["angular_momentum_world"], axis=1)
     w_final = float(np.linalg.norm(arrays["angular_velocity_body"][-1]))

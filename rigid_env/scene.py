@@ -60,6 +60,7 @@ from rigid_env.core.effects import (
 from rigid_env.core.facets import Facets, facets
 from rigid_env.core.inertia import MassProperties
 from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.plan import Guard, Tolerances
 from rigid_env.core.rotation import (
     cross,
     matrix_to_quat,
@@ -380,6 +381,15 @@ class Scene(Spec):
             np.tile(x, (n, 1)), np.tile(v, (n, 1)), np.tile(q, (n, 1)), np.tile(w_body, (n, 1))
         )
 
+    def tolerances(self) -> Tolerances | None:
+        """The file's ``rtol`` and ``atol`` as an error-controlled integrator's
+        :class:`Tolerances` (the defaults for one left out); None for a fixed-step integrator
+        (a file gives it none: the scene refuses them)."""
+        if not INTEGRATORS[self.integrator].error_control:
+            return None
+        given = {k: getattr(self, k) for k in ("rtol", "atol") if getattr(self, k) is not None}
+        return Tolerances(**given)
+
     def build_world(
         self,
         n: int = 1,
@@ -387,19 +397,20 @@ class Scene(Spec):
         integrator: str | None = None,
         dt: float | None = None,
         substeps: int | None = None,
-        on_error: Literal["raise", "freeze"] = "raise",
         rtol: float | None = None,
         atol: float | None = None,
-        **world: Any,
+        on_error: Literal["raise", "freeze"] = "raise",
     ) -> World:
-        """A :class:`World` of ``n`` bodies in the initial state.
+        """A :class:`World` of ``n`` bodies in the initial state: its :class:`Guard` of the
+        file's ``max_angular_speed`` and ``on_error``, its :class:`Tolerances` the file's
+        (:meth:`tolerances`; ``max_substeps`` and ``adaptive`` their defaults, others by
+        ``world.with_settings(tolerances=...)``).
 
         Args:
             n: number of bodies.
             integrator, dt, substeps, rtol, atol: overrides of the file's values (None keeps
-                them).
-            on_error: passed to :class:`World` (``"raise"`` or ``"freeze"``).
-            world: further :class:`World` settings (``max_substeps``, ``adaptive``).
+                them), checked as the file's.
+            on_error: the guard's ``"raise"`` or ``"freeze"`` (:class:`Guard`).
 
         Raises:
             SceneError: if an override is invalid.
@@ -417,11 +428,8 @@ class Scene(Spec):
             dt=scene.dt,
             substeps=scene.substeps,
             state=scene.initial_state(n),
-            max_angular_speed=scene.max_angular_speed,
-            on_error=on_error,
-            rtol=scene.rtol,
-            atol=scene.atol,
-            **world,
+            guard=Guard(scene.max_angular_speed, on_error),
+            tolerances=scene.tolerances(),
         )
         scene.actuators.start(built)
         return built

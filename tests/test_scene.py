@@ -21,6 +21,7 @@ from rigid_env.core.effects import (
     Thrusters,
 )
 from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.plan import Tolerances
 from rigid_env.core.rotation import (
     matrix_to_quat,
     quat_conj,
@@ -859,8 +860,9 @@ def test_tolerances_belong_to_an_error_controlled_integrator():
     overrides them."""
     base = {"name": "tol", "body": {"mass": 1.0, "inertia": [1.0, 2.0, 3.0]}}
     scene = load_scene({**base, "integrator": "dop853", "rtol": 1e-8, "atol": 1e-9})
-    assert scene.build_world(1).tolerances == (1e-8, 1e-9, 1000)
-    assert scene.build_world(1, rtol=1e-12).tolerances == (1e-12, 1e-9, 1000)
+    assert scene.build_world(1).tolerances == Tolerances(1e-8, 1e-9, 1000)
+    assert scene.build_world(1, rtol=1e-12).tolerances == Tolerances(1e-12, 1e-9, 1000)
+    assert load_scene({**base, "integrator": "dop853"}).build_world(1).tolerances == Tolerances()
     with pytest.raises(SceneError, match=r"^<scene dict>: rtol: .*'rk4' takes fixed steps"):
         load_scene({**base, "integrator": "rk4", "rtol": 1e-8})
     with pytest.raises(SceneError, match=r"^<scene dict>: rtol: must be less than 1"):

@@ -186,7 +186,8 @@ class Point:
     """Mean substeps per world step of an error-controlled integrator over the error run."""
 
     def settings(self) -> dict[str, float]:
-        """The world settings besides ``integrator`` and ``dt`` (its tolerances)."""
+        """The scene's overrides besides ``integrator`` and ``dt``: its ``rtol = atol``
+        (:meth:`rigid_env.scene.Scene.build_world` makes them the world's Tolerances)."""
         return {} if math.isnan(self.rtol) else {"rtol": self.rtol, "atol": self.rtol}
 
     @property

@@ -25,6 +25,7 @@ from scipy.special import ellipj, ellipkinc
 
 from rigid_env.core.effects import ForceEffect, Gravity, QuadraticDrag, StepMap, Thrusters
 from rigid_env.core.exact import free_rotation_exact
+from rigid_env.core.plan import Guard, Tolerances
 from rigid_env.core.rotation import (
     quat_angle_between,
     quat_from_rotvec,
@@ -222,17 +223,19 @@ def torque_free_world(
     w0: ArrayLike,
     integrator: str,
     dt: float,
-    on_error: str = "raise",
-    **kwargs: object,
+    guard: Guard = Guard(),
+    tolerances: Tolerances | None = None,
 ) -> World:
     """A world of torque-free bodies: per-body ``inertia`` (N, 3) and ``w0`` (N, 3), at the
-    origin with identity orientation."""
+    origin with identity orientation, with the world's ``guard`` and ``tolerances``."""
     inertia = np.atleast_2d(np.asarray(inertia, dtype=np.float64))
     w0 = np.atleast_2d(np.asarray(w0, dtype=np.float64))
     state = State.zeros(w0.shape[0])
     state.w[:] = w0
     model = BodyModel(np.ones(inertia.shape[0]), inertia)
-    return World(model, (), integrator=integrator, dt=dt, state=state, on_error=on_error, **kwargs)  # type: ignore[arg-type]
+    return World(
+        model, (), integrator=integrator, dt=dt, state=state, guard=guard, tolerances=tolerances
+    )
 
 
 # --------------------------------------------------------------------------------------------
@@ -348,7 +351,7 @@ def hard_batch(integrator: str, steps: int, names: Sequence[str] = tuple(HARD_BO
     ``on_error="freeze"``: a body that diverges is held and flagged, the others go on."""
     inertia = np.array([HARD_BODIES[k][0] for k in names])
     w0 = np.array([HARD_BODIES[k][1] for k in names])
-    world = torque_free_world(inertia, w0, integrator, HARD_DT, on_error="freeze")
+    world = torque_free_world(inertia, w0, integrator, HARD_DT, Guard(on_error="freeze"))
     return HardRun(integrator, tuple(names), record(world, steps), inertia)
 
 
@@ -430,7 +433,9 @@ def thin_bodies(integrator: str, steps: int) -> ThinRun:
     bodies = tuple((kind, r) for kind in THIN_KINDS for r in THIN_RATIOS)
     inertia = np.array([thin_inertia(kind, r) for kind, r in bodies])
     w0 = np.tile(np.asarray(THIN_W0, dtype=np.float64), (len(bodies), 1))
-    run = record(torque_free_world(inertia, w0, integrator, THIN_DT, on_error="freeze"), steps)
+    run = record(
+        torque_free_world(inertia, w0, integrator, THIN_DT, Guard(on_error="freeze")), steps
+    )
     identity = np.tile([1.0, 0.0, 0.0, 0.0], (len(bodies), 1))
     exact = np.stack(
         [

@@ -13,6 +13,7 @@ from rigid_env.core.actuator import actuators as _registered
 from rigid_env.core.effect import Effect
 from rigid_env.core.effects import ForceEffect, StepMap
 from rigid_env.core.integrators import INTEGRATORS, get_integrator
+from rigid_env.core.plan import Guard, Tolerances
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.world import NumericalInstabilityError, SubstepLimitError, World
 
@@ -31,9 +32,11 @@ __all__ = [
     "INTEGRATORS",
     "BodyModel",
     "Effect",
+    "Guard",
     "NumericalInstabilityError",
     "State",
     "SubstepLimitError",
+    "Tolerances",
     "World",
     "get_integrator",
     *EFFECT_SPECS,

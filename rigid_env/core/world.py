@@ -4,8 +4,8 @@
 integrator over the (13, N) state columns (a pass of actuator wrenches -> ``substeps`` passes of
 the integrator, each evaluating only the active effects and ending in the guard, the per-step
 maps after the last; over the cores from :data:`THREAD_MIN_BODIES` bodies on) -> counters and
-reports. A body whose state turns NaN or inf is never handed back silently (``on_error``,
-:class:`World`).
+reports. A body whose state turns NaN or inf is never handed back silently (the ``on_error`` of
+the world's :class:`Guard`).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Sequence
 from dataclasses import replace
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,10 +44,13 @@ from rigid_env.core.plan import (
     DEFAULT_MAX_SUBSTEPS,
     DEFAULT_RTOL,
     MAX_BODIES,
+    Guard,
     StepPlan,
+    Tolerances,
     check_state,
     check_tolerances,
     number,
+    refuse_retired,
 )
 from rigid_env.core.state import BodyModel, State
 from rigid_env.core.stepping import derivatives
@@ -73,8 +76,11 @@ __all__ = [
     "DEFAULT_RTOL",
     "STABLE_AT_SPEED",
     "THREAD_MIN_BODIES",
+    "WORLD_KEYWORDS",
+    "Guard",
     "NumericalInstabilityError",
     "SubstepLimitError",
+    "Tolerances",
     "World",
     "call_threaded",
     "check_state",
@@ -87,6 +93,10 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
 _FLOAT64 = np.dtype(np.float64)
+WORLD_KEYWORDS = (
+    "model", "effects", "integrator", "dt", "substeps", "state", "n", "guard", "tolerances",
+)  # fmt: skip
+"""The keywords :class:`World` takes (named where it refuses another)."""
 
 
 class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagnostics):
@@ -100,22 +110,21 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         substeps: integrator steps per :meth:`step` (each of ``dt / substeps``).
         state: initial state; ``n`` bodies at rest if omitted.
         n: number of bodies when ``state`` is omitted.
-        max_angular_speed: optional limit on ``|w|`` [rad/s], None = off: as PhysX's
-            ``setMaxAngularVelocity``, a faster ``w`` is scaled down to it, direction kept,
-            before every substep and after the last. A safety valve, not physics: it removes
-            energy and momentum.
-        on_error: ``"raise"`` raises :class:`NumericalInstabilityError` when a state turns
-            non-finite; ``"freeze"`` keeps failed bodies at their last finite state, flagged in
-            :attr:`failed`, the others going on bit for bit as without them (vector envs).
-        rtol, atol: an error-controlled integrator's (``dop853``) relative and absolute
-            tolerance of each substep's error, ``0 < rtol < 1`` and ``atol > 0`` (None:
-            :data:`DEFAULT_RTOL`, :data:`DEFAULT_ATOL`); refused for a fixed-step integrator.
-        max_substeps: the most substeps an error-controlled integrator may take per integrator
-            step (``dt / substeps``); a body that needs more fails as a non-finite one does
-            (:class:`SubstepLimitError` under ``"raise"``, frozen with a warning under
-            ``"freeze"``).
-        adaptive: False turns an error-controlled integrator's control off: it then takes one
-            fixed step of ``dt / substeps`` per substep (to measure its order).
+        guard: what the step does about a blow-up (:class:`Guard`): the limit on ``|w|``
+            (``max_angular_speed``, off by default) and ``on_error``: ``"raise"`` raises
+            :class:`NumericalInstabilityError` when a state turns non-finite; ``"freeze"``
+            keeps failed bodies at their last finite state, flagged in :attr:`failed`, the
+            others going on bit for bit as without them (vector envs).
+        tolerances: an error-controlled integrator's (``dop853``) :class:`Tolerances`
+            (``rtol``, ``atol``, ``max_substeps``, ``adaptive``); None: its defaults
+            (:data:`DEFAULT_RTOL`, :data:`DEFAULT_ATOL`, :data:`DEFAULT_MAX_SUBSTEPS`); refused
+            for a fixed-step integrator.
+
+    Raises:
+        ValueError: one line naming a setting the step cannot take and what it must be.
+        TypeError: for a keyword the world does not take; one of the settings that moved into
+            :class:`Guard` or :class:`Tolerances` (``max_angular_speed``, ``on_error``,
+            ``rtol``, ``atol``, ``max_substeps``, ``adaptive``) names the record call to pass.
     """
 
     def __init__(
@@ -128,25 +137,21 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         *,
         state: State | None = None,
         n: int = 1,
-        max_angular_speed: float | None = None,
-        on_error: Literal["raise", "freeze"] = "raise",
-        rtol: float | None = None,
-        atol: float | None = None,
-        max_substeps: int = DEFAULT_MAX_SUBSTEPS,
-        adaptive: bool = True,
+        guard: Guard = Guard(),
+        tolerances: Tolerances | None = None,
+        **retired: Any,
     ) -> None:
-        self._plan = plan = StepPlan.build(
-            effects, integrator, dt, substeps, max_angular_speed, on_error,
-            (rtol, atol, max_substeps), adaptive,
-        )  # fmt: skip
+        refuse_retired("World", retired, WORLD_KEYWORDS)
+        self._plan = plan = StepPlan.build(effects, integrator, dt, substeps, guard, tolerances)
         self._integrator = plan.integrator
         self._dt, self._substeps = plan.dt, plan.substeps
-        control = None if plan.tolerances is None else (*plan.tolerances, plan.adaptive)
+        tol = plan.tolerances
+        control = None if tol is None else (tol.rtol, tol.atol, tol.max_substeps, tol.adaptive)
         self.params = pack(
             plan.effects,
             plan.h,
             plan.substeps,
-            plan.max_angular_speed,
+            plan.guard.max_angular_speed,
             plan.integrator.stability,
             control=control,
             dt=plan.dt,
@@ -213,7 +218,9 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
         self._copy_before_step = (
-            (plan.on_error == "raise" and self._n > 1) or plan.substeps > 1 or hw.lagged != 0.0
+            (plan.guard.on_error == "raise" and self._n > 1)
+            or plan.substeps > 1
+            or hw.lagged != 0.0
         )
         self._state.q[:, 0] = 1.0
         if state is not None:
@@ -548,7 +555,7 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         if backup is not None:
             self._cols[:, bad] = backup[:, bad]
         limited = self._over_limit(bad)
-        if self.on_error == "raise":
+        if self._plan.guard.on_error == "raise":
             self._status[bad] = HEALTHY
             if backup is not None:
                 self._cols[:] = backup
@@ -571,15 +578,15 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         """The error for the failed bodies that ran out of substeps (None if none did): those
         that took more than ``max_substeps`` in the step (exact for ``substeps = 1``; with more
         passes a body that failed otherwise after that many substeps is counted here too)."""
-        if self.tolerances is None:
+        tol = self._plan.tolerances
+        if tol is None:
             return None
-        rtol, atol, limit = self.tolerances
-        over = bad & (self._counts[0] > limit)
+        over = bad & (self._counts[0] > tol.max_substeps)
         if not over.any():
             return None
         return SubstepLimitError(
             np.flatnonzero(over).tolist(), self.step_count + 1, self._integrator.name, self._dt,
-            f"max_substeps = {limit} substeps at rtol {rtol:g}, atol {atol:g}",
+            f"max_substeps = {tol.max_substeps} substeps at rtol {tol.rtol:g}, atol {tol.atol:g}",
         )  # fmt: skip
 
     def accelerations(

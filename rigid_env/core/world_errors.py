@@ -84,7 +84,7 @@ class SubstepLimitError(NumericalInstabilityError):
         self.args = (
             f"body {shown} needed more than {limit} in step {step} (integrator "
             f"{integrator!r}, dt {dt:g} s); loosen rtol/atol, use a smaller dt, or allow more "
-            "with max_substeps",
+            "with the world's Tolerances(max_substeps=...)",
         )
 
     def __str__(self) -> str:

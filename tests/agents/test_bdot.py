@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from agents.bdot import avanzini_gain, bdot_measured, bdot_rate, bdot_torque
-from rigid_env.core import BodyModel, Magnetorquers, World
+from rigid_env.core import BodyModel, Magnetorquers, Tolerances, World
 from rigid_env.core.rotation import quat_from_rotvec, quat_rotate, quat_rotate_inv
 from rigid_env.envs.bdot_detumble import torque_dipoles
 from rigid_env.resources import scene_path
@@ -45,7 +45,9 @@ def test_detumbles_all_but_the_spin_about_the_field() -> None:
     damps it e^-60 over the run; 1 % leaves room for the slow decay near alignment)."""
     field = np.array([1.0e-5, -2.0e-5, 3.0e-5])
     coils = Magnetorquers(max_dipole=MAX_DIPOLE, field=field)
-    world = World(BodyModel.single(2.0, INERTIA), [coils], "dop853", 1.0, rtol=1e-12)
+    world = World(
+        BodyModel.single(2.0, INERTIA), [coils], "dop853", 1.0, tolerances=Tolerances(rtol=1e-12)
+    )
     s = world.state
     s.w[:] = [0.05, -0.03, 0.04]
     world.state = s

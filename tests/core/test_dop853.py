@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 from scipy.integrate import solve_ivp
 
 from rigid_env.bench.reference import torque_free_angular_velocity
-from rigid_env.core import SubstepLimitError, World
+from rigid_env.core import Guard, SubstepLimitError, Tolerances, World
 from rigid_env.resources import SCENE_DIR
 from rigid_env.scene import Scene, load_scene
 
@@ -31,14 +31,13 @@ def run_dop853(
     action: FloatArray | None,
     dt: float,
     steps: int,
-    rtol: float = 1.0e-10,
-    atol: float = 1.0e-10,
+    tolerances: Tolerances | None = None,
     n: int = 1,
-    **world: Any,
 ) -> tuple[FloatArray, FloatArray]:
-    """``scene``'s bodies stepped by dop853: body 0's states (steps + 1, 13) and the substeps
-    each body took in each step (steps, n)."""
-    w = scene.build_world(n, integrator="dop853", dt=dt, rtol=rtol, atol=atol, **world)
+    """``scene``'s bodies stepped by dop853 with ``tolerances`` (None: the defaults, rtol =
+    atol = 1e-10): body 0's states (steps + 1, 13) and the substeps each body took in each
+    step (steps, n)."""
+    w = scene.build_world(n, integrator="dop853", dt=dt).with_settings(tolerances=tolerances)
     rows, tries = [_row(w, 0)], []
     for _ in range(steps):
         w.step(action)
@@ -73,7 +72,7 @@ def test_order_eight_at_fixed_step() -> None:
     exact = torque_free_angular_velocity(scene.body_model(1).inertia[0], w0, [10.0])[0]
     errors = []
     for h in ORDER_STEPS:
-        states, tries = run_dop853(scene, None, h, round(10.0 / h), adaptive=False)
+        states, tries = run_dop853(scene, None, h, round(10.0 / h), Tolerances(adaptive=False))
         assert np.all(tries == 1)
         errors.append(np.max(np.abs(states[-1, 10:13] - exact)))
     slope = np.polyfit(np.log(ORDER_STEPS), np.log(errors), 1)[0]
@@ -201,7 +200,7 @@ def test_forced_scene_within_tolerance(rtol: float, forced_truth: FloatArray) ->
     own error at 1e-13 is ~1e-13 relative, below a tenth of the tightest bound)."""
     scene = load_scene(FORCED_SCENE)
     dt, per_check = 0.05, round(CHECK_EVERY / 0.05)
-    states, tries = run_dop853(scene, FORCED_ACTION, dt, 200, rtol, rtol)
+    states, tries = run_dop853(scene, FORCED_ACTION, dt, 200, Tolerances(rtol, rtol))
     w_err, x_err = relative_errors(states[::per_check], forced_truth)
     assert w_err <= TOLERANCE_FACTOR * rtol, (w_err, x_err, tries.sum())
     assert x_err <= TOLERANCE_FACTOR * rtol, (w_err, x_err, tries.sum())
@@ -222,16 +221,13 @@ def test_substep_limit_is_a_clear_error() -> None:
     world = scene.build_world(2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12)
     world.step(FORCED_ACTION)
     assert np.all(world.substeps_taken > 5) and np.all(world.substeps_taken < 1000)
-    world = scene.build_world(
-        2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12, max_substeps=5
-    )
+    few = Tolerances(rtol=1e-12, atol=1e-12, max_substeps=5)
+    world = scene.build_world(2, integrator="dop853", dt=1.0).with_settings(tolerances=few)
     before = world.columns.copy()
     with pytest.raises(SubstepLimitError, match=r"body 0, 1 needed more than max_substeps = 5"):
         world.step(FORCED_ACTION)
     assert np.array_equal(world.columns, before) and world.step_count == 0
-    world = scene.build_world(
-        2, integrator="dop853", dt=1.0, rtol=1e-12, atol=1e-12, max_substeps=5, on_error="freeze"
-    )
+    world = world.with_settings(guard=Guard(on_error="freeze"))
     with pytest.warns(RuntimeWarning, match="loosen rtol/atol"):
         failed = world.step(FORCED_ACTION)
     assert failed.all() and np.array_equal(world.columns, before)
@@ -353,7 +349,8 @@ def test_env_takes_tolerances_and_reports_substeps() -> None:
     env = gym.make("RigidEnv/Detumble-v0", integrator="dop853", rtol=1e-9, atol=1e-11)
     env.reset(seed=0)
     *_, info = env.step(env.action_space.sample())
-    assert env.unwrapped.task.world.tolerances[:2] == (1e-9, 1e-11)
+    tolerances = env.unwrapped.task.world.tolerances
+    assert (tolerances.rtol, tolerances.atol) == (1e-9, 1e-11)
     assert isinstance(info["substeps"], int) and info["substeps"] >= 1
     venv = gym.make_vec(
         "RigidEnv/Detumble-v0", num_envs=3, vectorization_mode="vector_entry_point",

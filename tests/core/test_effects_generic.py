@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from rigid_env.core import INTEGRATORS, BodyModel, State, World
+from rigid_env.core import INTEGRATORS, BodyModel, State, Tolerances, World
 from rigid_env.core.effects import (
     AerodynamicDrag,
     ForceEffect,
@@ -190,8 +190,8 @@ def energy_error(spec: ForceEffect, method: str, h: float) -> float:
         np.array([[0.9, 0.3, 0.3, np.sqrt(1 - 0.99)]]),
         np.array([[0.7, -0.4, 0.5]]),
     )
-    extra = {"adaptive": False} if INTEGRATORS[method].error_control else {}
-    world = World(MODEL, [spec], method, h, state=s0, **extra)
+    fixed = Tolerances(adaptive=False) if INTEGRATORS[method].error_control else None
+    world = World(MODEL, [spec], method, h, state=s0, tolerances=fixed)
     e0 = world.energy()[0]
     worst = 0.0
     for _ in range(round(2.0 / h)):

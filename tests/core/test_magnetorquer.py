@@ -20,6 +20,7 @@ from rigid_env.core import (
     Magnetorquers,
     State,
     Thrusters,
+    Tolerances,
     World,
 )
 from rigid_env.scene import SceneError, load_scene
@@ -77,10 +78,13 @@ def test_torque_is_the_commanded_dipole_across_the_field(noisy: bool) -> None:
     np.testing.assert_allclose(inertia * alpha, expected, rtol=0, atol=64 * U * scale)
 
 
-def spin(name: str, dt: float, duration: float = 200.0, **settings: float) -> State:
+def spin(
+    name: str, dt: float, duration: float = 200.0, tolerances: Tolerances | None = None
+) -> State:
     """A tumbling body under a fixed coil command for ``duration`` [s]: the torque turns with
     the body (``R^T B`` changes as it rotates), so each step meets a time-varying torque."""
-    world = World(MODEL, [Magnetorquers(max_dipole=0.35, field=FIELD)], name, dt, **settings)
+    coils = Magnetorquers(max_dipole=0.35, field=FIELD)
+    world = World(MODEL, [coils], name, dt, tolerances=tolerances)
     s = world.state
     s.w[:] = [0.001, 0.0005, 0.0002]
     world.state = s
@@ -93,7 +97,7 @@ def spin(name: str, dt: float, duration: float = 200.0, **settings: float) -> St
 @pytest.fixture(scope="module")
 def reference() -> State:
     """dop853 at rtol 1e-13: within 1e-11 of the flow, far below the fixed steps' errors."""
-    return spin("dop853", 1.0, rtol=1e-13)
+    return spin("dop853", 1.0, tolerances=Tolerances(rtol=1e-13))
 
 
 @pytest.mark.parametrize("name", [n for n in INTEGRATORS if n != "dop853"])

@@ -20,7 +20,7 @@ from rigid_env.core.orbit_state import (
     OrbitRows,
 )
 from rigid_env.core.state import BodyModel
-from rigid_env.core.world import World
+from rigid_env.core.world import Guard, World
 
 A = EARTH_EQUATORIAL_RADIUS + 5.0e5
 INCLINATION = math.radians(97.4)
@@ -119,7 +119,8 @@ def test_gravity_gradient_direction_follows_the_orbit_position():
 
 def test_restart_puts_bodies_back_at_the_epoch_and_frozen_clocks_hold():
     orbit = kepler_orbit(A, 0.0, INCLINATION)
-    world = World(cube(2), [OrbitMotion(orbit, 2025.0)], "rk4", 5.0, 5, n=2, on_error="freeze")
+    freeze = Guard(on_error="freeze")
+    world = World(cube(2), [OrbitMotion(orbit, 2025.0)], "rk4", 5.0, 5, n=2, guard=freeze)
     world.step()
     world.failed[1] = True
     world.step()

@@ -16,6 +16,7 @@ from rigid_env.core import (
     AngularDamping,
     BodyModel,
     Gravity,
+    Guard,
     LinearDamping,
     NumericalInstabilityError,
     QuadraticDrag,
@@ -186,7 +187,7 @@ def blowup_world(bodies: list[int], on_error: str) -> World:
         "explicit_euler",
         0.1,
         state=state,
-        on_error=on_error,
+        guard=Guard(on_error=on_error),
     )
 
 
@@ -340,11 +341,16 @@ def test_max_angular_speed_clamps(name: str) -> None:
         name,
         0.05,
         state=state,
-        max_angular_speed=w_max,
+        guard=Guard(max_angular_speed=w_max),
     )
     # Without the limit (explicit Euler then overflows at h |w| > 1: the limit as safety valve).
     free = World(
-        BodyModel.single(1.0, [1.0, 2.0, 3.0]), (thr,), name, 0.05, state=state, on_error="freeze"
+        BodyModel.single(1.0, [1.0, 2.0, 3.0]),
+        (thr,),
+        name,
+        0.05,
+        state=state,
+        guard=Guard(on_error="freeze"),
     )
     free_max = 0.0
     for _ in range(40):
@@ -362,7 +368,7 @@ def test_max_angular_speed_clamps(name: str) -> None:
         name,
         0.05,
         state=state.take([1]),
-        max_angular_speed=w_max,
+        guard=Guard(max_angular_speed=w_max),
     )
     slow_free = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), (), name, 0.05, state=state.take([1]))
     for _ in range(10):
@@ -379,7 +385,7 @@ def test_clamp_keeps_direction() -> None:
         "symplectic_euler",
         0.01,
         state=state,
-        max_angular_speed=3.0,
+        guard=Guard(max_angular_speed=3.0),
     )
     world.step()
     # About a principal axis w stays on it; its size is the limit.
@@ -409,10 +415,10 @@ def test_world_rejects_bad_configuration() -> None:
         World(model, (), "rk4", 0.0)
     with pytest.raises(ValueError, match="substeps"):
         World(model, (), "rk4", 0.01, substeps=0)
-    with pytest.raises(ValueError, match="on_error"):
-        World(model, (), "rk4", 0.01, on_error="ignore")  # type: ignore[arg-type]
-    with pytest.raises(ValueError, match="max_angular_speed"):
-        World(model, (), "rk4", 0.01, max_angular_speed=-1.0)
+    with pytest.raises(ValueError, match=r"^Guard\.on_error: must be 'raise' or 'freeze'"):
+        World(model, (), "rk4", 0.01, guard=Guard(on_error="ignore"))  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match=r"^Guard\.max_angular_speed: must be a finite number"):
+        World(model, (), "rk4", 0.01, guard=Guard(max_angular_speed=-1.0))
     bad = STATE0.copy()
     bad.q[2] = 0.0
     with pytest.raises(ValueError, match=r"state\.q"):

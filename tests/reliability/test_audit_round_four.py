@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import yaml
 
-from rigid_env.core import BodyModel
+from rigid_env.core import BodyModel, Tolerances
 from rigid_env.scene import SceneError, load_scene
 
 SCENES = Path(__file__).resolve().parents[2] / "configs" / "scenes"
@@ -171,8 +171,8 @@ def test_a_zero_d_array_counts_as_the_number_it_holds() -> None:
 def test_tolerances_on_a_wheel_world_object_name_no_integrator_that_refuses_wheels() -> None:
     world = load_scene(SCENES / "wheel_pointing_orbit.yaml").build_world()
     with pytest.raises(ValueError) as exc:
-        world.with_settings(rtol=1e-6)
-    msg = _one_line(exc, "rtol", "reaction wheels", "substeps")
+        world.with_settings(tolerances=Tolerances(rtol=1e-6))
+    msg = _one_line(exc, "tolerances", "reaction wheels", "substeps")
     assert "dop853" not in msg
 
 

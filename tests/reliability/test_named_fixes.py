@@ -4,7 +4,6 @@ read-only setting names is one ``with_settings`` takes."""
 
 from __future__ import annotations
 
-import ast
 import re
 from pathlib import Path
 
@@ -13,13 +12,14 @@ import pytest
 import yaml
 
 from rigid_env.core.integrators import INTEGRATORS
+from rigid_env.core.plan import Guard, Tolerances
 from rigid_env.core.world import NumericalInstabilityError
 from rigid_env.scene import SceneError, load_scene
 
 SCENES = Path(__file__).resolve().parents[2] / "configs" / "scenes"
 WORLDS = ("wheel_pointing", "detumble", "bdot_detumble", "tumbling_fall")
-READ_ONLY = ("plan", "dt", "substeps", "integrator", "h", "max_angular_speed", "on_error",
-             "tolerances", "effects")  # fmt: skip
+READ_ONLY = ("plan", "dt", "substeps", "integrator", "h", "guard", "max_angular_speed",
+             "on_error", "tolerances", "effects")  # fmt: skip
 
 
 def _world(name: str, **changes):
@@ -72,13 +72,17 @@ def test_tolerances_on_a_fixed_step_name_only_integrators_that_step_the_scene(sc
 
 @pytest.mark.parametrize("scene", ["wheel_pointing", "detumble"])
 def test_world_level_tolerances_name_a_fix_that_works(scene):
-    """The same refusal at the world (``with_settings(rtol=...)`` on a fixed-step world)."""
+    """The same refusal at the world (``with_settings(tolerances=...)`` on a fixed-step
+    world)."""
     world = _world(scene, integrator="rk4")
-    with pytest.raises(ValueError, match=r"^rtol: integrator 'rk4' takes fixed steps") as caught:
-        world.with_settings(rtol=1e-6)
+    tight = Tolerances(rtol=1e-6)
+    with pytest.raises(
+        ValueError, match=r"^tolerances: integrator 'rk4' takes fixed steps"
+    ) as caught:
+        world.with_settings(tolerances=tight)
     fix = str(caught.value).split("(", 1)[1]
     for name in _named_integrators(fix):
-        world.with_settings(integrator=name, rtol=1e-6)
+        world.with_settings(integrator=name, tolerances=tight)
     assert ("dop853" in fix) == (world.wheels is None)
 
 
@@ -86,8 +90,8 @@ def test_world_level_tolerances_name_a_fix_that_works(scene):
 @pytest.mark.parametrize("integrator", ["rk4", "dop853"])
 @pytest.mark.parametrize("name", READ_ONLY)
 def test_a_read_only_setting_names_a_with_settings_call_that_works(scene, integrator, name):
-    """Assigning a read-only setting names ``world.with_settings(key=...)``; with each key it
-    names (a placeholder set to the world's own value), that call makes a world."""
+    """Assigning a read-only setting names ``world.with_settings(key=...)``; the call it names
+    (each placeholder set to the world's own value) makes a world."""
     if scene == "wheel_pointing" and integrator == "dop853":
         pytest.skip("dop853 refuses wheels")
     world = _world(scene, integrator=integrator)
@@ -95,20 +99,24 @@ def test_a_read_only_setting_names_a_with_settings_call_that_works(scene, integr
         setattr(world, name, getattr(world, name))
     text = str(caught.value)
     assert text.startswith(f"World.{name} is read-only") and "\n" not in text
-    call = re.search(r"with_settings\(([^)]*)\)", text)
-    own = {"substeps": world.substeps, "dt": world.dt, "on_error": world.on_error,
-           "integrator": world.integrator.name, "effects": world.effects,
-           "max_angular_speed": world.max_angular_speed, "rtol": 1e-8, "atol": 1e-10,
-           "max_substeps": 1000}  # fmt: skip
-    if world.tolerances is not None:
-        own.update(zip(("rtol", "atol", "max_substeps"), world.tolerances, strict=True))
-    settings = {}
-    for key, value in re.findall(r"(\w+)=([^,]+)", call.group(1) if call else ""):
-        if value.strip() in ("k", "..."):
-            settings[key] = own[key]  # a placeholder: the world's own value
-        else:
-            settings[key] = ast.literal_eval(value.strip())
-    world.with_settings(**settings)  # the call it names makes a world
+    eval(_named_call(text), {"world": world, "Guard": Guard, "Tolerances": Tolerances})
+
+
+PLACEHOLDERS = {"substeps": "world.substeps", "dt": "world.dt", "effects": "world.effects",
+                "rtol": "1e-8", "atol": "1e-10"}  # fmt: skip
+"""What stands for a placeholder (``k``, ``...``) after ``key=`` in a named call."""
+
+
+def _named_call(text: str) -> str:
+    """The ``world.with_settings(...)`` call a message names (its parentheses balanced), each
+    placeholder replaced by the world's own value."""
+    start = text.index("world.with_settings(")
+    end, depth = start + len("world.with_settings("), 1
+    while depth:  # to the parenthesis that closes the call's
+        depth += {"(": 1, ")": -1}.get(text[end], 0)
+        end += 1
+    call = text[start:end].replace("with_settings(...)", "with_settings()")
+    return re.sub(r"(\w+)=(k|\.\.\.)", lambda m: f"{m[1]}={PLACEHOLDERS[m[1]]}", call)
 
 
 def test_simulate_with_rtol_on_the_wheel_scene_names_no_refused_integrator(tmp_path, capsys):

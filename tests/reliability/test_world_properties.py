@@ -12,7 +12,15 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from rigid_env.core import BodyModel, NumericalInstabilityError, State, Thrusters, World
+from rigid_env.core import (
+    BodyModel,
+    Guard,
+    NumericalInstabilityError,
+    State,
+    Thrusters,
+    Tolerances,
+    World,
+)
 
 BUDGET = settings(
     max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
@@ -38,26 +46,38 @@ def one_line(exc: BaseException) -> None:
     assert text and "\n" not in text, text
 
 
-SETTINGS = "dt substeps max_angular_speed on_error rtol atol max_substeps adaptive integrator n"
-READ_ONLY = "dt substeps h max_angular_speed on_error tolerances effects integrator plan"
+SETTINGS = "dt substeps integrator n guard tolerances"
+GUARD_FIELDS = "max_angular_speed on_error"
+TOLERANCE_FIELDS = "rtol atol max_substeps adaptive"
+READ_ONLY = "dt substeps h guard max_angular_speed on_error tolerances effects integrator plan"
+
+
+def world_with(name: str, value: object) -> World:
+    """A world given ``value`` for ``name``: a constructor keyword, or a field of its
+    :class:`Guard` or of its :class:`Tolerances` (then stepped by dop853)."""
+    if name in GUARD_FIELDS.split():
+        return World(MODEL, [THRUSTERS], guard=Guard(**{name: value}))
+    if name in TOLERANCE_FIELDS.split():
+        return World(MODEL, [THRUSTERS], "dop853", tolerances=Tolerances(**{name: value}))
+    return World(MODEL, [THRUSTERS], **{name: value})
 
 
 @BUDGET
-@given(name=st.sampled_from(SETTINGS.split()), value=anything)
+@given(
+    name=st.sampled_from([*SETTINGS.split(), *GUARD_FIELDS.split(), *TOLERANCE_FIELDS.split()]),
+    value=anything,
+)
 def test_any_setting_gives_a_world_or_one_clear_error(name: str, value: object) -> None:
     """A world is built and steps to a finite state (or says in one line that the step blew up,
-    naming ``dt``, and keeps its finite state), or the constructor refuses in one line naming
-    the setting."""
+    naming ``dt``, and keeps its finite state), or the constructor (or the record that holds
+    the setting) refuses in one line naming the setting."""
     # A valid but large count takes long (and memory) to step: the bounds are tested below.
     large = {"n": 4096, "substeps": 1000, "max_substeps": 10**5}
     assume(not (name in large and isinstance(value, int) and large[name] < value < 2**27))
-    kwargs: dict = {name: value}
-    if name in ("rtol", "atol", "max_substeps"):
-        kwargs["integrator"] = "dop853"
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # a clamped rtol says so
-            world = World(MODEL, [THRUSTERS], **kwargs)
+            world = world_with(name, value)
     except ValueError as exc:
         one_line(exc)
         assert name in str(exc)
@@ -75,7 +95,7 @@ def test_any_setting_gives_a_world_or_one_clear_error(name: str, value: object) 
 @BUDGET
 @given(name=st.sampled_from(READ_ONLY.split()), value=anything)
 def test_settings_cannot_be_assigned(name: str, value: object) -> None:
-    world = World(MODEL, [THRUSTERS], "dop853", max_angular_speed=10.0)
+    world = World(MODEL, [THRUSTERS], "dop853", guard=Guard(max_angular_speed=10.0))
     before = getattr(world, name)
     with pytest.raises(AttributeError, match="with_settings"):
         setattr(world, name, value)
@@ -163,9 +183,8 @@ def test_restart_takes_an_index_or_mask_of_the_bodies(bodies) -> None:
 )
 def test_counts_beyond_their_bound_are_refused(name: str, value: int) -> None:
     """A world step stays bounded in time and a world in memory."""
-    extra = {"integrator": "dop853"} if name == "max_substeps" else {}
     with pytest.raises(ValueError, match=f"{name}: must be an integer from 1 to"):
-        World(MODEL, [THRUSTERS], **extra, **{name: value})
+        world_with(name, value)
 
 
 def test_a_state_already_non_finite_is_named_as_the_cause() -> None:
@@ -176,14 +195,17 @@ def test_a_state_already_non_finite_is_named_as_the_cause() -> None:
 
 
 def test_an_unreachable_rtol_is_clamped_with_a_warning() -> None:
-    with pytest.warns(RuntimeWarning, match="below what float64 can reach"):
-        world = World(MODEL, [THRUSTERS], "dop853", rtol=1e-300)
-    assert world.tolerances[0] == pytest.approx(2.22e-14, rel=1e-2)
+    with pytest.warns(RuntimeWarning, match="below what float64 can reach") as caught:
+        tolerances = Tolerances(rtol=1e-300)
+    assert caught[0].filename == __file__  # the warning points at the call that gave it
+    world = World(MODEL, [THRUSTERS], "dop853", tolerances=tolerances)
+    assert world.tolerances.rtol == pytest.approx(2.22e-14, rel=1e-2)
 
 
 def test_with_settings_is_the_way_to_change_a_setting() -> None:
-    world = World(MODEL, [THRUSTERS], max_angular_speed=10.0, on_error="raise")
-    other = world.with_settings(max_angular_speed=None, on_error="freeze")
+    world = World(MODEL, [THRUSTERS], guard=Guard(max_angular_speed=10.0, on_error="raise"))
+    other = world.with_settings(guard=Guard(on_error="freeze"))
+    assert other.guard == Guard(None, "freeze")
     assert (other.max_angular_speed, other.on_error) == (None, "freeze")
     assert other.parameters.max_speed == 0.0 and world.parameters.max_speed == 1.0
     with pytest.raises(ValueError, match="unknown setting 'speed'"):

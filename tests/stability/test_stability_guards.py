@@ -15,6 +15,7 @@ from rigid_env.core import (
     INTEGRATORS,
     BodyModel,
     Gravity,
+    Guard,
     NumericalInstabilityError,
     State,
     SubstepLimitError,
@@ -29,6 +30,8 @@ FAST_SPIN_INERTIA, FAST_SPIN_W = HARD_BODIES["fast_spin"]
 # forms w x I w overflows at once. splitting never forms it (it turns L by angles h L_k / I_k)
 # and stays finite: there the body is merely wild.
 WILD_W = (1.0e200, -2.0e200, 1.5e200)
+FREEZE = Guard(on_error="freeze")
+"""A failed body frozen and flagged, the others going on."""
 
 
 BATCH_INERTIA = np.array([[1.0, 2.0, 3.0], [0.5, 0.7, 1.1], [2.0, 2.5, 4.0], [1.0, 1.5, 2.4]])
@@ -58,7 +61,7 @@ def _thruster_world(
         integrator=integrator,
         dt=0.01,
         state=state,
-        on_error=on_error,
+        guard=Guard(on_error=on_error),
     )  # type: ignore[arg-type]
 
 
@@ -154,7 +157,7 @@ def test_diverging_body_leaves_the_others_bit_identical(integrator):
 
 def test_step_reports_the_failed_mask_and_reset_clears_it():
     w0 = np.array([[0.1, 0.2, 0.3], WILD_W])
-    world = torque_free_world([FAST_SPIN_INERTIA] * 2, w0, "rk4", 0.01, on_error="freeze")
+    world = torque_free_world([FAST_SPIN_INERTIA] * 2, w0, "rk4", 0.01, FREEZE)
     bad = world.step()
     assert bad.tolist() == [False, True] and world.failed.tolist() == [False, True]
     world.step()
@@ -186,7 +189,7 @@ def test_clamp_scales_w_down_to_the_limit_keeping_its_direction():
     """An isotropic body (w constant): the first step starts from the clamped w, as PhysX
     clamps the velocity that then moves the pose, so the body turns by h * 10 rad/s."""
     w0 = np.array([3.0, -4.0, 120.0])
-    world = torque_free_world((1.0, 1.0, 1.0), w0, "splitting", 0.01, max_angular_speed=10.0)
+    world = torque_free_world((1.0, 1.0, 1.0), w0, "splitting", 0.01, Guard(10.0))
     world.step()
     w = world.state.w[0]
     assert np.linalg.norm(w) == pytest.approx(10.0, rel=CLAMP_RTOL)
@@ -200,9 +203,7 @@ def test_clamp_scales_w_down_to_the_limit_keeping_its_direction():
 def test_clamp_holds_after_every_step_and_tames_the_fast_spin(integrator):
     """Fast spin (200 rad/s, dt 0.01) under a 50 rad/s clamp: |w| <= 50 after every step, and
     even forward Euler stays finite (the clamp bounds the energy it can pump in)."""
-    world = torque_free_world(
-        FAST_SPIN_INERTIA, FAST_SPIN_W, integrator, 0.01, max_angular_speed=50.0
-    )
+    world = torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, integrator, 0.01, Guard(50.0))
     for _ in range(300):
         world.step()
         assert np.linalg.norm(world.state.w[0]) <= 50.0 * (1.0 + CLAMP_RTOL)
@@ -211,8 +212,8 @@ def test_clamp_holds_after_every_step_and_tames_the_fast_spin(integrator):
 
 @pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
 def test_clamp_rejects_bad_limits(bad):
-    with pytest.raises(ValueError, match="max_angular_speed"):
-        torque_free_world(FAST_SPIN_INERTIA, FAST_SPIN_W, "rk4", 0.01, max_angular_speed=bad)
+    with pytest.raises(ValueError, match=r"^Guard\.max_angular_speed: must be a finite number > 0"):
+        Guard(max_angular_speed=bad)
 
 
 def _scene(**top) -> dict:
@@ -410,7 +411,7 @@ def test_thinnest_needle_keeps_its_spin_in_a_world(integrator):
     that cannot follow it, such as rk4 at h|w| = 1e95, fails the body instead: never a wrong
     state handed back)."""
     w0 = np.array([0.3, 2.0, 0.1])
-    world = torque_free_world(NEEDLE, w0, integrator, 0.05, on_error="freeze")
+    world = torque_free_world(NEEDLE, w0, integrator, 0.05, FREEZE)
     world.step()
     assert not world.failed[0]
     w1 = world.state.w[0]
@@ -428,7 +429,7 @@ def test_thinnest_needle_keeps_its_spin_in_a_world(integrator):
     )
     state = State.zeros(1)
     state.w[:] = w0
-    world = World(model, [couple], integrator, 0.05, state=state, on_error="freeze")
+    world = World(model, [couple], integrator, 0.05, state=state, guard=FREEZE)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)  # beyond the stable h|w|
         world.step(np.ones(2))
