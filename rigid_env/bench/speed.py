@@ -128,9 +128,16 @@ def bench_wheels() -> ReactionWheels:
     return ReactionWheels(np.eye(3), inertia=1.0e-5, max_torque=2.0e-3, max_speed=628.0)
 
 
+WHEELS_ON_ORBIT = "RigidEnv/WheelPointing-v1"
+"""Measured beside every task's newest id: the wheel world whose vector env is held to at least
+BdotDetumble-v2's integrator steps per second (issue 42; the same orbit, field, coils and rk4,
+with three wheels and the gravity gradient). Its newer version adds sunlight, air and sensors."""
+
+
 FULL = Config(
     name="full", min_time=0.1, repeats=7, core_sizes=(1, 16, 256, 4096, 65536),
-    core_integrators=tuple(INTEGRATORS), env_ids=tuple(ENV_IDS), vec_sizes=(64, 1024, 4096),
+    core_integrators=tuple(INTEGRATORS), env_ids=(*ENV_IDS, WHEELS_ON_ORBIT),
+    vec_sizes=(64, 1024, 4096),
     sync_sizes=(64, 1024), effect_sizes=(1, 4096), ppo_timesteps=16384, ppo_repeats=3,
 )  # fmt: skip
 QUICK = replace(
