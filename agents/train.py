@@ -77,6 +77,24 @@ def limit_threads(threads: int) -> None:
     numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
 
 
+def training_env_kwargs(cfg: TrainConfig) -> dict[str, Any]:
+    """The env kwargs of the training envs: the config's, with ``train_max_episode_steps``
+    (where given) as their time limit over any ``max_episode_steps`` of ``env_kwargs``, which
+    then limits the evaluation episodes alone."""
+    kwargs = dict(cfg.env_kwargs)
+    if cfg.train_max_episode_steps is not None:
+        kwargs["max_episode_steps"] = cfg.train_max_episode_steps
+    return kwargs
+
+
+def training_episode_steps(cfg: TrainConfig) -> int:
+    """The time limit of a training episode: :func:`training_env_kwargs`' or the id's."""
+    import gymnasium as gym
+
+    limit = training_env_kwargs(cfg).get("max_episode_steps")
+    return int(limit if limit is not None else gym.spec(cfg.env_id).max_episode_steps)
+
+
 def make_vec_env(
     cfg: TrainConfig, n_envs: int, seed: int, training: bool = True, norm_stats: Path | None = None
 ) -> Any:
@@ -87,11 +105,7 @@ def make_vec_env(
 
     # Infos at episode ends only: SB3 reads no other (a third of the adapter's time per step).
     venv = RigidBodySB3VecEnv(
-        cfg.env_id,
-        num_envs=n_envs,
-        max_episode_steps=cfg.train_max_episode_steps,
-        step_infos=False,
-        **cfg.env_kwargs,
+        cfg.env_id, num_envs=n_envs, step_infos=False, **training_env_kwargs(cfg)
     )
     venv.seed(seed)
     venv = VecMonitor(venv)

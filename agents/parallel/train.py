@@ -73,10 +73,9 @@ def train_parallel(
         venv = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True)
         model = _new_model(cfg, venv, run_dir, 0)
         steps = 0
-    import gymnasium as gym
+    from ..train import training_episode_steps
 
-    limit = cfg.train_max_episode_steps or gym.spec(cfg.env_id).max_episode_steps
-    runner = make_runner(cfg, venv, int(limit))
+    runner = make_runner(cfg, venv, training_episode_steps(cfg))
     if start is not None:
         from_sb3(model, runner)
         optim = _optim_path(snap.model)

@@ -24,9 +24,11 @@ from rigid_env import knobs
 from rigid_env.config_files import ConfigFileError, error_line
 from rigid_env.core.actuator import declaration, listed
 from rigid_env.core.effects import (
+    AerodynamicDrag,
     Gravity,
     GravityGradient,
     MagneticDipole,
+    SolarRadiationPressure,
 )
 from rigid_env.envs.hardware import ThrusterFaults
 from rigid_env.envs.kernels import COMMON_NUMBERS
@@ -153,10 +155,11 @@ class Randomization(BaseModel):
         return self.mass > 0.0 or self.inertia > 0.0
 
 
-MASS_BLIND = (Gravity, GravityGradient, MagneticDipole)
+MASS_BLIND = (Gravity, GravityGradient, MagneticDipole, SolarRadiationPressure, AerodynamicDrag)
 """Force effects through which a body's mass acts on nothing: gravity's acceleration is ``g``
-whatever the mass, and the others make torques alone; so does an actuator whose force map is
-zero (coils, wheels, couples: :func:`_torque_alone`)."""
+whatever the mass, and the others make torques alone (sunlight and air on the facets too: the
+centre of mass follows its orbit); so does an actuator whose force map is zero (coils, wheels,
+couples: :func:`_torque_alone`)."""
 
 
 def _torque_alone(effect: object) -> bool:
