@@ -245,8 +245,12 @@ class _FacetEffect(ForceEffect):
 
     plates: Facets
     slots: ClassVar[tuple[str, str, str]]  # the names of its rows' offset, count and arm
-    rows_name: ClassVar[str]
-    """The parameter naming where :meth:`parameter_rows` start (:func:`pack`)."""
+
+    @property
+    def rows_name(self) -> str:
+        """The parameter naming where :meth:`parameter_rows` start (:func:`pack`): the first
+        of its :attr:`slots`."""
+        return self.slots[0]
 
     def __post_init__(self) -> None:
         if not isinstance(self.plates, Facets):
@@ -277,7 +281,6 @@ class SolarRadiationPressure(_FacetEffect):
 
     name: ClassVar[str] = "solar_radiation_pressure"
     slots: ClassVar[tuple[str, str, str]] = ("srp_rows", "srp_plates", "srp_arm")
-    rows_name: ClassVar[str] = "srp_rows"
 
     def arm(self) -> float:
         return srp_torque_arm(self.plates)
@@ -291,7 +294,6 @@ class AerodynamicDrag(_FacetEffect):
 
     name: ClassVar[str] = "aerodynamic_drag"
     slots: ClassVar[tuple[str, str, str]] = ("aero_rows", "aero_plates", "aero_arm")
-    rows_name: ClassVar[str] = "aero_rows"
 
     def arm(self) -> float:
         return drag_torque_arm(self.plates)

@@ -112,6 +112,16 @@ Sensors: type[BaseModel] = create_model(
 """The ``sensors`` env keyword: one optional field per sensor by its key, then ``delay``."""
 
 
+def given_sensors(kwargs: dict[str, Any]) -> dict[str, Any]:
+    """The ``sensors`` keyword of an env's ``kwargs`` as a plain mapping of the sensors given
+    (empty where it is left out or None; a :class:`Sensors` model without its unset ones), for
+    a task that adds sensors of its own where the keyword leaves them out."""
+    sensors = kwargs.get("sensors")
+    if isinstance(sensors, BaseModel):
+        sensors = sensors.model_dump(exclude_none=True)
+    return dict(sensors or {})
+
+
 def sensors_on(settings: BaseModel) -> bool:
     """Whether any sensor of ``settings`` (a :data:`Sensors`), or its delay, changes the
     observation."""

@@ -10,7 +10,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 from numpy.typing import NDArray
-from pydantic import BaseModel
 
 from rigid_env.core.actuator import where
 from rigid_env.core.maths import rotate_inv
@@ -23,6 +22,7 @@ from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.orbit_draws import draw_orbit_start
 from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, Seconds, TaskParams, Weight
 from rigid_env.envs.sampling import random_tumble
+from rigid_env.envs.sensing import given_sensors
 from rigid_env.envs.sun_sensor import FACES, _sky
 from rigid_env.render import TaskView
 
@@ -141,10 +141,7 @@ def with_sun_sensors(kwargs: dict[str, Any]) -> dict[str, Any]:
 
     Raises:
         ValueError: ``sensors.sun_sensor`` given as None (one line)."""
-    sensors = kwargs.get("sensors")
-    if isinstance(sensors, BaseModel):
-        sensors = sensors.model_dump(exclude_none=True)
-    sensors = dict(sensors or {})
+    sensors = given_sensors(kwargs)
     if "sun_sensor" in sensors and sensors["sun_sensor"] is None:
         raise ValueError(
             "sensors.sun_sensor: SunAcquisition observes the Sun through its coarse sun sensors "

@@ -22,6 +22,7 @@ from rigid_env.envs.maths import canonical, safe_norm
 from rigid_env.envs.orbit_draws import draw_orbit_start
 from rigid_env.envs.params import Angle, Bonus, Fraction, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.sampling import random_quaternion, random_tumble
+from rigid_env.envs.sensing import given_sensors
 from rigid_env.render import TaskView
 
 FIELD_SCALE = 5.0e-5
@@ -106,10 +107,7 @@ def with_flight_sensors(kwargs: dict[str, Any]) -> dict[str, Any]:
     """
     if _version(kwargs) < 2 or ("sensors" in kwargs and kwargs["sensors"] is None):
         return kwargs
-    sensors = kwargs.get("sensors")
-    if isinstance(sensors, BaseModel):
-        sensors = sensors.model_dump(exclude_none=True)
-    sensors = dict(sensors or {})
+    sensors = given_sensors(kwargs)
     randomization = kwargs.get("randomization")
     if isinstance(randomization, BaseModel):
         randomization = randomization.model_dump()
