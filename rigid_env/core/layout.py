@@ -28,6 +28,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numba import types
 from numba.cpython.unsafe.tuple import tuple_setitem
 from numba.extending import overload, register_jitable
 from numpy.typing import NDArray
@@ -421,6 +422,21 @@ class Surroundings(NamedTuple):
     light: float
     air_velocity: tuple
     air_density: float
+
+
+def no_wheel_rows() -> tuple[NDArray[np.float32]]:
+    """The wheels' rows a world without wheels hands its compiled step: one empty float32 row,
+    never read. Its type (float32 where the wheels' rows are float64 views of the state) tells
+    the compiler that no body carries wheels (:func:`carries_wheels`), so the step's passes are
+    compiled without the wheels' variants (about three quarters of an integrator's compile
+    time); a K-tuple of rows keeps the step's types free of an empty tuple."""
+    return (np.zeros(0, np.float32),)
+
+
+def carries_wheels(momenta) -> bool:
+    """Whether the compiled type ``momenta`` (the world's wheels' rows, a tuple of arrays) is
+    that of a world whose bodies carry wheels: float64 rows, not :func:`no_wheel_rows`'s."""
+    return momenta.dtype.dtype == types.float64
 
 
 NO_PARAMS = np.zeros(0)

@@ -46,6 +46,7 @@ from rigid_env.core.layout import (
     Surroundings,
     beyond_of,
     body_model,
+    carries_wheels,
     failures_of,
     load,
     load_wrench,
@@ -481,7 +482,9 @@ def vector_passes(step, p, model, world, command, bodies, counts):
     """:func:`passes` with the wheels' flag of ``p`` as a constant: 1 where the bodies carry
     wheels and ``step`` is a flow that steps them (:func:`integrate`), else 0. Compiled, the
     choice is made by the type of ``step`` (the overload below): a method that steps no wheels
-    compiles its passes once, without them (a world refuses wheels for it)."""
+    compiles its passes once, without them (a world refuses wheels for it), and so does a
+    world without wheels, by the type of its wheels' rows
+    (:func:`rigid_env.core.layout.no_wheel_rows`)."""
     c = unpack(p)
     if c.wheels != 0.0 and is_flow(step):
         wrenched = c.actions != c.wheel_count
@@ -492,7 +495,7 @@ def vector_passes(step, p, model, world, command, bodies, counts):
 
 @overload(vector_passes, inline="always")
 def _vector_passes(step, p, model, world, command, bodies, counts):
-    if is_flow(step.dispatcher):
+    if is_flow(step.dispatcher) and carries_wheels(world.types[3]):
 
         def both(step, p, model, world, command, bodies, counts):
             c = unpack(p)

@@ -36,6 +36,7 @@ from rigid_env.core.layout import (
     WRENCH_WIDTH,
     Params,
     decode,
+    no_wheel_rows,
     unpack,
 )
 from rigid_env.core.orbit_state import ORBIT_WIDTH, OrbitMotion
@@ -357,9 +358,10 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         and the compiler vectorises the wheels' passes only where it need not check that the
         wheels' rows and the state's overlap). K is a constant of the tuple's type, so that the
         step is compiled for the K in use (:func:`rigid_env.core.layout.wheel_shape`). Without
-        wheels one empty row, never read (the step's types then need no empty tuple)."""
+        wheels :func:`rigid_env.core.layout.no_wheel_rows`, whose type leaves the wheels'
+        passes out of the compiled step."""
         if self._wheels is None:
-            return (np.zeros(0),)
+            return no_wheel_rows()
         return tuple(cols[THRUST + k] for k in range(self._wheels.axes.shape[0]))
 
     def _set_arrays(self) -> None:

@@ -29,7 +29,7 @@ from rigid_env.core.effects import (
     SolarRadiationPressure,
 )
 from rigid_env.core.facets import facets
-from rigid_env.core.layout import EFFECTS
+from rigid_env.core.layout import EFFECTS, no_wheel_rows
 from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, kepler_orbit
 from rigid_env.core.orbit_state import OrbitMotion
 from rigid_env.core.stepping import advance, body_advance
@@ -263,7 +263,7 @@ def test_the_vectorised_pass_equals_the_body_by_body_step(method: str) -> None:
     step = INTEGRATORS[method].body
     a, b = world.columns.copy(), world.columns.copy()
     status_a, status_b = np.zeros(n, np.uint8), np.zeros(n, np.uint8)
-    wrenches, momenta = np.zeros((7, n)), (np.zeros(0),)  # (no wheels: one row, never read)
+    wrenches, momenta = np.zeros((7, n)), no_wheel_rows()  # no wheels (as a world hands them)
     vectorised, by_body = _vectorised(step), _by_body(step)
     for _ in range(20):
         vectorised(world.params, world.model_columns, a, status_a, wrenches, momenta, command)

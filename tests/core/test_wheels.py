@@ -349,3 +349,22 @@ def test_restart_and_reset_give_the_scenes_wheel_speeds_again():
     assert np.allclose(world.wheel_speed, start, rtol=0, atol=1e-12)
     fresh = scene.build_world(3)
     assert np.allclose(world.wheel_momentum, fresh.wheel_momentum, rtol=1e-15, atol=0)
+
+
+def test_the_type_of_the_wheels_rows_tells_the_compiler_whether_bodies_carry_wheels():
+    """A world hands its compiled step the wheels' rows; their type alone decides whether the
+    step's passes are compiled with the wheels' variants (``layout.carries_wheels``, read by
+    ``stepping.vector_passes`` at compile time). A world with one wheel and one without have
+    1-tuples alike: only the rows' dtype tells them apart, and the wheel world's rows are the
+    state's own (written by the step), the other's one empty row."""
+    from numba import typeof
+
+    from rigid_env.core.layout import carries_wheels
+
+    with_wheel, without = spin_axis_world(), World(model(), [], "rk4")
+    assert carries_wheels(typeof(with_wheel._momenta))
+    assert not carries_wheels(typeof(without._momenta))
+    assert without._momenta[0].size == 0
+    with_wheel.step(np.array([[0.5]]))
+    assert np.shares_memory(with_wheel._momenta[0], with_wheel._cols)
+    assert with_wheel._momenta[0][0] != 0.0  # the motor spun the wheel: the step wrote its row

@@ -24,7 +24,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core.layout import WRENCH_WIDTH
+from rigid_env.core.layout import WRENCH_WIDTH, no_wheel_rows
 
 from roundoff import U
 
@@ -503,7 +503,7 @@ def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
             cols,
             np.zeros(n, np.uint8),
             np.zeros((WRENCH_WIDTH, n)),
-            (np.zeros(0),),  # the wheels' momenta: none (one row, never read)
+            no_wheel_rows(),  # the wheels' momenta: none (as a world without wheels hands them)
         )
         return (*out, carried[id(cols)]) if info.error_control else out
 
