@@ -7,7 +7,8 @@ Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.lay
 columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
 ``wrenches`` (WRENCH_WIDTH, N), the reaction wheels' ``momenta``, a K-tuple of (N,) rows (their
 rows of the state, handed over as their own arrays: :meth:`rigid_env.core.world.World._wheel_rows`;
-one row never read without wheels) and the ``command`` (N | 1, A).
+without wheels :func:`rigid_env.core.layout.no_wheel_rows`, one empty float32 row never read) and
+the ``command`` (N | 1, A).
 """
 
 from __future__ import annotations

@@ -206,7 +206,8 @@ def _rates(x, v, q, w, hw, act, m, c, drive):
 # The world step's passes read a world's K wheels' momenta as their own K rows ``momenta`` (a
 # K-tuple of (N,) arrays, row k wheel k's: :meth:`rigid_env.core.world.World._wheel_rows`,
 # views of the state columns after ``x, v, q, w``), which the compiler knows the state's other
-# rows do not overlap; a world without wheels hands one row that is never read.
+# rows do not overlap; a world without wheels hands one empty float32 row, never read, whose
+# type leaves the wheels' passes out of its step (:func:`rigid_env.core.layout.no_wheel_rows`).
 @kernel
 def load_wheels(momenta, i, c):
     """Body ``i``'s wheel momenta from the wheels' rows ``momenta`` as a K-tuple (the
