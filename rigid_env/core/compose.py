@@ -111,18 +111,14 @@ def _effect_bound_link(attribute: str) -> Callable:
     return step
 
 
-def _links(attribute: str) -> list[tuple[int, Callable]]:
-    """``(flag index, kernel)`` of the effects that declare ``attribute``."""
-    return [
-        (Params._fields.index(e.name), getattr(e, attribute))
-        for e in EFFECTS
-        if getattr(e, attribute) is not None
-    ]
-
-
 def _declaring(attribute: str) -> list[tuple[int, Effect]]:
     """``(flag index, declaration)`` of the effects that declare ``attribute``."""
     return [(Params._fields.index(e.name), e) for e in EFFECTS if getattr(e, attribute) is not None]
+
+
+def _links(attribute: str) -> list[tuple[int, Callable]]:
+    """``(flag index, kernel)`` of the effects that declare ``attribute``."""
+    return [(k, getattr(e, attribute)) for k, e in _declaring(attribute)]
 
 
 _terms = _chain(_declaring("apply"), _terms_link)

@@ -244,7 +244,12 @@ class _FacetEffect(ForceEffect):
     """
 
     plates: Facets
-    slots: ClassVar[tuple[str, str, str]]  # the names of its rows' offset, count and arm
+
+    @property
+    def slots(self) -> tuple[str, ...]:
+        """The names of its rows' offset, count and arm among the world's parameters: its
+        registered effect's fields (:data:`rigid_env.core.forces.BUILT_IN`)."""
+        return next(effect.fields for effect in EFFECTS if effect.name == self.name)
 
     @property
     def rows_name(self) -> str:
@@ -280,7 +285,6 @@ class SolarRadiationPressure(_FacetEffect):
     Torque only."""
 
     name: ClassVar[str] = "solar_radiation_pressure"
-    slots: ClassVar[tuple[str, str, str]] = ("srp_rows", "srp_plates", "srp_arm")
 
     def arm(self) -> float:
         return srp_torque_arm(self.plates)
@@ -293,7 +297,6 @@ class AerodynamicDrag(_FacetEffect):
     on its orbit (:func:`rigid_env.core.forces.aerodynamic_drag`). Torque only."""
 
     name: ClassVar[str] = "aerodynamic_drag"
-    slots: ClassVar[tuple[str, str, str]] = ("aero_rows", "aero_plates", "aero_arm")
 
     def arm(self) -> float:
         return drag_torque_arm(self.plates)
