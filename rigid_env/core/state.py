@@ -83,11 +83,13 @@ class BodyModel:
         return np.stack([np.broadcast_to(named[name], (n,)) for name in Body._fields], axis=1)
 
     def columns(self, n: int) -> FloatArray:
-        """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated),
-        C-contiguous whether the bodies share a row or each has its own (the compiled step is
-        specialised by layout: a per-body model laid out by body ran the step at half speed)."""
+        """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated): an
+        array of its own, C-contiguous and writable for every ``n``. The compiled step is
+        specialised by layout (a per-body model laid out by body ran the step at half speed)
+        and by whether an array is writable: one body's columns left as a read-only view of
+        the shared row compiled every kernel a second time, for worlds of one body."""
         rows = self.rows()
-        return np.ascontiguousarray(np.broadcast_to(rows, (n, rows.shape[1])).T)
+        return np.array(np.broadcast_to(rows, (n, rows.shape[1])).T, order="C")
 
     @classmethod
     def single(cls, mass: float, inertia: ArrayLike) -> BodyModel:

@@ -334,9 +334,6 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
             )
         rows = np.arange(self._n)[chosen_bodies(self._n, bodies)]
         drawn = BodyModel(self.model.mass[rows], self.model.inertia[rows])  # checks them
-        if not self._model_cols.flags.writeable:  # one body's: a view of its model's row
-            self._model_cols = self._model_cols.copy()
-            self._set_arrays()
         self._model_cols[:MODEL_WIDTH, rows] = drawn.rows().T
         self._check_asymmetry(drawn.inertia, rows)
 

@@ -541,3 +541,23 @@ def test_settings_are_read_only_and_with_settings_makes_a_new_world() -> None:
         other.step(u)
         fresh.step(u)
     assert np.array_equal(other.rows, fresh.rows)
+
+
+@pytest.mark.parametrize("shared", [True, False], ids=["shared model", "a model per body"])
+def test_worlds_of_one_body_and_of_many_hand_their_step_arrays_of_the_same_types(shared):
+    # Numba compiles a world step once per tuple of argument types, and an array's type says
+    # whether it is writable: a world of one body whose model columns were a read-only view
+    # of the shared row compiled every integrator again beside the worlds of many.
+    from numba import typeof
+
+    def step_types(n):
+        model = (
+            BodyModel.single(2.0, [0.3, 0.4, 0.5])
+            if shared
+            else BodyModel(np.full(n, 2.0), np.tile([0.3, 0.4, 0.5], (n, 1)))
+        )
+        world = World(model, (Gravity(),), "rk4", 0.01, n=n)
+        world.step()
+        return [typeof(a) for a in world._arrays]
+
+    assert step_types(1) == step_types(5)
