@@ -9,6 +9,7 @@ import sys
 
 import numpy as np
 import pytest
+from numba import typeof
 from numpy.typing import NDArray
 
 from rigid_env.core import (
@@ -548,7 +549,6 @@ def test_worlds_of_one_body_and_of_many_hand_their_step_arrays_of_the_same_types
     # Numba compiles a world step once per tuple of argument types, and an array's type says
     # whether it is writable: a world of one body whose model columns were a read-only view
     # of the shared row compiled every integrator again beside the worlds of many.
-    from numba import typeof
 
     def step_types(n):
         model = (
