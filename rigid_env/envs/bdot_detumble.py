@@ -67,7 +67,11 @@ class BdotDetumbleParams(TaskParams):
 
 
 def torque_dipoles(
-    action: np.ndarray, field: np.ndarray, to_commands: np.ndarray, unit: float
+    action: np.ndarray,
+    field: np.ndarray,
+    to_commands: np.ndarray,
+    unit: float,
+    out: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The coils' commands (N, K) in [-1, 1] that make the torque ``action * unit * |B|``
     (N, 3; body frame) as nearly as a dipole can: the cross-product law ``m = B x tau /
@@ -81,11 +85,15 @@ def torque_dipoles(
         field: (N, 3) the field measured in the body frame (any scale: its direction counts).
         to_commands: (3, K) the coils' commands per body-frame dipole [1 / (A m^2)].
         unit: the dipole [A m^2] of a wanted torque of ``|B|`` (one coil's limit).
+        out: ``(wanted, commands)``, float64 (N, 3) and (N, K) arrays to write into (a task's
+            own, so that its step allocates nothing); new ones where None.
     """
-    wanted = np.empty((field.shape[0], 3))
-    _across_torque(np.ascontiguousarray(action, dtype=np.float64),
-                   np.ascontiguousarray(field, dtype=np.float64), float(unit), wanted)  # fmt: skip
-    commands = wanted @ to_commands  # NumPy's (BLAS's) products, as published: not a loop's
+    n = field.shape[0]
+    wanted, commands = (
+        (np.empty((n, 3)), np.empty((n, to_commands.shape[1]))) if out is None else out
+    )
+    _across_torque(action, field, float(unit), wanted)  # any real dtype, read as float64
+    np.matmul(wanted, to_commands, out=commands)  # NumPy's (BLAS's) products, as published
     _within_limits(commands)
     return commands
 
@@ -94,12 +102,14 @@ def torque_dipoles(
 def _across_torque(action, field, unit, out):
     """Rows of ``out`` (N, 3): ``unit (B / |B|) x action`` (zero for a zero field), in the
     operations and order of NumPy's ``norm``, ``divide`` and ``cross`` (the same numbers, one
-    compiled call in place of a dozen: most of a single env's step)."""
+    compiled call in place of a dozen: most of a single env's step). ``action`` and ``field``
+    of any real dtype and layout (the observation's float32 columns as they lie), each number
+    read as float64, exactly as NumPy's conversion reads it."""
     for r in range(field.shape[0]):
-        b0, b1, b2 = field[r, 0], field[r, 1], field[r, 2]
+        b0, b1, b2 = np.float64(field[r, 0]), np.float64(field[r, 1]), np.float64(field[r, 2])
         size = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
         a0, a1, a2 = (b0 / size, b1 / size, b2 / size) if size > 0.0 else (0.0, 0.0, 0.0)
-        t0, t1, t2 = action[r, 0], action[r, 1], action[r, 2]
+        t0, t1, t2 = np.float64(action[r, 0]), np.float64(action[r, 1]), np.float64(action[r, 2])
         out[r, 0] = (a1 * t2 - a2 * t1) * unit
         out[r, 1] = (a2 * t0 - a0 * t2) * unit
         out[r, 2] = (a0 * t1 - a1 * t0) * unit
@@ -191,7 +201,9 @@ class BdotDetumbleTask(TaskBatch):
             return action
         start = self.obs_slices["field_x"].start
         field = self.obs[:, start : start + 3]  # float32, read as float64 (exactly) there
-        return torque_dipoles(action, field, self._to_commands, self._unit_dipole)
+        return torque_dipoles(
+            action, field, self._to_commands, self._unit_dipole, self._dipole_buffers
+        )
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
@@ -210,6 +222,7 @@ class BdotDetumbleTask(TaskBatch):
         orbit is world state (the scene's ``orbit:`` and ``field:``: v2)."""
         if self.params.command == "torque":
             self._to_commands, self._unit_dipole = torque_command_map(coils, self.action_dim)
+            self._dipole_buffers = (np.empty((num_envs, 3)), np.empty((num_envs, 3)))
 
 
 def torque_command_map(
