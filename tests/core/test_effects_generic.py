@@ -9,6 +9,7 @@ A new effect adds its example to :data:`EXAMPLES` (the first test says so)."""
 from __future__ import annotations
 
 import datetime
+import functools
 
 import numpy as np
 import pytest
@@ -134,8 +135,11 @@ def test_a_body_at_rest_in_a_neutral_configuration_stays_healthy(name: str, meth
     np.testing.assert_allclose(s.v[0], expected, rtol=0, atol=100 * U * 9.81)
 
 
-def pure_torques() -> list[str]:
-    """The effects that push no centre of mass: zero linear acceleration at random states."""
+@functools.cache
+def pure_torques() -> tuple[str, ...]:
+    """The effects that push no centre of mass: zero linear acceleration at random states.
+    Found when a test first asks, not at collection (each worker collects every file: each
+    would compile the accelerations before its first test)."""
     gen = np.random.default_rng(0)
     out = []
     for name in NAMES:
@@ -147,24 +151,30 @@ def pure_torques() -> list[str]:
         a, _ = world.accelerations(x, gen.standard_normal((8, 3)), q, gen.standard_normal((8, 3)))
         if np.all(a == 0.0):
             out.append(name)
-    return out
+    return tuple(out)
 
 
 @pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("name", pure_torques())
-def test_a_pure_torque_conserves_linear_momentum(name: str, method: str) -> None:
-    """A tumbling body that drifts: with no force ``v`` is unchanged to the bit (every method
-    adds ``h * 0``), and ``x = x0 + t v`` to rounding (200 additions: 200 ulps of ``|x|``)."""
-    _, position = EXAMPLES[name]
-    s0 = at_rest(position, v=3.0, w=1.0)
-    world = world_of(name, method, state=s0.copy())
-    for _ in range(200):
-        world.step()
-    assert np.array_equal(world.state.v, s0.v)
-    if name in ALONGSIDE:  # the centre of mass follows the orbit, not v
-        return
-    scale = np.abs(s0.x).max() + 2.0 * np.abs(s0.v).max()
-    np.testing.assert_allclose(world.state.x, s0.x + 2.0 * s0.v, rtol=0, atol=200 * U * scale)
+def test_a_pure_torque_conserves_linear_momentum(method: str) -> None:
+    """Under each effect that pushes no centre of mass, a tumbling body that drifts: with no
+    force ``v`` is unchanged to the bit (every method adds ``h * 0``), and ``x = x0 + t v`` to
+    rounding (200 additions: 200 ulps of ``|x|``)."""
+    assert pure_torques(), "no effect is a pure torque: the examples lost the torque-only ones"
+    for name in pure_torques():
+        if name in ALONGSIDE and method == "exact_free":
+            continue  # exact_free does not read the orbit state (world_of's skip)
+        _, position = EXAMPLES[name]
+        s0 = at_rest(position, v=3.0, w=1.0)
+        world = world_of(name, method, state=s0.copy())
+        for _ in range(200):
+            world.step()
+        assert np.array_equal(world.state.v, s0.v), name
+        if name in ALONGSIDE:  # the centre of mass follows the orbit, not v
+            continue
+        scale = np.abs(s0.x).max() + 2.0 * np.abs(s0.v).max()
+        np.testing.assert_allclose(
+            world.state.x, s0.x + 2.0 * s0.v, rtol=0, atol=200 * U * scale, err_msg=name
+        )
 
 
 ORDER_H = {"dop853": 0.2}
