@@ -19,6 +19,8 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
+_EVERY_BODY = slice(None)
+
 
 class OrbitViews:
     """The orbit's part of a :class:`~rigid_env.core.world.World` (its ``_orbit``,
@@ -59,16 +61,26 @@ class OrbitViews:
             out[i] = kepler_states(orbit, row[0])[0]
         return out
 
-    def orbit_field(self, bodies: Any = slice(None)) -> FloatArray | None:
+    def orbit_field(
+        self, bodies: Any = slice(None), out: FloatArray | None = None
+    ) -> FloatArray | None:
         """(n, 3) the field at the ``bodies``' (default all) position at their clock, ECI [T],
         evaluated by the compiled step's own function (:func:`rigid_env.core.orbit_state.
-        where`); None without a field from the orbit."""
+        where`), written into ``out`` where given (a float64 (n, 3) array of any strides: a
+        task's world data, so that its step allocates nothing); None without a field from the
+        orbit."""
         if self._motion is None or not self._motion.field_degree:
             return None
-        if isinstance(bodies, slice) and bodies == slice(None):
+        if type(bodies) is slice and bodies == _EVERY_BODY:
             index = self._every_body  # (the common case, per step: no index to build)
         else:
             index = np.ascontiguousarray(chosen_bodies(self._n, bodies), dtype=np.int64).reshape(-1)
-        out = np.empty((index.size, 3))
+        if out is None:
+            out = np.empty((index.size, 3))
+        elif out.shape != (index.size, 3) or out.dtype.char != "d":
+            raise ValueError(
+                f"out: expected a float64 array of shape ({index.size}, 3), got {out.dtype} "
+                f"{out.shape}"
+            )
         fields_at_clocks(self.params, self._cols, index, out)
         return out

@@ -221,6 +221,8 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
         )
         """Whether :meth:`check_action` makes :attr:`command` apart from :attr:`last_action`
         (the task's :meth:`demand`, thrust randomisation or faults); else they are one array."""
+        if self._commands_apart and self.command is self.last_action:
+            self.command = np.zeros_like(self.last_action)  # a demand may write into it
         self._threaded = threads.threaded(n)
         """Whether a pass over all the envs is split over the cores."""
         self._reads_world = self.world.wheels is not None or (
@@ -281,7 +283,9 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
     def demand(self, action: FloatArray) -> FloatArray:
         """The actuators' commands (N, A) in [-1, 1] for the clipped actions (N, A) (what the
         flight software makes of a command before thrust randomisation and faults act on it):
-        the actions themselves by default, the same array."""
+        the actions themselves by default, the same array. A task's own may write them into
+        :attr:`command` (an array apart from the actions where a task has a demand) and return
+        it, so that its step allocates and copies nothing."""
         return action
 
     def derived_numbers(self) -> dict[str, float]:

@@ -95,17 +95,15 @@ class Actions:
         return self.last_action
 
     def _make_command(self) -> None:
-        """The bodies' :attr:`command` from the clipped :attr:`last_action`: the task's
-        :meth:`demand`, times the thrust scales once thrust is randomised, then the faults."""
-        demand = self.demand(self.last_action)
+        """The bodies' :attr:`command` (an array apart from :attr:`last_action`) from the
+        clipped :attr:`last_action`: the task's :meth:`demand`, times the thrust scales once
+        thrust is randomised, then the faults."""
+        demand = self.demand(self.last_action)  # may be :attr:`command` itself, written
         if self.thrust_scale is not None:
             np.multiply(demand, self.thrust_scale, out=self.command)
-        elif self.randomization.thruster_faults is not None or demand is not self.last_action:
-            if self.command is self.last_action:  # a command apart from the action from now on
-                self.command = demand.copy()
-            else:
-                self.command[:] = demand
-        if self.randomization.thruster_faults is not None:
+        elif demand is not self.command:
+            self.command[:] = demand
+        if self._faulty:
             apply_faults(self.command, self.steps, self.fault_rows)
 
     def _draw_thrust_factors(self, skip: NDArray[np.bool_] | None = None) -> None:

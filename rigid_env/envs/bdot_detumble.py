@@ -71,7 +71,7 @@ def torque_dipoles(
     field: np.ndarray,
     to_commands: np.ndarray,
     unit: float,
-    out: tuple[np.ndarray, np.ndarray] | None = None,
+    out: np.ndarray | None = None,
 ) -> np.ndarray:
     """The coils' commands (N, K) in [-1, 1] that make the torque ``action * unit * |B|``
     (N, 3; body frame) as nearly as a dipole can: the cross-product law ``m = B x tau /
@@ -81,49 +81,46 @@ def torque_dipoles(
     keeping its direction; a zero field asks for no dipole.
 
     Args:
-        action: (N, 3) wanted torques over ``unit |B|``.
-        field: (N, 3) the field measured in the body frame (any scale: its direction counts).
+        action: (N, 3) wanted torques over ``unit |B|``, any real dtype and strides.
+        field: (N, 3) the field measured in the body frame (any scale: its direction counts),
+            any real dtype and strides (the observation's float32 columns as they lie).
         to_commands: (3, K) the coils' commands per body-frame dipole [1 / (A m^2)].
         unit: the dipole [A m^2] of a wanted torque of ``|B|`` (one coil's limit).
-        out: ``(wanted, commands)``, float64 (N, 3) and (N, K) arrays to write into (a task's
-            own, so that its step allocates nothing); new ones where None.
+        out: a float64 (N, K) array to write the commands into (a task's own, so that its
+            step allocates nothing); a new one where None.
     """
-    n = field.shape[0]
-    wanted, commands = (
-        (np.empty((n, 3)), np.empty((n, to_commands.shape[1]))) if out is None else out
-    )
-    _across_torque(action, field, float(unit), wanted)  # any real dtype, read as float64
-    np.matmul(wanted, to_commands, out=commands)  # NumPy's (BLAS's) products, as published
-    _within_limits(commands)
-    return commands
+    if out is None:
+        out = np.empty((field.shape[0], to_commands.shape[1]))
+    _torque_commands(action, field, np.ascontiguousarray(to_commands, np.float64),
+                     float(unit), out)  # fmt: skip
+    return out
 
 
 @kernel
-def _across_torque(action, field, unit, out):
-    """Rows of ``out`` (N, 3): ``unit (B / |B|) x action`` (zero for a zero field), in the
-    operations and order of NumPy's ``norm``, ``divide`` and ``cross`` (the same numbers, one
-    compiled call in place of a dozen: most of a single env's step). ``action`` and ``field``
-    of any real dtype and layout (the observation's float32 columns as they lie), each number
-    read as float64, exactly as NumPy's conversion reads it."""
+def _torque_commands(action, field, to_commands, unit, out):
+    """Rows of ``out`` (N, K): the dipole ``unit (B / |B|) x action`` (zero for a zero field),
+    in the operations and order of NumPy's ``norm``, ``divide`` and ``cross``, times the coils'
+    map row by row, each command ``(m_x M[0, k] + m_y M[1, k]) + m_z M[2, k]`` (the order and
+    the rounding of NumPy's ``matmul`` of one row; no fused multiply-add), then scaled down as
+    a whole where a coil passes its limit (1). One order for every N: env ``i`` of many gets
+    the numbers it gets alone (NumPy's matmul of many rows runs BLAS, whose fused
+    multiply-adds round otherwise). Each number of ``action`` and ``field`` read as float64,
+    exactly as NumPy's conversion reads it."""
     for r in range(field.shape[0]):
         b0, b1, b2 = np.float64(field[r, 0]), np.float64(field[r, 1]), np.float64(field[r, 2])
         size = math.sqrt((b0 * b0 + b1 * b1) + b2 * b2)
         a0, a1, a2 = (b0 / size, b1 / size, b2 / size) if size > 0.0 else (0.0, 0.0, 0.0)
         t0, t1, t2 = np.float64(action[r, 0]), np.float64(action[r, 1]), np.float64(action[r, 2])
-        out[r, 0] = (a1 * t2 - a2 * t1) * unit
-        out[r, 1] = (a2 * t0 - a0 * t2) * unit
-        out[r, 2] = (a0 * t1 - a1 * t0) * unit
-
-
-@kernel
-def _within_limits(commands):
-    """Each row of ``commands`` scaled down as a whole where a coil passes its limit (1)."""
-    for r in range(commands.shape[0]):
+        m0 = (a1 * t2 - a2 * t1) * unit
+        m1 = (a2 * t0 - a0 * t2) * unit
+        m2 = (a0 * t1 - a1 * t0) * unit
         most = 1.0
-        for k in range(commands.shape[1]):
-            most = max(most, abs(commands[r, k]))
-        for k in range(commands.shape[1]):
-            commands[r, k] = commands[r, k] / most
+        for k in range(to_commands.shape[1]):
+            command = (m0 * to_commands[0, k] + m1 * to_commands[1, k]) + m2 * to_commands[2, k]
+            out[r, k] = command
+            most = max(most, abs(command))
+        for k in range(to_commands.shape[1]):
+            out[r, k] = out[r, k] / most
 
 
 @kernel
@@ -175,7 +172,9 @@ class BdotDetumbleTask(TaskBatch):
         compiled step evaluates where the body is on its orbit (:meth:`rigid_env.core.world.
         World.orbit_field`)."""
         field = self.world_data.field
-        if self.orbit is None:
+        if self.orbit is None and isinstance(rows, slice):  # written in place (a view)
+            self.world.orbit_field(rows, out=field[rows])
+        elif self.orbit is None:
             field[rows] = self.world.orbit_field(rows)
         elif isinstance(rows, slice):  # written in place (a view)
             self.orbit.at(self.world.orbit_time[rows], out=field[rows])
@@ -201,9 +200,7 @@ class BdotDetumbleTask(TaskBatch):
             return action
         start = self.obs_slices["field_x"].start
         field = self.obs[:, start : start + 3]  # float32, read as float64 (exactly) there
-        return torque_dipoles(
-            action, field, self._to_commands, self._unit_dipole, self._dipole_buffers
-        )
+        return torque_dipoles(action, field, self._to_commands, self._unit_dipole, self.command)
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, **kwargs)
@@ -222,7 +219,6 @@ class BdotDetumbleTask(TaskBatch):
         orbit is world state (the scene's ``orbit:`` and ``field:``: v2)."""
         if self.params.command == "torque":
             self._to_commands, self._unit_dipole = torque_command_map(coils, self.action_dim)
-            self._dipole_buffers = (np.empty((num_envs, 3)), np.empty((num_envs, 3)))
 
 
 def torque_command_map(

@@ -94,6 +94,25 @@ def test_field_in_the_step_equals_igrf_at_the_orbit_position(degree):
     )  # fmt: skip
 
 
+def test_the_field_written_into_a_given_array_is_the_field_returned():
+    """``orbit_field(bodies, out=...)``: the same numbers into a strided view of a caller's
+    array (as a task's world data lies), that array returned; a wrong shape or dtype is one
+    line that names ``out``."""
+    orbit = kepler_orbit(A, 0.001, INCLINATION, 0.3, 0.2, 0.1, j2=True)
+    motion = OrbitMotion(orbit, 2025.5, field_degree=13)
+    world = World(cube(4), [Magnetorquers(0.2), motion], "rk4", 1.0, 1, n=4)
+    world.orbit_rows[:, CLOCK] = [0.0, 100.0, 2000.0, 5000.0]
+    data = np.zeros((4, 6))
+    assert world.orbit_field(out=data[:, 0:3]) is not None
+    assert np.array_equal(data[:, 0:3], world.orbit_field()) and not data[:, 3:].any()
+    some = np.zeros((2, 3))
+    assert world.orbit_field([3, 1], out=some) is some
+    assert np.array_equal(some, world.orbit_field()[[3, 1]])
+    for bad in (np.zeros((3, 3)), np.zeros((4, 3), dtype=np.float32)):
+        with pytest.raises(ValueError, match=r"^out: expected a float64 array of shape \(4, 3\)"):
+            world.orbit_field(out=bad)
+
+
 def test_gravity_gradient_direction_follows_the_orbit_position():
     """``tau = 3 mu / |r|^5 (r_b x I r_b)`` with ``r`` the orbit position at the substep's
     middle, at points a quarter orbit apart (where ``r`` has turned by 90 deg)."""
