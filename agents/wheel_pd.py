@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env.core.actuator import where
+from rigid_env.core.maths import rows_product
 from rigid_env.core.rotation import cross, quat_to_rotvec
 from rigid_env.envs.wheel_pointing import FIELD_SCALE, WheelPointingTask
 
@@ -54,9 +55,10 @@ def wheel_commands(tau: FloatArray, w: FloatArray, h: FloatArray, wheels: Any,
     . h`` for orthogonal axes). A wheel slower than ``at_rest`` [rad/s] must first break its
     Coulomb friction in the direction it is asked to turn (else it sticks); with ``at_rest``
     None the friction takes the sign of the speed."""
-    momenta = h @ wheels.axes.T
-    omega = momenta / wheels.inertia - w @ wheels.axes.T
-    wanted = -(tau @ wheels.axes.T)
+    to_wheels = wheels.axes.T  # (3, K); each row alone, as a single env's controller sees it
+    momenta = rows_product(h, to_wheels)
+    omega = momenta / wheels.inertia - rows_product(w, to_wheels)
+    wanted = -rows_product(tau, to_wheels)
     turning = np.sign(omega)
     if at_rest is not None:
         turning = np.where(np.abs(omega) > at_rest, turning, np.sign(wanted))

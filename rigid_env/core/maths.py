@@ -7,8 +7,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from rigid_env.core.jit import kernel
+
+FloatArray = NDArray[np.float64]
 
 
 @kernel
@@ -151,3 +154,33 @@ def solve3(a, b):
         (c01 * b[0] + c11 * b[1] + c21 * b[2]) / det,
         (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det,
     )
+
+
+@kernel
+def _rows_times(a, b, out):
+    """``out[i, j] = (a[i, 0] b[0, j] + a[i, 1] b[1, j]) + ...``, each product rounded (no fused
+    multiply-add), in that one order of the inner index."""
+    for i in range(a.shape[0]):
+        for j in range(b.shape[1]):
+            total = a[i, 0] * b[0, j]
+            for k in range(1, a.shape[1]):
+                total = total + a[i, k] * b[k, j]
+            out[i, j] = total
+
+
+def rows_product(a: ArrayLike, b: ArrayLike) -> FloatArray:
+    """``a @ b`` (``a`` (..., K), ``b`` (K, M), K >= 1) with each row of ``a`` multiplied alone:
+    every entry summed over the inner index in order, each product rounded, so that a row's
+    numbers do not depend on the rows beside it (NumPy's ``matmul`` runs BLAS, whose fused
+    multiply-adds and blocking round a row of many otherwise than a row alone). What env ``i``
+    of a vector env computes must be what its single env computes: a sub-env replays its
+    single env bit for bit. Where ``b``'s columns have one nonzero entry each (wheels along the
+    body axes) every order gives the same numbers. Float64, (..., M)."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    if a.ndim < 1 or b.ndim != 2 or a.shape[-1] != b.shape[0] or b.shape[0] < 1:
+        raise ValueError(f"rows_product: shapes {a.shape} and {b.shape} do not multiply")
+    flat = a.reshape(-1, a.shape[-1])
+    out = np.empty((flat.shape[0], b.shape[1]))
+    _rows_times(flat, b, out)
+    return out.reshape(*a.shape[:-1], b.shape[1])

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
+from rigid_env.core.maths import rows_product
 from rigid_env.core.rotation import quat_rotate
 from rigid_env.core.state import BodyModel, State
 
@@ -37,7 +38,7 @@ class EnergyViews:
         [kg m^2/s] (the wheels' momenta ``h_k`` where the body has wheels)."""
         body = self.model.inertia * self.state.w
         if self._wheels is not None:
-            body = body + self.wheel_momentum @ self._wheels.axes
+            body = body + rows_product(self.wheel_momentum, self._wheels.axes)
         return quat_rotate(self.state.q, body)
 
 

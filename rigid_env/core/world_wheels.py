@@ -10,6 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from rigid_env.core.layout import THRUST
+from rigid_env.core.maths import rows_product
 from rigid_env.core.world_errors import chosen_bodies
 
 FloatArray = NDArray[np.float64]
@@ -37,7 +38,9 @@ class WheelState:
         """(N, K) each wheel's speed relative to the body ``Omega_k = h_k / J_k - a_k . w``
         [rad/s] (a copy; set speeds with :meth:`set_wheel_speed`); None without wheels."""
         e = self._wheels
-        return None if e is None else self.wheel_momentum / e.inertia - self.state.w @ e.axes.T
+        if e is None:
+            return None
+        return self.wheel_momentum / e.inertia - rows_product(self.state.w, e.axes.T)
 
     def set_wheel_speed(
         self, speed: ArrayLike, bodies: Any = slice(None), *, initial: bool = False
@@ -81,7 +84,7 @@ class WheelState:
                 f"wheel speeds: wheel {j} at {worst:g} rad/s is beyond its max_speed "
                 f"{e.max_speed[j]:g} rad/s; give speeds within +-max_speed"
             )
-        momentum = e.inertia * (self.state.w[bodies] @ e.axes.T + omega)
+        momentum = e.inertia * (rows_product(self.state.w[bodies], e.axes.T) + omega)
         self.wheel_momentum[bodies] = momentum
         if initial:
             self.initial_wheel_speed = omega.copy()

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from rigid_env import knobs
 from rigid_env.core import threads
 from rigid_env.core.actuator import fuel_per_unit, specs
+from rigid_env.core.maths import rows_product
 from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
 from rigid_env.envs.batch_actions import Actions, as_num_envs
@@ -271,7 +272,9 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
         task's (:meth:`before_pass`)."""
         wheels = self.world.wheels
         if wheels is not None:
-            self.world_data.h_wheels[rows] = self.world.wheel_momentum[rows] @ wheels.axes
+            self.world_data.h_wheels[rows] = rows_product(
+                self.world.wheel_momentum[rows], wheels.axes
+            )
         self.before_pass(rows, reset)
 
     def observed_field(self, rows: NDArray[np.int64]) -> tuple[FloatArray, float] | None:

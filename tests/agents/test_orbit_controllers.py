@@ -52,3 +52,22 @@ def test_wheel_pd_plays_wheel_pointing_v1():
         success = np.asarray(info["success"], dtype=bool)
     assert np.isfinite(obs).all() and success.any()
     env.close()
+
+
+def test_wheel_commands_of_a_batch_are_each_rows_alone_for_tilted_wheels():
+    """The analytic controller on a vector env's observations gives each env the commands it
+    gives that env alone (bit for bit), whatever the wheels' axes: the axis products are
+    summed row by row in one order (a batch through NumPy's matmul rounded otherwise)."""
+    from agents.wheel_pd import wheel_commands
+    from rigid_env.core.actuators.reaction_wheels import ReactionWheels
+
+    axes = np.array([[1.0, 0.2, 0.1], [-0.15, 1.0, 0.3], [0.05, -0.25, 1.0], [0.6, 0.6, 0.5]])
+    wheels = ReactionWheels(axes, inertia=4.8e-5, max_torque=2e-3, max_speed=628.0,
+                            viscous=2e-8, coulomb=5e-6)  # fmt: skip
+    rng = np.random.default_rng(11)
+    tau, w = rng.normal(size=(64, 3)) * 1e-3, rng.normal(size=(64, 3)) * 0.05
+    h = rng.normal(size=(64, 3)) * 1e-2
+    batch = wheel_commands(tau, w, h, wheels, 1.0)
+    for i in range(64):
+        alone = wheel_commands(tau[i : i + 1], w[i : i + 1], h[i : i + 1], wheels, 1.0)
+        assert np.array_equal(batch[i], alone[0]), i

@@ -2,17 +2,13 @@
 as first published (norm, divide, cross, matmul, scale) where the coils lie along the body axes
 (the shipped scenes: the shipped policy and the seeded rollouts of BdotDetumble-v1 and v2 depend
 on them), and one order of operations for any number of envs, so that env ``i`` of a vector env
-gets the commands it gets alone whatever its coils."""
+gets the commands it gets alone whatever its coils (tests/envs/test_tilted_hardware.py)."""
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
-import pytest
-import yaml
 
 from rigid_env.envs.bdot_detumble import torque_dipoles
-from rigid_env.resources import scene_path
 
 
 def published(action, field, to_commands, unit, product=np.matmul):
@@ -78,43 +74,3 @@ def test_the_observations_float32_columns_give_the_numbers_of_their_float64_valu
         assert got is commands
         want = published(action, field.astype(np.float64), to_commands, 0.2, row_by_row)
         assert np.array_equal(got, want), t
-
-
-def rollout(env, seed, actions):
-    """Observations and rewards of ``env`` (single or vector) reset with ``seed`` and driven by
-    ``actions``."""
-    obs, _ = env.reset(seed=seed)
-    seen, rewards = [obs], []
-    for a in actions:
-        obs, r, _, _, _ = env.step(a)
-        seen.append(obs)
-        rewards.append(r)
-    return np.array(seen), np.array(rewards)
-
-
-@pytest.mark.filterwarnings("ignore:.*is out of date:DeprecationWarning")  # v1, as kept
-@pytest.mark.parametrize("version", [1, 2])
-def test_a_vector_env_with_tilted_coils_equals_its_single_envs(tmp_path, version):
-    """Coils off the body axes (a general dipole-to-command map): env ``i`` of a vector env
-    replays the single env of seed ``s + i`` bit for bit (with NumPy's matmul, BLAS's fused
-    multiply-adds for many rows rounded the commands otherwise than for one, and the rewards
-    differed)."""
-    stem = "bdot_detumble" if version == 1 else "bdot_detumble_orbit"
-    scene = yaml.safe_load(scene_path(stem).read_text())
-    axes = [[1.0, 0.2, 0.1], [-0.15, 1.0, 0.3], [0.05, -0.25, 1.0]]
-    scene["actuators"]["magnetorquers"]["axes"] = axes
-    path = tmp_path / "tilted.yaml"
-    path.write_text(yaml.safe_dump(scene))
-    env_id, n, steps, seed = f"RigidEnv/BdotDetumble-v{version}", 4, 30, 100
-    actions = np.random.default_rng(1).uniform(-1, 1, (steps, n, 3)).astype(np.float32)
-    venv = gym.make_vec(
-        env_id, num_envs=n, vectorization_mode="vector_entry_point", scene=str(path)
-    )
-    vec_obs, vec_rewards = rollout(venv, seed, actions)
-    venv.close()
-    for i in range(n):  # episodes last 480 steps: no sub-env restarts within these
-        env = gym.make(env_id, scene=str(path))
-        obs, rewards = rollout(env, seed + i, actions[:, i])
-        env.close()
-        assert np.array_equal(vec_obs[:, i], obs), f"env {i} observations differ"
-        assert np.array_equal(vec_rewards[:, i], rewards), f"env {i} rewards differ"
