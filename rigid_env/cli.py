@@ -41,6 +41,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rigid_env import __version__
+from rigid_env.core.actuator import kinds, stores_momentum
 from rigid_env.core.integrators import INTEGRATORS
 from rigid_env.core.world import NumericalInstabilityError
 from rigid_env.resources import SCENE_DIR, folder_problem
@@ -444,9 +445,10 @@ def _note_past_limit(scene: Any, world: Any, arrays: dict[str, Any]) -> None:
     past = np.flatnonzero(top > world.wheels.max_speed * (1.0 + 1e-12))
     if past.size:
         k = int(past[np.argmax(top[past] - world.wheels.max_speed[past])])
+        section = kinds(stores_momentum)[0].name
         print(
             f"{PROG}: note: wheel {k} reached {top[k]:.6g} rad/s, beyond its max_speed "
-            f"{world.wheels.max_speed[k]:g}: {scene.name} sets reaction_wheels.pre_fix_law: "
+            f"{world.wheels.max_speed[k]:g}: {scene.name} sets {section}.pre_fix_law: "
             "true (the law before issue 44, kept for WheelPointing-v0's history); leave it out "
             "for a limit that holds within each step",
             file=sys.stderr,

@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from rigid_env.core.actuator import kinds, stores_momentum
 from rigid_env.core.layout import THRUST
 from rigid_env.core.maths import rows_product
 from rigid_env.core.world_errors import chosen_bodies
@@ -57,7 +58,8 @@ class WheelState:
         """
         e = self._wheels
         if e is None:
-            raise ValueError("wheel speeds: this world has no reaction_wheels")
+            name = kinds(stores_momentum)[0].name
+            raise ValueError(f"wheel speeds: this world has no {name}")
         k = e.axes.shape[0]
         chosen = chosen_bodies(self._n, bodies)
         try:

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 
 from rigid_env import knobs
 from rigid_env.core import threads
-from rigid_env.core.actuator import fuel_per_unit, specs
+from rigid_env.core.actuator import actuators, fuel_per_unit, specs
 from rigid_env.core.maths import rows_product
 from rigid_env.core.world import World
 from rigid_env.envs import kernels as K
@@ -316,9 +316,9 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
             atol=settings.atol,
         )
         if world.action_dim == 0:
+            *others, last = (a.name for a in actuators())
             raise ValueError(
-                "scene: a task needs actuators (thrusters, point_forces, magnetorquers or "
-                "reaction_wheels); the scene has none"
+                f"scene: a task needs actuators ({', '.join(others)} or {last}); the scene has none"
             )
         return world
 

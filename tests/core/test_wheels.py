@@ -368,3 +368,13 @@ def test_the_type_of_the_wheels_rows_tells_the_compiler_whether_bodies_carry_whe
     with_wheel.step(np.array([[0.5]]))
     assert np.shares_memory(with_wheel._momenta[0], with_wheel._cols)
     assert with_wheel._momenta[0][0] != 0.0  # the motor spun the wheel: the step wrote its row
+
+
+def test_wheel_speeds_of_a_world_without_wheels_is_one_line_naming_their_section():
+    from rigid_env.core.actuator import kinds, stores_momentum
+
+    world = World(BodyModel.single(1.0, [1.0, 2.0, 3.0]), integrator="rk4", dt=0.01)
+    assert world.wheel_speed is None
+    name = kinds(stores_momentum)[0].name
+    with pytest.raises(ValueError, match=rf"^wheel speeds: this world has no {name}$"):
+        world.set_wheel_speed([1.0, 2.0, 3.0])

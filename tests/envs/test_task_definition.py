@@ -119,3 +119,23 @@ def test_every_task_declares_the_target_and_memory_it_uses() -> None:
         "TumblingFall": (0, 0),
     }
     assert {name: declared[name] for name in built_in} == built_in
+
+
+def test_a_scene_without_actuators_is_refused_naming_every_registered_one(tmp_path) -> None:
+    """The refusal lists the sections a scene may add, from the registry (a declaration added
+    later is named without an edit here)."""
+    import gymnasium as gym
+    import yaml
+
+    from rigid_env.core.actuator import actuators
+    from rigid_env.resources import scene_path
+
+    scene = yaml.safe_load(scene_path("detumble").read_text())
+    scene["actuators"] = {}
+    path = tmp_path / "bare.yaml"
+    path.write_text(yaml.safe_dump(scene))
+    with pytest.raises(ValueError, match=r"^scene: a task needs actuators \(") as caught:
+        gym.make("RigidEnv/Detumble-v0", scene=str(path))
+    message = str(caught.value)
+    assert "\n" not in message and message.endswith("the scene has none")
+    assert all(a.name in message for a in actuators())
