@@ -166,8 +166,9 @@ class TaskBatch(Observations, Actions, Resets, Infos, RenderViews):
         self.last_action = np.zeros((n, a))
         """(N, A) the last command each env was sent, clipped (before thrust randomisation)."""
         self.command = self.last_action
-        """(N, A) the last command the bodies got: :attr:`last_action` itself until thrust is
-        randomised, then ``last_action * thrust_scale``."""
+        """(N, A) the last command the bodies got: :attr:`last_action` itself where the task
+        has no :meth:`demand`, thrust randomisation or faults; else an array of its own (made
+        by :meth:`_plan_step`), the demand times ``thrust_scale`` once thrust is randomised."""
         self.record = np.zeros(n, dtype=K.RECORD)
         """(N,) each env's :data:`~rigid_env.envs.kernels.RECORD`, written by the compiled pass."""
         self.obs = np.zeros((n, self.obs_dim), dtype=np.float32)

@@ -172,14 +172,19 @@ class BdotDetumbleTask(TaskBatch):
         compiled step evaluates where the body is on its orbit (:meth:`rigid_env.core.world.
         World.orbit_field`)."""
         field = self.world_data.field
-        if self.orbit is None and isinstance(rows, slice):  # written in place (a view)
+        if not isinstance(rows, slice):
+            field[rows] = self._field_along_orbit(rows)
+        elif self.orbit is None:  # written in place (a view)
             self.world.orbit_field(rows, out=field[rows])
-        elif self.orbit is None:
-            field[rows] = self.world.orbit_field(rows)
-        elif isinstance(rows, slice):  # written in place (a view)
-            self.orbit.at(self.world.orbit_time[rows], out=field[rows])
         else:
-            field[rows] = self.orbit.at(self.world.orbit_time[rows])
+            self.orbit.at(self.world.orbit_time[rows], out=field[rows])
+
+    def _field_along_orbit(self, rows: np.ndarray) -> np.ndarray:
+        """(K, 3) the field at the envs ``rows`` (world frame [T]), from the world's orbit
+        state or the coils' orbit."""
+        if self.orbit is None:
+            return self.world.orbit_field(rows)
+        return self.orbit.at(self.world.orbit_time[rows])
 
     def view(self) -> TaskView:
         """The body and its coils (drawn along their axes), the fuel as dipole-time."""

@@ -15,6 +15,8 @@ import yaml
 from rigid_env.core.maths import rows_product
 from rigid_env.resources import scene_path
 
+from roundoff import gamma
+
 TILTED = [[1.0, 0.2, 0.1], [-0.15, 1.0, 0.3], [0.05, -0.25, 1.0]]
 """Three independent axes, none along a body axis (normalised by the declarations)."""
 
@@ -83,7 +85,8 @@ def test_wheels_off_the_axes(tmp_path, env_id, stem):
 def test_rows_product_multiplies_each_row_alone_in_one_order():
     """Each row's entries are the sequential sum ``(a0 b0 + a1 b1) + ...`` of rounded products,
     the same whatever rows stand beside it; within rounding of NumPy's matmul (a K-term dot
-    product: at most ``K eps sum |a_k b_k|`` from the exact one, either way)."""
+    product in any order is within ``gamma(K) sum |a_k b_k|`` of the exact one [Higham (3.5)],
+    so the two are within twice that of each other)."""
     rng = np.random.default_rng(7)
     for t in range(300):
         n, k, m = int(rng.integers(1, 300)), int(rng.integers(1, 5)), int(rng.integers(1, 5))
@@ -95,7 +98,7 @@ def test_rows_product_multiplies_each_row_alone_in_one_order():
         for j in range(1, k):
             want = want + a[:, j : j + 1] * b[j]
         assert np.array_equal(got, want), t
-        bound = 2 * k * np.finfo(float).eps * (np.abs(a) @ np.abs(b))
+        bound = 2.0 * gamma(k) * (np.abs(a) @ np.abs(b))  # each within gamma(K) of exact
         assert np.all(np.abs(got - a @ b) <= bound), t
     with pytest.raises(ValueError, match=r"^rows_product: shapes \(2, 3\) and \(2, 3\) do not"):
         rows_product(np.zeros((2, 3)), np.zeros((2, 3)))
