@@ -446,6 +446,7 @@ def bench_vec(cfg: Config, res: Results) -> None:
         f"Ratios: env-steps/s over `{CARTPOLE_CASE}`'s and over Detumble under "
         "`SyncVectorEnv` at the same N (higher is faster).",
     ]
+    notes += _integrator_steps(cfg, rows)
     if sync_rate and unmeasured:
         notes.append(
             f"`SyncVectorEnv` was measured at N = {', '.join(map(str, sorted(sync_rate)))} only: "
@@ -454,6 +455,34 @@ def bench_vec(cfg: Config, res: Results) -> None:
             f"{', '.join(map(str, unmeasured))} its per-env cost measured at N = {n_ref} is used "
             "(marked *extrapolated*)."
         )
+
+
+def _integrator_steps(cfg: Config, rows: list[Row]) -> list[str]:
+    """The note comparing the wheel world on an orbit with the coils' world by integrator steps
+    per second (env-steps/s times the world's substeps per env step), where both were run."""
+    coils = next((e for e in cfg.env_ids if short_id(e).startswith("BdotDetumble")), None)
+    if coils is None or WHEELS_ON_ORBIT not in cfg.env_ids:
+        return []
+    substeps = {}
+    for env_id in (WHEELS_ON_ORBIT, coils):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            env = gym.make(env_id)
+        substeps[env_id] = env.unwrapped.task.world.substeps
+        env.close()
+    rate = {(r.case, r.n): r.value for r in rows}
+    wheels, other = short_id(WHEELS_ON_ORBIT), short_id(coils)
+    ratios = [
+        f"{rate[wheels, n] * substeps[WHEELS_ON_ORBIT] / (rate[other, n] * substeps[coils]):.2f}x"
+        for n in cfg.vec_sizes
+    ]
+    return [
+        f"Integrator steps per second (env-steps/s times the substeps of an env step: "
+        f"{wheels} {substeps[WHEELS_ON_ORBIT]}, {other} {substeps[coils]}; the same rk4, orbit, "
+        f"field and coils, with three wheels and the gravity gradient), {wheels} over {other} at "
+        f"N = {', '.join(map(str, cfg.vec_sizes))}: {', '.join(ratios)} (issue 42's bar: at least "
+        "1x at N = 4096)."
+    ]
 
 
 # --------------------------------------------------------------------------------------------

@@ -143,6 +143,9 @@ class Actuator:
         flags: its fields of the world's parameters (set by its spec's ``parameters()``).
         rare: those of :attr:`flags` that only the per-body passes carry (see
             :data:`rigid_env.core.compose.RARE`).
+        per_body: those of :attr:`rare` that split a substep per body (the thrusters'
+            switch times), which the orbit's vectorised passes cannot carry either
+            (:data:`rigid_env.core.compose.PER_BODY`).
         single: listed at most once in a world (its units in one list).
         torque_bound: ``(act, c) -> B_tau`` [N m], compiled: what it adds to ``|tau|`` of the
             wrench ``act`` for the guard (:func:`rigid_env.core.stepping.force_reach`), behind
@@ -200,6 +203,7 @@ class Actuator:
     rows_at: str | None = None
     flags: tuple[str, ...] = ()
     rare: tuple[str, ...] = ()
+    per_body: tuple[str, ...] = ()
     single: bool = False
     torque_bound: Callable | None = None
     bound: Callable[[Any, Any], tuple[float, float]] | None = None
@@ -325,6 +329,11 @@ def action_dim(effects: Sequence[Any]) -> int:
 def rare_flags() -> tuple[str, ...]:
     """Every declared actuator's rare flags (:attr:`Actuator.rare`)."""
     return tuple(flag for a in actuators() for flag in a.rare)
+
+
+def per_body_flags() -> tuple[str, ...]:
+    """Every declared actuator's flags that split a substep (:attr:`Actuator.per_body`)."""
+    return tuple(flag for a in actuators() for flag in a.per_body)
 
 
 def state_rows(effects: Sequence[Any]) -> int:

@@ -18,7 +18,7 @@ from numba import njit, types
 from numba.core import cgutils
 from numba.extending import intrinsic, overload
 
-from rigid_env.core.actuator import actuators, rare_flags
+from rigid_env.core.actuator import actuators, per_body_flags, rare_flags
 from rigid_env.core.effect import Effect
 from rigid_env.core.layout import EFFECTS, Params
 
@@ -34,6 +34,17 @@ actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`), and the o
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
 of a branch inside a vectorised loop)."""
+PER_BODY = (
+    *(e.name for e in EFFECTS if e.reads),
+    *sorted({flag for e in EFFECTS for flag in e.reads}),
+    *per_body_flags(),
+)
+"""The :data:`RARE` flags that the per-body passes alone carry: the effects that read the
+body's surroundings (each a loop over its facets, :attr:`rigid_env.core.effect.Effect.reads`),
+the surroundings' own flags, and the actuators whose switch times split a substep per body
+(:attr:`rigid_env.core.actuator.Actuator.per_body`). A world on an orbit with none of them
+takes the orbit's vectorised passes (:func:`rigid_env.core.stepping.orbit_passes`), which see
+them as the constant 0 and read the other rare flags from the parameters."""
 WHEELS = "wheels"
 """The flag of the reaction wheels: the vectorised passes are compiled twice, seeing it as the
 constant 0 (:func:`common`: a world without wheels, whose loops carry no wheel code) and as the
@@ -199,6 +210,27 @@ def wheeled_apart(c: Params) -> Params:
     return c._replace(**dict.fromkeys(RARE, 0.0), **{WHEELS: 1.0, WHEELS_COUPLED: 0.0})
 
 
+def orbiting(c: Params) -> Params:
+    """``c`` with the :data:`PER_BODY` flags and the :data:`WHEELS` flag the constant 0 (a
+    world on an orbit whose bodies carry no wheels), the other rare flags as they are."""
+    return c._replace(**dict.fromkeys((*PER_BODY, WHEELS), 0.0))
+
+
+def orbiting_wheeled(c: Params) -> Params:
+    """:func:`orbiting` with the :data:`WHEELS` and :data:`WHEELS_COUPLED` flags the constant 1."""
+    return c._replace(**dict.fromkeys(PER_BODY, 0.0), **{WHEELS: 1.0, WHEELS_COUPLED: 1.0})
+
+
+def orbiting_wheeled_apart(c: Params) -> Params:
+    """:func:`orbiting_wheeled` with the :data:`WHEELS_COUPLED` flag the constant 0."""
+    return c._replace(**dict.fromkeys(PER_BODY, 0.0), **{WHEELS: 1.0, WHEELS_COUPLED: 0.0})
+
+
+def per_body(c: Params) -> bool:
+    """Whether one of the :data:`PER_BODY` flags of ``c`` is set."""
+    return any(getattr(c, name) != 0.0 for name in PER_BODY)
+
+
 def _any_set(indices: tuple[int, ...]) -> Callable:
     @intrinsic
     def any_set(typingctx, c):
@@ -217,6 +249,7 @@ def _any_set(indices: tuple[int, ...]) -> Callable:
 
 _rare = _any_set(tuple(Params._fields.index(name) for name in RARE))
 _potential = _any_set(_POTENTIAL_FLAGS)
+_per_body = _any_set(tuple(Params._fields.index(name) for name in PER_BODY))
 
 
 def _set_flags(zeros: tuple[str, ...], ones: tuple[str, ...]) -> Callable:
@@ -240,11 +273,19 @@ def _set_flags(zeros: tuple[str, ...], ones: tuple[str, ...]) -> Callable:
 _common = _set_flags((*RARE, WHEELS), ())
 _wheeled = _set_flags(RARE, (WHEELS, WHEELS_COUPLED))
 _wheeled_apart = _set_flags((*RARE, WHEELS_COUPLED), (WHEELS,))
+_orbiting = _set_flags((*PER_BODY, WHEELS), ())
+_orbiting_wheeled = _set_flags(PER_BODY, (WHEELS, WHEELS_COUPLED))
+_orbiting_wheeled_apart = _set_flags((*PER_BODY, WHEELS_COUPLED), (WHEELS,))
 
 
 @overload(rare, inline="always")
 def _overload_rare(c):
     return lambda c: _rare(c)
+
+
+@overload(per_body, inline="always")
+def _overload_per_body(c):
+    return lambda c: _per_body(c)
 
 
 @overload(any_potential, inline="always")
@@ -265,3 +306,18 @@ def _overload_wheeled(c):
 @overload(wheeled_apart, inline="always")
 def _overload_wheeled_apart(c):
     return lambda c: _wheeled_apart(c)
+
+
+@overload(orbiting, inline="always")
+def _overload_orbiting(c):
+    return lambda c: _orbiting(c)
+
+
+@overload(orbiting_wheeled, inline="always")
+def _overload_orbiting_wheeled(c):
+    return lambda c: _orbiting_wheeled(c)
+
+
+@overload(orbiting_wheeled_apart, inline="always")
+def _overload_orbiting_wheeled_apart(c):
+    return lambda c: _orbiting_wheeled_apart(c)

@@ -33,14 +33,15 @@ def exact_free(
     status: NDArray[np.uint8],
     wrenches: FloatArray,
     momenta: FloatArray,
+    places: FloatArray,
     command: FloatArray,
 ) -> int:
     """The world step of ``exact_free``, arguments and result as a compiled entry's
     (:func:`rigid_env.core.stepping.advance`; ``wrenches`` a scratch of thrusters as hardware,
-    :func:`_exact_free_hardware`; ``momenta`` the wheels' rows, empty: it steps no wheels):
-    per substep the speed limit, then Strang splitting ``kick(h/2) -> [x += h v ; exact
-    torque-free flow] -> kick(h/2)``
-    with the compiled kicks of ``splitting`` and the Jacobi elliptic flow
+    :func:`_exact_free_hardware`; ``momenta`` the wheels' rows and ``places`` the orbit's
+    scratch, both empty: it steps no wheels and no orbit): per substep the speed limit, then
+    Strang splitting ``kick(h/2) -> [x += h v ; exact torque-free flow] -> kick(h/2)`` with
+    the compiled kicks of ``splitting`` and the Jacobi elliptic flow
     (:func:`rigid_env.core.exact.free_rotation_exact`), after the last the same maps and guard
     as the compiled step (:func:`rigid_env.core.stepping.finish_pass`)."""
     if not np.all(np.isfinite(command)):

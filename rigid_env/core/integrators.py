@@ -463,25 +463,30 @@ def yoshida4(x, v, q, w, act, m, c, h):
 # ---- three compiled entries per method ---------------------------------------------------------
 # All bodies (the serial step: two arguments fewer to dispatch), a range of them, and the range
 # split over Numba's threads (over_threads); arguments as advance's, the world's arrays
-# (p, model, state, status, wrenches, momenta, command). Numba resolves the per-body function at
-# compile time and caches the loop on disk; a function object from Python would cost a slow type
-# lookup per call, and a closure would not be cached.
+# (p, model, state, status, wrenches, momenta, places, command). Numba resolves the per-body
+# function at compile time and caches the loop on disk; a function object from Python would cost
+# a slow type lookup per call, and a closure would not be cached.
 @world_kernel
-def _explicit_euler(p, model, state, status, wrenches, momenta, command):
+def _explicit_euler(p, model, state, status, wrenches, momenta, places, command):
     return advance(
         explicit_euler_flow,
         p,
         model,
-        (state, status, wrenches, momenta),
+        (state, status, wrenches, momenta, places),
         command,
         (0, state.shape[1]),
     )
 
 
 @world_kernel
-def _explicit_euler_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _explicit_euler_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
     return advance(
-        explicit_euler_flow, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        explicit_euler_flow,
+        p,
+        model,
+        (state, status, wrenches, momenta, places),
+        command,
+        (start, stop),
     )
 
 
@@ -491,21 +496,28 @@ def _explicit_euler_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _symplectic_euler(p, model, state, status, wrenches, momenta, command):
+def _symplectic_euler(p, model, state, status, wrenches, momenta, places, command):
     return advance(
         symplectic_euler_flow,
         p,
         model,
-        (state, status, wrenches, momenta),
+        (state, status, wrenches, momenta, places),
         command,
         (0, state.shape[1]),
     )
 
 
 @world_kernel
-def _symplectic_euler_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _symplectic_euler_range(
+    p, model, state, status, wrenches, momenta, places, command, start, stop
+):
     return advance(
-        symplectic_euler_flow, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        symplectic_euler_flow,
+        p,
+        model,
+        (state, status, wrenches, momenta, places),
+        command,
+        (start, stop),
     )
 
 
@@ -515,16 +527,21 @@ def _symplectic_euler_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _implicit_euler(p, model, state, status, wrenches, momenta, command):
+def _implicit_euler(p, model, state, status, wrenches, momenta, places, command):
     return advance(
-        implicit_euler, p, model, (state, status, wrenches, momenta), command, (0, state.shape[1])
+        implicit_euler,
+        p,
+        model,
+        (state, status, wrenches, momenta, places),
+        command,
+        (0, state.shape[1]),
     )
 
 
 @world_kernel
-def _implicit_euler_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _implicit_euler_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
     return advance(
-        implicit_euler, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        implicit_euler, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
     )
 
 
@@ -534,15 +551,17 @@ def _implicit_euler_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _leapfrog(p, model, state, status, wrenches, momenta, command):
+def _leapfrog(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(leapfrog_flow, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(
+        leapfrog_flow, p, model, (state, status, wrenches, momenta, places), command, every
+    )
 
 
 @world_kernel
-def _leapfrog_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _leapfrog_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
     return advance(
-        leapfrog_flow, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        leapfrog_flow, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
     )
 
 
@@ -552,15 +571,17 @@ def _leapfrog_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _midpoint(p, model, state, status, wrenches, momenta, command):
+def _midpoint(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(midpoint_flow, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(
+        midpoint_flow, p, model, (state, status, wrenches, momenta, places), command, every
+    )
 
 
 @world_kernel
-def _midpoint_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _midpoint_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
     return advance(
-        midpoint_flow, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        midpoint_flow, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
     )
 
 
@@ -570,14 +591,16 @@ def _midpoint_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _rk4(p, model, state, status, wrenches, momenta, command):
+def _rk4(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(rk4_flow, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(rk4_flow, p, model, (state, status, wrenches, momenta, places), command, every)
 
 
 @world_kernel
-def _rk4_range(p, model, state, status, wrenches, momenta, command, start, stop):
-    return advance(rk4_flow, p, model, (state, status, wrenches, momenta), command, (start, stop))
+def _rk4_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
+    return advance(
+        rk4_flow, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
+    )
 
 
 @threads_kernel
@@ -586,15 +609,17 @@ def _rk4_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _implicit_gyro(p, model, state, status, wrenches, momenta, command):
+def _implicit_gyro(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(implicit_gyro, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(
+        implicit_gyro, p, model, (state, status, wrenches, momenta, places), command, every
+    )
 
 
 @world_kernel
-def _implicit_gyro_range(p, model, state, status, wrenches, momenta, command, start, stop):
+def _implicit_gyro_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
     return advance(
-        implicit_gyro, p, model, (state, status, wrenches, momenta), command, (start, stop)
+        implicit_gyro, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
     )
 
 
@@ -604,14 +629,16 @@ def _implicit_gyro_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _splitting(p, model, state, status, wrenches, momenta, command):
+def _splitting(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(splitting, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(splitting, p, model, (state, status, wrenches, momenta, places), command, every)
 
 
 @world_kernel
-def _splitting_range(p, model, state, status, wrenches, momenta, command, start, stop):
-    return advance(splitting, p, model, (state, status, wrenches, momenta), command, (start, stop))
+def _splitting_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
+    return advance(
+        splitting, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
+    )
 
 
 @threads_kernel
@@ -620,14 +647,16 @@ def _splitting_threads(world, start, stop, threads):
 
 
 @world_kernel
-def _yoshida4(p, model, state, status, wrenches, momenta, command):
+def _yoshida4(p, model, state, status, wrenches, momenta, places, command):
     every = (0, state.shape[1])
-    return advance(yoshida4, p, model, (state, status, wrenches, momenta), command, every)
+    return advance(yoshida4, p, model, (state, status, wrenches, momenta, places), command, every)
 
 
 @world_kernel
-def _yoshida4_range(p, model, state, status, wrenches, momenta, command, start, stop):
-    return advance(yoshida4, p, model, (state, status, wrenches, momenta), command, (start, stop))
+def _yoshida4_range(p, model, state, status, wrenches, momenta, places, command, start, stop):
+    return advance(
+        yoshida4, p, model, (state, status, wrenches, momenta, places), command, (start, stop)
+    )
 
 
 @threads_kernel
@@ -638,16 +667,22 @@ def _yoshida4_threads(world, start, stop, threads):
 # An error-controlled method's entries take its (2, N) counts ``n`` before the command: the
 # substeps each body took, and the substep each tries first in the next step (carried).
 @world_kernel
-def _dop853(p, model, state, status, wrenches, momenta, counts, command):
+def _dop853(p, model, state, status, wrenches, momenta, places, counts, command):
     return advance(
-        dop853, p, model, (state, status, wrenches, momenta), command, (0, state.shape[1]), counts
+        dop853,
+        p,
+        model,
+        (state, status, wrenches, momenta, places),
+        command,
+        (0, state.shape[1]),
+        counts,
     )
 
 
 @world_kernel
-def _dop853_range(p, model, state, status, wrenches, momenta, counts, command, start, stop):
+def _dop853_range(p, model, state, status, wrenches, momenta, places, counts, command, start, stop):
     return advance(
-        dop853, p, model, (state, status, wrenches, momenta), command, (start, stop), counts
+        dop853, p, model, (state, status, wrenches, momenta, places), command, (start, stop), counts
     )
 
 
@@ -689,11 +724,11 @@ class IntegratorInfo:
             substeps it took and the substep the next step should try first); None for an
             array integrator.
         world_step: the world step of all bodies, ``(p, model, state, status, wrenches,
-            momenta, command) -> code`` (:func:`rigid_env.core.stepping.advance`; ``momenta``
-            the wheels' rows of ``state`` as their own array, empty without wheels); an
-            error-controlled
-            integrator's takes the (2, N) substep counts and carried first substeps before
-            the command.
+            momenta, places, command) -> code`` (:func:`rigid_env.core.stepping.advance`;
+            ``momenta`` the wheels' rows of ``state`` as their own array, empty without
+            wheels; ``places`` the scratch of where the bodies are on their orbit, empty off
+            one); an error-controlled integrator's takes the (2, N) substep counts and carried
+            first substeps before the command.
         world_step_range: the compiled world step of the bodies ``start <= i < stop``, the
             same arguments and then ``start, stop``; None for an array integrator.
         world_step_threads: the range over Numba's threads, ``(world, start, stop, threads)``

@@ -439,6 +439,25 @@ def carries_wheels(momenta) -> bool:
     return momenta.dtype.dtype == types.float64
 
 
+PLACE_ROWS = 6
+"""Rows of a world on an orbit's scratch ``places`` (PLACE_ROWS, N), which its vectorised passes
+read (:func:`rigid_env.core.stepping.orbit_passes`): each body's position on its orbit at the
+middle of the substep in hand (0:3) and, on the last, at the world step's end (3:6), ECI [m]."""
+
+
+def no_places() -> NDArray[np.float32]:
+    """The ``places`` a world off an orbit hands its compiled step: an empty float32 array,
+    never read, whose type (float32 where a world on an orbit hands float64 rows) leaves the
+    orbit's vectorised passes out of the compiled step (:func:`on_orbit`)."""
+    return np.zeros((0, 0), np.float32)
+
+
+def on_orbit(places) -> bool:
+    """Whether the compiled type ``places`` (the world's scratch of its bodies' places) is that
+    of a world on an orbit: float64 rows, not :func:`no_places`'s."""
+    return places.dtype == types.float64
+
+
 NO_PARAMS = np.zeros(0)
 """An empty parameter array: the constant :data:`NOWHERE` carries."""
 NOWHERE = Surroundings(NO_PARAMS, ZERO3, 0.0, ZERO3, 0.0)

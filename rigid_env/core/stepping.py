@@ -7,8 +7,9 @@ Arrays: the world's parameters ``p`` and model columns (:mod:`rigid_env.core.lay
 columns ``state`` (13, N) ``(x, v, q, w)``, the bodies' ``status`` (N,) uint8, the actuators'
 ``wrenches`` (WRENCH_WIDTH, N), the reaction wheels' ``momenta``, a K-tuple of (N,) rows (their
 rows of the state, handed over as their own arrays: :meth:`rigid_env.core.world.World._wheel_rows`;
-without wheels :func:`rigid_env.core.layout.no_wheel_rows`, one empty float32 row never read) and
-the ``command`` (N | 1, A).
+without wheels :func:`rigid_env.core.layout.no_wheel_rows`, one empty float32 row never read),
+the ``places`` of a world on an orbit (:data:`rigid_env.core.layout.PLACE_ROWS`, N) (off one
+:func:`rigid_env.core.layout.no_places`, never read) and the ``command`` (N | 1, A).
 """
 
 from __future__ import annotations
@@ -26,6 +27,10 @@ from rigid_env.core.compose import (
     add_torque_bounds,
     any_potential,
     common,
+    orbiting,
+    orbiting_wheeled,
+    orbiting_wheeled_apart,
+    per_body,
     rare,
     wheeled,
     wheeled_apart,
@@ -51,6 +56,7 @@ from rigid_env.core.layout import (
     failures_of,
     load,
     load_wrench,
+    on_orbit,
     step_code,
     store,
     store_wrench,
@@ -447,7 +453,8 @@ def advance(step, p, model, world, command, bodies, counts=None):
     any, then ``substeps`` passes of the per-body ``step`` in place (:func:`substep`). These
     passes see the flags of the rarely used effects (:data:`rigid_env.core.compose.RARE`) as the
     constant 0, so a disabled one adds nothing to their loops; a world that has one is stepped
-    body by body instead (:func:`body_advance`), every effect included. Where the bodies carry
+    by :func:`rare_passes`: on an orbit, in the orbit's vectorised passes (:func:`orbit_passes`),
+    else body by body (:func:`body_advance`), every effect included. Where the bodies carry
     reaction wheels the passes are those compiled with the wheels' flag the constant 1
     (:func:`vector_passes`); a world without them runs passes with no wheel code.
 
@@ -458,8 +465,9 @@ def advance(step, p, model, world, command, bodies, counts=None):
     substep, else before the failing substep, which :class:`rigid_env.core.world.World`
     replaces by the one before the world step); a frozen body is left alone.
 
-    ``world = (state, status, wrenches)``: the state columns, the bodies' status and the
-    scratch of each body's wrench and reach (:data:`rigid_env.core.layout.WRENCH_WIDTH`).
+    ``world = (state, status, wrenches, momenta, places)``: the state columns, the bodies'
+    status, the scratch of each body's wrench and reach
+    (:data:`rigid_env.core.layout.WRENCH_WIDTH`), the wheels' rows and the orbit's scratch.
     ``counts``: None for a fixed-step integrator; for an error-controlled one (2, N): row 0
     set to the substeps each body took (over the ``substeps`` passes), row 1 the substep each
     tries first, carried from step to step (:func:`integrate`).
@@ -473,10 +481,154 @@ def advance(step, p, model, world, command, bodies, counts=None):
         for a in range(command.shape[1]):
             if not math.isfinite(command[r, a]):
                 return BAD_COMMAND
-    state, status, _, momenta = world
     if rare(unpack(p)):
-        return body_advance(step, p, model, (state, status, momenta), command, bodies, counts)
+        return rare_passes(step, p, model, world, command, bodies, counts)
     return vector_passes(step, p, model, world, command, bodies, counts)
+
+
+def rare_passes(step, p, model, world, command, bodies, counts):
+    """The world step of a world with a :data:`rigid_env.core.compose.RARE` flag set: the orbit's
+    vectorised passes (:func:`orbit_passes`) where the bodies move on an orbit and no
+    :data:`rigid_env.core.compose.PER_BODY` flag is set, else body by body
+    (:func:`body_advance`). Compiled, a world off an orbit (the type of its ``places``,
+    :func:`rigid_env.core.layout.on_orbit`) compiles no orbit passes (the overload below)."""
+    state, status, _, momenta, _ = world
+    if on_orbit_type(world) and not per_body(unpack(p)):
+        return orbit_variant(step, p, model, world, command, bodies, counts)
+    return body_advance(step, p, model, (state, status, momenta), command, bodies, counts)
+
+
+def on_orbit_type(world) -> bool:
+    """Whether ``world``'s ``places`` are a world on an orbit's (plain Python: any rows)."""
+    return world[4].size > 0
+
+
+def orbit_variant(step, p, model, world, command, bodies, counts):
+    """:func:`orbit_passes` under the named parameters with the wheels' flags as constants
+    (:func:`rigid_env.core.compose.orbiting_wheeled`, ``_apart``) where the bodies carry wheels
+    and ``step`` is a flow, else without wheels (:func:`rigid_env.core.compose.orbiting`)."""
+    c = unpack(p)
+    if c.wheels != 0.0 and is_flow(step):
+        d = orbiting_wheeled(c) if c.wheels_coupled != 0.0 else orbiting_wheeled_apart(c)
+        return orbit_passes(step, d, p, model, world, command, bodies, counts)
+    return orbit_passes(step, orbiting(c), p, model, world, command, bodies, counts)
+
+
+@overload(rare_passes, inline="always")
+def _rare_passes(step, p, model, world, command, bodies, counts):
+    if on_orbit(world.types[4]):
+
+        def either(step, p, model, world, command, bodies, counts):
+            state, status, _, momenta, _ = world
+            if not per_body(unpack(p)):
+                return orbit_variant(step, p, model, world, command, bodies, counts)
+            return body_advance(step, p, model, (state, status, momenta), command, bodies, counts)
+
+        return either
+
+    def body(step, p, model, world, command, bodies, counts):
+        state, status, _, momenta, _ = world
+        return body_advance(step, p, model, (state, status, momenta), command, bodies, counts)
+
+    return body
+
+
+@overload(orbit_variant, inline="always")
+def _orbit_variant(step, p, model, world, command, bodies, counts):
+    if is_flow(step.dispatcher) and carries_wheels(world.types[3]):
+
+        def wheeled_or_not(step, p, model, world, command, bodies, counts):
+            c = unpack(p)
+            if c.wheels != 0.0:
+                if c.wheels_coupled != 0.0:
+                    d = orbiting_wheeled(c)
+                    return orbit_passes(step, d, p, model, world, command, bodies, counts)
+                d = orbiting_wheeled_apart(c)
+                return orbit_passes(step, d, p, model, world, command, bodies, counts)
+            return orbit_passes(step, orbiting(c), p, model, world, command, bodies, counts)
+
+        return wheeled_or_not
+
+    def plain(step, p, model, world, command, bodies, counts):
+        return orbit_passes(step, orbiting(unpack(p)), p, model, world, command, bodies, counts)
+
+    return plain
+
+
+@pass_kernel
+def orbit_passes(step, c, p, model, world, command, bodies, counts):
+    """The vectorised passes of a world on an orbit (:func:`rare_passes`), under the named
+    parameters ``c`` whose :data:`rigid_env.core.compose.PER_BODY` flags and wheels' flags
+    are constants and whose other rare flags are read (the gravity gradient, the coils): the
+    numbers of :func:`body_advance`, bit for bit, in passes over the bodies. Each body's
+    wrench and its wheels' motor torques once; then per substep a pass of where each body is
+    at the substep's middle (:func:`place_pass`: the orbit's Kepler solve and the field, whose
+    loops keep it from vectorising) and the vectorised pass of :func:`orbit_substep`; after the
+    last, each body's clock (:func:`rigid_env.core.orbit_state.tick`). Returns the step's
+    code."""
+    start, stop = bodies
+    state, status, wrenches, momenta, places = world
+    wheels = wheel_records(p, c, momenta)
+    for i in range(start, stop):  # each body's wrench (the field's rows set per substep)
+        store_wrench(wrenches, i, wrench(p, c, model, command, i), c)
+        store_motors(wrenches, i, motor_torques(wheels, c, command, command_row(command, i)), c)
+    clear_counts(counts, bodies)
+    substeps = int(c.substeps)
+    arrays = (model, wrenches, state, status, momenta, places)
+    for k in range(substeps):
+        last = k == substeps - 1
+        place_pass(p, c, arrays, bodies, (k, last))
+        for i in range(start, stop):
+            j = np.uint64(i)  # unsigned, as in passes: the loop vectorises
+            orbit_substep(step, c, wheels, arrays, (j, last), counts)
+    for i in range(start, stop):
+        tick(state, c, i, status[i] == HEALTHY)
+    return tally(state, status, c, bodies)
+
+
+@kernel
+def place_pass(p, c, world, bodies, when):
+    """Where each body is at the middle of substep ``k`` (``when = (k, last)``), held over it
+    as :func:`body_substep` holds it: its position into rows 0:3 of ``places``, the field there
+    into its wrench's field rows, its reach for the guard (:func:`force_reach`, which the coils'
+    dipole in that field bounds) into :data:`REACH`; on the ``last`` substep also its position
+    at the world step's end into rows 3:6."""
+    model, wrenches, state, _, _, places = world
+    k, last = when
+    t = k * c.h
+    t1 = c.dt if last else (k + 1) * c.h
+    for i in range(bodies[0], bodies[1]):
+        x, field, _ = where(p, c, state, i, 0.5 * (t + t1))
+        places[0, i], places[1, i], places[2, i] = x
+        if c.field_degree != 0.0 and c.dipoles != 0.0:
+            wrenches[10, i], wrenches[11, i], wrenches[12, i] = field
+        wrenches[REACH, i] = force_reach(load_wrench(wrenches, i, c), body_model(model, i), c)
+        if last:
+            places[3, i], places[4, i], places[5, i] = body_position(state, c, i, t1)
+
+
+@pass_kernel
+def orbit_substep(step, c, wheels, world, at, counts):
+    """:func:`substep` of body ``i`` on its orbit (``at = (i, last)``): from its place at the
+    substep's middle (:func:`place_pass`) under the wrench and reach held there; on the
+    ``last`` substep it ends at its place at the world step's end. Returns ``(failed,
+    beyond)``."""
+    model, wrenches, state, status, momenta, places = world
+    i, last = at
+    old, m, w, hw = begin_substep(state, momenta, model, i, c)
+    _, v0, q0, _ = old
+    x = (places[0, i], places[1, i], places[2, i])
+    drive = load_drive(wheels, wrenches, i, c)
+    forces = wrenches[REACH, i]
+    if c.wheels != 0.0:
+        forces += wheel_reach(w, hw, drive, c, m)
+    reach = (start_energy(x, v0, w, m, c), held_reach(c.h, forces))
+    act = load_wrench(wrenches, i, c)
+    x, v, q, w, hw1 = integrate(step, (x, v0, q0, w, hw), act, m, c, c.h, counts, i, drive)
+    if last:
+        x = (places[3, i], places[4, i], places[5, i])
+    world = (state, status, momenta)
+    return end_substep(world, i, ((x, v, q, w, hw1), (*old, hw)), m, reach, c, last)
 
 
 def vector_passes(step, p, model, world, command, bodies, counts):
@@ -535,7 +687,7 @@ def passes(step, c, p, model, world, command, span, counts):
     maps are zero) leaves the wrench out, so that the passes neither write the zeros nor read
     them. Returns the step's code."""
     (start, stop), wrenched = span
-    state, status, wrenches, momenta = world
+    state, status, wrenches, momenta, _ = world
     commanded = command.shape[1] > 0
     actuated = commanded and wrenched
     wheels = wheel_records(p, c, momenta)  # read once, not per body: the loop keeps its form
@@ -585,9 +737,9 @@ def over_threads(entry, world, start, stop, threads):
     (``prange``; each body is computed alone, so the split changes no number); ``entry`` is
     called, not inlined again. ``threads`` is an argument (``numba.get_num_threads()`` in
     Python): called in here it would keep the function from being cached. ``world = (p,
-    model, state, status, wrenches, momenta, command[, counts])``: the wheels' ``momenta`` (a
-    tuple of rows) are taken out of it before the loop, as ``prange`` hands its body each tuple
-    it reads as its items, one level deep only."""
+    model, state, status, wrenches, momenta, places[, counts], command)``: the wheels'
+    ``momenta`` (a tuple of rows) are taken out of it before the loop, as ``prange`` hands its
+    body each tuple it reads as its items, one level deep only."""
     codes = np.empty(threads, np.int64)  # (no array expressions here: each would be a parfor)
     head, momenta, tail = world[:5], world[5], world[6:]
     for t in prange(threads):

@@ -31,11 +31,13 @@ from rigid_env.core.layout import (
     FROZEN,
     HEALTHY,
     MODEL_WIDTH,
+    PLACE_ROWS,
     STATE_WIDTH,
     THRUST,
     WRENCH_WIDTH,
     Params,
     decode,
+    no_places,
     no_wheel_rows,
     unpack,
 )
@@ -218,6 +220,8 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         without an orbit."""
         self._state = State(cols[0:3].T, cols[3:6].T, cols[6:10].T, cols[10:13].T)
         self._wrenches = np.zeros((WRENCH_WIDTH, self._n))
+        # where each body is on its orbit in the substep in hand (stepping.orbit_passes)
+        self._places = np.zeros((PLACE_ROWS, self._n)) if self._motion else no_places()
         self._copy_before_step = (
             (plan.guard.on_error == "raise" and self._n > 1)
             or plan.substeps > 1
@@ -366,6 +370,7 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
         error-controlled integrator also writes the substeps each body took."""
         self._arrays = (
             self.params, self._model_cols, self._cols, self._status, self._wrenches, self._momenta,
+            self._places,
         )  # fmt: skip
         if self._integrator.error_control:
             self._arrays += (self._counts,)

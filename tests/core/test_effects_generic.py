@@ -26,7 +26,7 @@ from rigid_env.core.effects import (
     SolarRadiationPressure,
 )
 from rigid_env.core.facets import facets
-from rigid_env.core.layout import EFFECTS, no_wheel_rows
+from rigid_env.core.layout import EFFECTS, no_places, no_wheel_rows
 from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, kepler_orbit
 from rigid_env.core.orbit_state import OrbitMotion
 from rigid_env.core.stepping import advance, body_advance
@@ -235,8 +235,8 @@ def _by_body(step):
 
 def _vectorised(step):
     @njit(cache=False)
-    def stepped(p, model, state, status, wrenches, momenta, command):
-        world = (state, status, wrenches, momenta)
+    def stepped(p, model, state, status, wrenches, momenta, places, command):
+        world = (state, status, wrenches, momenta, places)
         return advance(step, p, model, world, command, (0, state.shape[1]))
 
     return stepped
@@ -272,6 +272,8 @@ def test_the_vectorised_pass_equals_the_body_by_body_step(method: str) -> None:
     wrenches, momenta = np.zeros((7, n)), no_wheel_rows()  # no wheels (as a world hands them)
     vectorised, by_body = _vectorised(step), _by_body(step)
     for _ in range(20):
-        vectorised(world.params, world.model_columns, a, status_a, wrenches, momenta, command)
+        vectorised(
+            world.params, world.model_columns, a, status_a, wrenches, momenta, no_places(), command
+        )
         by_body(world.params, world.model_columns, b, status_b, momenta, command)
     assert a.tobytes() == b.tobytes()

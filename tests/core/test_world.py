@@ -25,7 +25,7 @@ from rigid_env.core import (
     Thrusters,
     World,
 )
-from rigid_env.core.layout import WRENCH_WIDTH, no_wheel_rows
+from rigid_env.core.layout import WRENCH_WIDTH, no_places, no_wheel_rows
 
 from roundoff import U
 
@@ -505,6 +505,7 @@ def test_serial_range_and_threaded_entries_agree_bitwise(name: str) -> None:
             np.zeros(n, np.uint8),
             np.zeros((WRENCH_WIDTH, n)),
             no_wheel_rows(),  # the wheels' momenta: none (as a world without wheels hands them)
+            no_places(),  # off an orbit
         )
         return (*out, carried[id(cols)]) if info.error_control else out
 

@@ -218,6 +218,7 @@ THRUSTERS = Actuator(
     ),
     flags=("hardware", "lagged", "noisy"),
     rare=("hardware",),
+    per_body=("hardware",),
     bound=map_bound,
     torque_at=map_torque,
     full_scale=lambda spec: spec.max_force,
