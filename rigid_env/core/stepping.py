@@ -618,6 +618,9 @@ def orbit_substep(step, c, wheels, world, at, counts):
     old, m, w, hw = begin_substep(state, momenta, model, i, c)
     _, v0, q0, _ = old
     x = (places[0, i], places[1, i], places[2, i])
+    # Where it ends, read on every substep and taken on the last (a load under a branch would
+    # keep the loop scalar: measured 480 -> 160 ns per body-substep with WheelPointing's wheels)
+    end = (places[3, i], places[4, i], places[5, i])
     drive = load_drive(wheels, wrenches, i, c)
     forces = wrenches[REACH, i]
     if c.wheels != 0.0:
@@ -625,8 +628,7 @@ def orbit_substep(step, c, wheels, world, at, counts):
     reach = (start_energy(x, v0, w, m, c), held_reach(c.h, forces))
     act = load_wrench(wrenches, i, c)
     x, v, q, w, hw1 = integrate(step, (x, v0, q0, w, hw), act, m, c, c.h, counts, i, drive)
-    if last:
-        x = (places[3, i], places[4, i], places[5, i])
+    x = (end[0] if last else x[0], end[1] if last else x[1], end[2] if last else x[2])
     world = (state, status, momenta)
     return end_substep(world, i, ((x, v, q, w, hw1), (*old, hw)), m, reach, c, last)
 
