@@ -12,8 +12,9 @@ registry, with no actuator named anywhere else:
 * :func:`rigid_env.core.effects.pack`: the actuators' maps, each declared per-component
   :class:`Table` (the thrusters' hardware rows, the coils' dipoles) and each declared block of
   per-unit rows (the wheels', :attr:`Actuator.rows_at`);
-* the flags only the per-body passes carry (:func:`rare_flags`,
-  :data:`rigid_env.core.compose.RARE`);
+* the flags the common vectorised passes leave out (:func:`rare_flags`,
+  :data:`rigid_env.core.compose.RARE`) and those only the per-body passes carry
+  (:func:`per_body_flags`, :data:`rigid_env.core.compose.PER_BODY`);
 * the guard's reach (:attr:`Actuator.torque_bound`, summed by
   :func:`rigid_env.core.compose.add_actuator_torque_bounds`);
 * the state width (:func:`state_rows`), ``action_dim`` (:func:`action_dim`), the fuel measure
@@ -141,8 +142,9 @@ class Actuator:
         rows_at: the :class:`Params` field holding the offset of its :attr:`unit_rows`, packed
             last (the wheels'), or None.
         flags: its fields of the world's parameters (set by its spec's ``parameters()``).
-        rare: those of :attr:`flags` that only the per-body passes carry (see
-            :data:`rigid_env.core.compose.RARE`).
+        rare: those of :attr:`flags` that the common vectorised passes leave out (see
+            :data:`rigid_env.core.compose.RARE`: a world with one steps in the orbit's
+            passes or body by body).
         per_body: those of :attr:`rare` that split a substep per body (the thrusters'
             switch times), which the orbit's vectorised passes cannot carry either
             (:data:`rigid_env.core.compose.PER_BODY`).

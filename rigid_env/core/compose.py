@@ -26,11 +26,12 @@ inline = njit(inline="always", error_model="numpy")
 """A link of a chain: inlined into the compiled function that calls it."""
 
 RARE = (*(e.name for e in EFFECTS if e.rare), *rare_flags(), "orbit")
-"""The flags that only the per-body passes carry (:func:`rigid_env.core.stepping.advance`): the
-rare effects' and the rare actuators' (:attr:`rigid_env.core.actuator.Actuator.rare`: the
+"""The flags that the common vectorised passes leave out (:func:`rigid_env.core.stepping.advance`):
+the rare effects' and the rare actuators' (:attr:`rigid_env.core.actuator.Actuator.rare`: the
 thrusters' hardware, whose switch times split a substep per body, and the magnetorquers, the
 actuation's dipole and field, :func:`rigid_env.core.dynamics.wrench`), and the orbit
-(:mod:`rigid_env.core.orbit_state`: where each body is, read per substep). The
+(:mod:`rigid_env.core.orbit_state`: where each body is, read per substep). A world with one
+steps in the orbit's passes or body by body (:data:`PER_BODY`). The common
 vectorised passes see them as the constant 0 of :func:`common`, so their code is not in those
 loops at all (a flag read from the array would keep it there: the compiler computes both sides
 of a branch inside a vectorised loop)."""
