@@ -279,46 +279,24 @@ _orbiting_wheeled = _set_flags(PER_BODY, (WHEELS, WHEELS_COUPLED))
 _orbiting_wheeled_apart = _set_flags((*PER_BODY, WHEELS_COUPLED), (WHEELS,))
 
 
-@overload(rare, inline="always")
-def _overload_rare(c):
-    return lambda c: _rare(c)
+def _compile_as(function: Callable, compiled: Callable) -> None:
+    """Compiled code calling ``function`` (plain Python on the named parameters) runs
+    ``compiled`` (its intrinsic: flags read or set as constants), inlined."""
+
+    @overload(function, inline="always")
+    def _overload(c):
+        return lambda c: compiled(c)
 
 
-@overload(per_body, inline="always")
-def _overload_per_body(c):
-    return lambda c: _per_body(c)
-
-
-@overload(any_potential, inline="always")
-def _overload_any_potential(c):
-    return lambda c: _potential(c)
-
-
-@overload(common, inline="always")
-def _overload_common(c):
-    return lambda c: _common(c)
-
-
-@overload(wheeled, inline="always")
-def _overload_wheeled(c):
-    return lambda c: _wheeled(c)
-
-
-@overload(wheeled_apart, inline="always")
-def _overload_wheeled_apart(c):
-    return lambda c: _wheeled_apart(c)
-
-
-@overload(orbiting, inline="always")
-def _overload_orbiting(c):
-    return lambda c: _orbiting(c)
-
-
-@overload(orbiting_wheeled, inline="always")
-def _overload_orbiting_wheeled(c):
-    return lambda c: _orbiting_wheeled(c)
-
-
-@overload(orbiting_wheeled_apart, inline="always")
-def _overload_orbiting_wheeled_apart(c):
-    return lambda c: _orbiting_wheeled_apart(c)
+for _function, _compiled in (
+    (rare, _rare),
+    (per_body, _per_body),
+    (any_potential, _potential),
+    (common, _common),
+    (wheeled, _wheeled),
+    (wheeled_apart, _wheeled_apart),
+    (orbiting, _orbiting),
+    (orbiting_wheeled, _orbiting_wheeled),
+    (orbiting_wheeled_apart, _orbiting_wheeled_apart),
+):
+    _compile_as(_function, _compiled)

@@ -9,6 +9,7 @@ import copy
 
 import numpy as np
 import pytest
+import yaml
 from numba import njit
 
 from rigid_env.core.integrators import rk4_flow
@@ -30,8 +31,6 @@ def _by_body(p, model, state, status, momenta, command):
 
 
 def _scene(edit) -> dict:
-    import yaml
-
     scene = yaml.safe_load(scene_path("wheel_pointing_orbit").read_text())
     scene["field"] = {"model": "igrf", "degree": 4}  # the field's loops, at a lower cost
     edit(scene)
