@@ -10,9 +10,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
-from rigid_env.core.layout import Body
+from rigid_env.core.jit import kernel
+from rigid_env.core.layout import MODEL_WIDTH, Body
 
 FloatArray = NDArray[np.float64]
 
@@ -25,6 +27,54 @@ def isotropic_rows(inertia: NDArray[np.float64]) -> NDArray[np.bool_]:
     """(N,) True for the bodies whose three principal moments ``inertia`` (N, 3) are equal."""
     top = inertia.max(axis=1)
     return (top - inertia.min(axis=1)) <= ISOTROPY_RTOL * top
+
+
+@kernel
+def body_numbers(mass, ix, iy, iz):
+    """One body's :class:`rigid_env.core.layout.Body` from its mass [kg] and principal moments
+    [kg m^2]: their reciprocals, the isotropy flag of :func:`isotropic_rows` and the guard's
+    square roots (each number one correctly rounded operation, as NumPy's)."""
+    top, least = max(max(ix, iy), iz), min(min(ix, iy), iz)
+    isotropic = 1.0 if top - least <= ISOTROPY_RTOL * top else 0.0
+    return Body(mass, ix, iy, iz, 1.0 / mass, 1.0 / ix, 1.0 / iy, 1.0 / iz, isotropic,
+                1.0 / np.sqrt(mass), 1.0 / np.sqrt(least))  # fmt: skip
+
+
+BAD_MASS, BAD_INERTIA = 1, 2
+"""What :func:`lay_model_columns` returns for a mass, or a moment, that is not finite and > 0."""
+MASS_MESSAGE = "mass: every mass must be finite and > 0 [kg]"
+INERTIA_MESSAGE = "inertia: every principal moment must be finite and > 0 [kg m^2]"
+"""The errors of those (:class:`BodyModel`'s and :meth:`World.set_model_rows`'s)."""
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def lay_model_columns(columns, bodies, mass, inertia):
+    """Body ``k``'s :func:`body_numbers` from ``mass[k]`` and ``inertia[k]`` (K, 3) into column
+    ``bodies[k]`` of the model ``columns`` (MODEL_WIDTH or more, N); nothing written if a mass
+    or a moment is not finite and > 0.
+
+    Returns:
+        ``(code, worst, at)``: 0, else :data:`BAD_MASS` or :data:`BAD_INERTIA`; and the largest
+        ``|I_j - I_k| / I_i`` over the bodies' cyclic triples (the triangle inequality's
+        breach, as :meth:`~rigid_env.core.world_checks.Diagnostics._check_asymmetry` states
+        it) with the first ``k`` that has it.
+    """
+    for k in range(bodies.size):
+        if not (np.isfinite(mass[k]) and mass[k] > 0.0):
+            return BAD_MASS, 0.0, 0
+        for j in range(3):
+            if not (np.isfinite(inertia[k, j]) and inertia[k, j] > 0.0):
+                return BAD_INERTIA, 0.0, 0
+    worst, at = -1.0, 0
+    for k in range(bodies.size):
+        ix, iy, iz = inertia[k, 0], inertia[k, 1], inertia[k, 2]
+        numbers = body_numbers(mass[k], ix, iy, iz)
+        for j in range(MODEL_WIDTH):
+            columns[j, bodies[k]] = numbers[j]
+        breach = max(max(abs(iy - iz) / ix, abs(iz - ix) / iy), abs(ix - iy) / iz)
+        if breach > worst:
+            worst, at = breach, k
+    return 0, worst, at
 
 
 @dataclass(frozen=True)
@@ -50,9 +100,9 @@ class BodyModel:
                 f"inertia: expected shape (N, 3) principal moments, got {inertia.shape}"
             )
         if not (np.all(np.isfinite(mass)) and np.all(mass > 0.0)):
-            raise ValueError("mass: every mass must be finite and > 0 [kg]")
+            raise ValueError(MASS_MESSAGE)
         if not (np.all(np.isfinite(inertia)) and np.all(inertia > 0.0)):
-            raise ValueError("inertia: every principal moment must be finite and > 0 [kg m^2]")
+            raise ValueError(INERTIA_MESSAGE)
         object.__setattr__(self, "mass", mass)
         object.__setattr__(self, "inertia", inertia)
         object.__setattr__(self, "isotropic", bool(np.all(isotropic_rows(inertia))))

@@ -55,7 +55,14 @@ from rigid_env.core.plan import (
     number,
     refuse_retired,
 )
-from rigid_env.core.state import BodyModel, State
+from rigid_env.core.state import (
+    BAD_MASS,
+    INERTIA_MESSAGE,
+    MASS_MESSAGE,
+    BodyModel,
+    State,
+    lay_model_columns,
+)
 from rigid_env.core.stepping import derivatives
 from rigid_env.core.threads import THREAD_MIN_BODIES, call_threaded, threaded
 from rigid_env.core.world_actuation import ActuationViews
@@ -336,10 +343,13 @@ class World(Settings, ActuationViews, WheelState, OrbitViews, EnergyViews, Diagn
                 "model: the bodies share one row of mass properties; give each body its own "
                 "with set_model(BodyModel(masses (N,), moments (N, 3))) first"
             )
-        rows = np.arange(self._n)[chosen_bodies(self._n, bodies)]
-        drawn = BodyModel(self.model.mass[rows], self.model.inertia[rows])  # checks them
-        self._model_cols[:MODEL_WIDTH, rows] = drawn.rows().T
-        self._check_asymmetry(drawn.inertia, rows)
+        rows = np.atleast_1d(chosen_bodies(self._n, bodies))
+        inertia = self.model.inertia[rows]
+        code, worst, at = lay_model_columns(self._model_cols, rows, self.model.mass[rows], inertia)
+        if code:
+            raise ValueError(MASS_MESSAGE if code == BAD_MASS else INERTIA_MESSAGE)
+        if rows.size:
+            self._warn_asymmetry(worst, inertia[at], int(rows[at]), stacklevel=3)
 
     def set_model(self, model: BodyModel) -> None:
         """Replace the mass properties (per body or shared), e.g. for domain randomisation."""

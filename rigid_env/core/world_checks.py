@@ -86,32 +86,36 @@ class Diagnostics:
             )
         return ""
 
-    def _check_asymmetry(
-        self, inertia: FloatArray | None = None, bodies: NDArray[np.int64] | None = None
-    ) -> None:
-        """Warn once (RuntimeWarning) if a body's moments (``inertia`` (K, 3) of the
-        ``bodies``, default all the model's) break the triangle inequality by more than
-        :data:`ASYMMETRY_LIMIT`: the integrator's step then errs by that factor more."""
-        if self.integrator.name == "exact_free" or getattr(self, "_warned_asymmetry", False):
-            return
-        inertia = np.atleast_2d(self.model.inertia if inertia is None else inertia)
+    def _check_asymmetry(self) -> None:
+        """Warn once (RuntimeWarning) if a body's moments break the triangle inequality by more
+        than :data:`ASYMMETRY_LIMIT`: the integrator's step then errs by that factor more."""
+        inertia = np.atleast_2d(self.model.inertia)
         with np.errstate(divide="ignore", invalid="ignore"):
             ratio = np.abs(np.roll(inertia, -1, axis=1) - np.roll(inertia, -2, axis=1)) / inertia
         worst = np.nanmax(ratio, axis=1)
-        if not np.any(worst > ASYMMETRY_LIMIT):
+        b = int(np.argmax(worst))
+        self._warn_asymmetry(float(worst[b]), inertia[b], b)
+
+    def _warn_asymmetry(
+        self, worst: float, moments: FloatArray, body: int, stacklevel: int = 4
+    ) -> None:
+        """:meth:`_check_asymmetry`'s warning, once, where body ``body``'s breach ``worst``
+        (the largest ``|I_j - I_k| / I_i`` of its ``moments``, the bodies' largest) exceeds
+        :data:`ASYMMETRY_LIMIT` (``stacklevel``: that of the World method the user called)."""
+        if not worst > ASYMMETRY_LIMIT:
+            return
+        if self.integrator.name == "exact_free" or getattr(self, "_warned_asymmetry", False):
             return
         self._warned_asymmetry = True
-        b = int(np.argmax(worst))
-        body = b if bodies is None else int(bodies[b])
         exact = "" if self._wheels is not None else "'exact_free' (exact for any moments), or "
         warnings.warn(
-            f"body {body}: principal moments {inertia[b].tolist()} break the triangle inequality "
-            f"(|I_j - I_k| / I_i = {worst[b]:.3g} > {ASYMMETRY_LIMIT:g}; a real body has at "
-            f"most 1): Euler's equations turn w up to {worst[b]:.3g}x faster than |w|^2, and "
+            f"body {body}: principal moments {moments.tolist()} break the triangle inequality "
+            f"(|I_j - I_k| / I_i = {worst:.3g} > {ASYMMETRY_LIMIT:g}; a real body has at "
+            f"most 1): Euler's equations turn w up to {worst:.3g}x faster than |w|^2, and "
             f"integrator {self.integrator.name!r} errs that much more per step; use a dt "
-            f"{worst[b]:.3g}x smaller, or {exact}check the moments",
+            f"{worst:.3g}x smaller, or {exact}check the moments",
             RuntimeWarning,
-            stacklevel=3,
+            stacklevel=stacklevel,
         )
 
     def _warn_speed(self) -> None:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 from numpy.typing import NDArray
 
 from rigid_env.envs.params import Randomization
@@ -57,21 +58,31 @@ def random_mass_properties(
     1 + r.inertia)``, ``U(a, b) = a + (b - a) u`` as NumPy's ``uniform`` makes it; then the
     largest moment clipped to the sum of the other two (a physical body), that sum ``(I_0 +
     I_1) + I_2`` in the order NumPy's ``sum`` of three adds them."""
-    k, col = u.shape[0], 0
-    drawn = np.full(k, mass)
-    if r.mass > 0:
-        lo, hi = 1.0 - r.mass, 1.0 + r.mass
-        drawn = mass * (lo + (hi - lo) * u[:, 0])
-        col = 1
-    moments = np.tile(inertia, (k, 1))
-    if r.inertia > 0:
-        lo, hi = 1.0 - r.inertia, 1.0 + r.inertia
-        moments = inertia * (lo + (hi - lo) * u[:, col : col + 3])
-    rows, largest = np.arange(k), np.argmax(moments, axis=1)
-    top = moments[rows, largest]
-    total = (moments[:, 0] + moments[:, 1]) + moments[:, 2]
-    moments[rows, largest] = np.minimum(top, total - top)
+    drawn, moments = np.empty(u.shape[0]), np.empty((u.shape[0], 3))
+    _mass_properties(u, r.mass, r.inertia, mass, np.asarray(inertia, np.float64), drawn, moments)
     return drawn, moments
+
+
+@njit(cache=True, nogil=True)
+def _mass_properties(u, spread_mass, spread_inertia, mass, inertia, drawn, moments):
+    """:func:`random_mass_properties` into ``drawn`` (K,) and ``moments`` (K, 3), env by env
+    (a reset of a few envs costs microseconds, not NumPy's calls on tiny arrays)."""
+    lo_m, hi_m = 1.0 - spread_mass, 1.0 + spread_mass
+    lo_i, hi_i = 1.0 - spread_inertia, 1.0 + spread_inertia
+    col = 1 if spread_mass > 0 else 0
+    for k in range(u.shape[0]):
+        drawn[k] = mass * (lo_m + (hi_m - lo_m) * u[k, 0]) if spread_mass > 0 else mass
+        largest = 0
+        for j in range(3):
+            moment = inertia[j]
+            if spread_inertia > 0:
+                moment = inertia[j] * (lo_i + (hi_i - lo_i) * u[k, col + j])
+            moments[k, j] = moment
+            if moment > moments[k, largest]:  # the first of equal largest, as argmax
+                largest = j
+        top = moments[k, largest]
+        total = (moments[k, 0] + moments[k, 1]) + moments[k, 2]
+        moments[k, largest] = min(top, total - top)
 
 
 def random_thrust(u: FloatArray, r: Randomization) -> FloatArray:

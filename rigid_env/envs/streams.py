@@ -21,9 +21,12 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 from numba.typed import List
 from numpy.typing import NDArray
+
+from rigid_env.core import threads as threading_policy
+from rigid_env.core.threads import split_range
 
 FloatArray = NDArray[np.float64]
 
@@ -51,16 +54,33 @@ def _draw_picked(gens, rows, out, normal):
 def _draw_sweep(gens, rows, out, normal):
     """:func:`_draw_picked` for increasing ``rows``, walking the generators in order (a walk
     costs a fifth of picking by index per generator)."""
-    k = 0
+    _sweep_range(gens, rows, out, normal, 0, rows.size)
+
+
+@_draws
+def _sweep_range(gens, rows, out, normal, lo, hi):
+    """:func:`_draw_sweep` of the rows ``rows[lo:hi]`` alone (``out[lo:hi]``): the walk passes
+    the generators before ``rows[lo]`` without drawing (about a nanosecond each)."""
+    k = lo
     i = 0
     for g in gens:
-        if k == rows.size:
+        if k == hi:
             break
         if rows[k] == i:
             for j in range(out.shape[1]):
                 out[k, j] = _draw(g, normal)
             k += 1
         i += 1
+
+
+@njit(cache=True, nogil=True, parallel=True)
+def _draw_sweep_threads(gens, rows, out, normal, threads):
+    """:func:`_draw_sweep` with the rows cut in ``threads`` contiguous ranges, each drawn on
+    one of Numba's threads. Each env draws from its own generator only, so the split changes
+    no number and no generator's stream."""
+    for t in prange(threads):
+        lo, hi = split_range(0, rows.size, t, threads)
+        _sweep_range(gens, rows, out, normal, lo, hi)
 
 
 class EnvStreams:
@@ -125,12 +145,22 @@ class EnvStreams:
 
     def _draws(self, rows: NDArray[np.int64] | None, width: int, normal: bool) -> FloatArray:
         """The draws of :meth:`standard_normals` or :meth:`randoms`: a walk over the generators
-        for many increasing rows, else picked by index."""
+        for many increasing rows (split over the cores for a batch as large as the world's
+        threaded passes), else picked by index."""
         many = rows is None or (4 * rows.size >= self.n and bool(np.all(rows[1:] > rows[:-1])))
         rows = self._all if rows is None else rows
         out = np.empty((rows.size, width))
-        if width and rows.size:
-            (_draw_sweep if many else _draw_picked)(self._followed(), rows, out, normal)
+        if not (width and rows.size):
+            return out
+        gens = self._followed()
+        if not many:
+            _draw_picked(gens, rows, out, normal)
+        elif threading_policy.threaded(rows.size):
+            threading_policy.call_threaded(
+                lambda t: _draw_sweep_threads(gens, rows, out, normal, t)
+            )
+        else:
+            _draw_sweep(gens, rows, out, normal)
         return out
 
     def _followed(self) -> Any:

@@ -9,7 +9,9 @@ import pickle
 import numpy as np
 import pytest
 
-from rigid_env.envs.sampling import sensor_noise
+from rigid_env.core.threads import THREAD_MIN_BODIES
+from rigid_env.envs.params import Randomization
+from rigid_env.envs.sampling import mass_property_draws, random_mass_properties, sensor_noise
 from rigid_env.envs.streams import EnvStreams
 
 N = 7
@@ -101,3 +103,63 @@ def test_pickled_streams_follow_again_and_refuse_to_draw_before() -> None:
 def test_following_the_wrong_number_of_generators_is_refused() -> None:
     with pytest.raises(ValueError, match=f"rngs: expected {N} generators, got 3"):
         EnvStreams(N).follow(generators()[:3])
+
+
+def test_a_sweep_split_over_threads_draws_each_envs_own_stream() -> None:
+    """Thousands of envs (past THREAD_MIN_BODIES: the sweep is cut over Numba's threads):
+    every row is its own generator's stream, for all the envs and for most of them, and each
+    generator is left where NumPy would leave it."""
+    n = 2 * THREAD_MIN_BODIES + 3
+    mine = [np.random.default_rng(50 + i) for i in range(n)]
+    ref = [np.random.default_rng(50 + i) for i in range(n)]
+    streams = EnvStreams(n)
+    streams.follow(mine)
+    np.testing.assert_array_equal(
+        streams.standard_normals(None, 3), np.stack([g.standard_normal(3) for g in ref])
+    )
+    rows = np.delete(np.arange(n), [0, 7, n // 2, n - 1])
+    np.testing.assert_array_equal(
+        streams.randoms(rows, 4), np.stack([ref[i].random(4) for i in rows])
+    )
+    for g, h in zip(mine, ref, strict=True):
+        assert g.random() == h.random()
+
+
+def numpy_mass_properties(u, spread_mass, spread_inertia, mass, inertia):
+    """The draws of random_mass_properties written in NumPy over the whole batch (a second
+    computation): U(a, b) = a + (b - a) u, the largest moment (the first of equal ones, as
+    argmax) clipped to the sum of the others, that sum (I_0 + I_1) + I_2."""
+    k, col = u.shape[0], 0
+    drawn = np.full(k, mass)
+    if spread_mass > 0:
+        lo, hi = 1.0 - spread_mass, 1.0 + spread_mass
+        drawn = mass * (lo + (hi - lo) * u[:, 0])
+        col = 1
+    moments = np.tile(inertia, (k, 1))
+    if spread_inertia > 0:
+        lo, hi = 1.0 - spread_inertia, 1.0 + spread_inertia
+        moments = inertia * (lo + (hi - lo) * u[:, col : col + 3])
+    rows, largest = np.arange(k), np.argmax(moments, axis=1)
+    top = moments[rows, largest]
+    total = (moments[:, 0] + moments[:, 1]) + moments[:, 2]
+    moments[rows, largest] = np.minimum(top, total - top)
+    return drawn, moments
+
+
+@pytest.mark.parametrize(("spread_mass", "spread_inertia"), [(0.0, 0.5), (0.2, 0.0), (0.3, 0.99)])
+@pytest.mark.parametrize("inertia", [[1.0, 2.0, 3.0], [2.0, 2.0, 2.0], [0.01, 5.0, 0.02]])
+def test_drawn_mass_properties_are_numpys_formula_bit_for_bit(spread_mass, spread_inertia, inertia):
+    """The compiled draw equals the NumPy formula bit for bit; an isotropic body at 0.99 clips
+    often (a moment past the sum of the others)."""
+    r = Randomization(mass=spread_mass, inertia=spread_inertia)
+    u = np.random.default_rng(2).random((300, mass_property_draws(r)))
+    got = random_mass_properties(u, r, 1.7, np.array(inertia))
+    want = numpy_mass_properties(u, spread_mass, spread_inertia, 1.7, np.array(inertia))
+    np.testing.assert_array_equal(got[0], want[0])
+    np.testing.assert_array_equal(got[1], want[1])
+    # A physical body: the largest moment is at most the sum of the others, up to rounding: the
+    # clip's (I_0 + I_1) + I_2 - top is two roundings of at most the drawn sum, 3 I_max (1 + s),
+    # and the test's own sum of the others one more: 4 u 3 I_max (1 + s) leaves a margin.
+    slack = 4 * 2.0**-53 * 3 * max(inertia) * (1.0 + spread_inertia)
+    largest = got[1].max(axis=1)
+    assert np.all(largest <= got[1].sum(axis=1) - largest + slack)
