@@ -9,7 +9,7 @@ difference relative to the quantity's size, and its cause: rounding where the tw
 model with the same constants, else the constant or the model that differs, with the difference
 left once that constant is matched. It prints, and with ``--out`` writes as ``peers.md`` and
 ``peers.csv``, the agreement table, and (``peers_speed.csv``) a speed table of the wheel run:
-control steps per second here at N = 1, 64, 1024 against Basilisk's one spacecraft, timed in
+control steps per second here at N = 1, 64, 1024, 4096 against Basilisk's one spacecraft, timed in
 turn (:mod:`rigid_env.bench.timing`).
 
 Covered: the body rate and wheel speeds of WheelPointing's CubeSat under a wheel-torque
@@ -17,9 +17,11 @@ profile (``World.step``, Basilisk's ``reactionWheelStateEffector``); the field o
 dipole and of IGRF-14 (degree 1, and degree 13 as a model difference) against
 ``magneticFieldCenteredDipole``; the coils' torque (``World.accelerations``, ``MtbEffector``);
 the gravity-gradient torque
-on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); solar radiation
-pressure on flat plates (:func:`rigid_env.core.facets.srp_wrench`, ``facetSRPDynamicEffector``);
-drag on flat plates (:func:`rigid_env.core.facets.drag_wrench`, ``facetDragDynamicEffector``).
+on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); the torques of solar
+radiation pressure and of drag on flat plates through a world listing the effect on its orbit
+(``World.accelerations`` where the body is: the Sun's place, the Earth's shadow and the air
+from the world's orbit and clock, handed to ``facetSRPDynamicEffector`` and
+``facetDragDynamicEffector`` as their messages), sunlit, in the penumbra and in the umbra.
 """
 
 from __future__ import annotations
@@ -72,9 +74,10 @@ def markdown(rows: Sequence[Any], speeds: Sequence[Any]) -> str:
     ]
     not_compared = (
         "Not compared: Basilisk's WMM (its coefficient file comes from its support-data "
-        "fetcher on first use, offline here); the coils and the field over a trajectory on an "
-        "orbit, and the envs' own env-steps, which wait for the orbit as world state (the "
-        "actuators issue) to run the same scenario on both sides."
+        "fetcher on first use, offline here); the coils and the field over a trajectory "
+        "propagated on both sides, and the envs' own env-steps. The sunlight and the air are "
+        "compared at the world's own place on its orbit: Basilisk is handed the Sun, the "
+        "shadow factor, the density and the air's velocity that the world's step reads there."
     )
     return report.markdown(
         "Agreement with Basilisk",

@@ -32,7 +32,8 @@ from rigid_env.bench.timing import measure
 from rigid_env.core import igrf
 from rigid_env.core.actuator import kinds, sets_dipole, stores_momentum
 from rigid_env.core.atmosphere import air_velocity
-from rigid_env.core.facets import drag_wrench, facets, srp_wrench
+from rigid_env.core.atmosphere import density as atmosphere_density
+from rigid_env.core.atmosphere import height as atmosphere_height
 from rigid_env.core.geomagnetic import (
     EARTH_MU,
     EARTH_RADIUS,
@@ -42,7 +43,10 @@ from rigid_env.core.geomagnetic import (
     IGRF2020_H11,
     TiltedDipole,
 )
-from rigid_env.core.sun import ASTRONOMICAL_UNIT, SOLAR_PRESSURE
+from rigid_env.core.orbit import Orbit
+from rigid_env.core.orbit import states as kepler_states
+from rigid_env.core.sun import SOLAR_PRESSURE, light_conical, sun_position
+from rigid_env.core.timescale import SECONDS_PER_DAY
 from rigid_env.resources import scene_path
 from rigid_env.scene import load_scene
 
@@ -286,106 +290,203 @@ PLATES = {
 slanted radiator)."""
 
 
+SURROUNDINGS_ORBIT = {
+    "altitude": 4.0e5, "inclination": 97.0, "raan": 78.5, "j2": True, "epoch": 2025.0,
+}  # fmt: skip
+"""The orbit of the facet effects' runs: 400 km (where the air's torque rivals the light's), a
+sun-synchronous plane whose 37 % of each orbit in the Earth's shadow holds umbra and penumbra."""
+PEER_INERTIA = [0.03, 0.04, 0.05]
+"""[kg m^2] of the facet effects' body (its torque is ``I w'`` at rest)."""
+
+
+def facet_world(effect: str):
+    """A world of one body carrying :data:`PLATES`, listing only ``effect``
+    (``solar_radiation_pressure`` or ``aerodynamic_drag``) on :data:`SURROUNDINGS_ORBIT`: the
+    scene file's path to the effect, its sunlight, shadow and air from the world's orbit."""
+    plates = [
+        {key: (list(PLATES[key][k]) if key in ("normal", "centre") else PLATES[key][k])
+         for key in PLATES}
+        for k in range(len(PLATES["area"]))
+    ]  # fmt: skip
+    spec = {
+        "name": f"{effect}_peer",
+        "dt": 1.0,
+        "integrator": "rk4",
+        "body": {"mass": 4.0, "inertia": PEER_INERTIA, "facets": {"plates": plates}},
+        "effects": {effect: {}},
+        "orbit": SURROUNDINGS_ORBIT,
+    }
+    return load_scene(spec).build_world()
+
+
+def _placed(world, clock: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The world's body ``clock`` seconds after the epoch on its orbit, at rest at attitude
+    ``q``: its ECI position and velocity, and the torque of the world's effects on it (``I w'``
+    of ``World.accelerations``: the compiled right-hand side, the surroundings where it is)."""
+    world.orbit_rows[0, 0] = clock
+    row = world.orbit_rows[0]
+    r, v = (np.asarray(x) for x in kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock))
+    _, alpha = world.accelerations(r, v, q, np.zeros(3))
+    return r, v, np.asarray(PEER_INERTIA) * alpha[0]
+
+
+def _light(world, clock: float) -> float:
+    """The fraction of the Sun's disk the Earth leaves uncovered where the world's body is at
+    ``clock``."""
+    row = world.orbit_rows[0]
+    r, _ = kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock)
+    jd = float(world.parameters.orbit_epoch) + clock / SECONDS_PER_DAY
+    return light_conical(tuple(r), sun_position(jd))
+
+
+def _penumbra_clocks(world, count: int) -> list[float]:
+    """Up to ``count`` clocks in the Earth's penumbra (0 < light < 1, a few seconds at each
+    shadow's edge), found on the first orbits after the epoch at 0.5 s."""
+    out: list[float] = []
+    coarse = np.arange(0.0, 3 * 5560.0, 20.0)
+    lights = [_light(world, float(t)) for t in coarse]
+    for t, a, b in zip(coarse[:-1], lights[:-1], lights[1:], strict=True):
+        if a != b and len(out) < count:
+            fine = [float(t) + 0.5 * k for k in range(41)]
+            out += [c for c in fine if 0.0 < _light(world, c) < 1.0][:1]
+    return out
+
+
+def _drawn_clocks(world, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` clocks, a quarter of them in the penumbra and the rest over the first day
+    after the epoch (sunlit and umbra), and as many random attitudes (unit quaternions)."""
+    rng = np.random.default_rng(29)
+    edge = _penumbra_clocks(world, count // 4)
+    clocks = np.concatenate([edge, rng.uniform(0.0, 86400.0, count - len(edge))])
+    q = rng.normal(size=(count, 4))
+    return clocks, q / np.linalg.norm(q, axis=1, keepdims=True)
+
+
+def _case_at(r: np.ndarray, v: np.ndarray, q: np.ndarray) -> Case:
+    """Basilisk's attitude (the MRP of the same rotation) beside ours."""
+    dcm = RigidBodyKinematics.EP2C(q.tolist())
+    return Case(r, v, np.asarray(RigidBodyKinematics.C2MRP(dcm)), q)
+
+
 def srp(cases: Sequence[Case]) -> Agreement:
-    """Solar radiation pressure on :data:`PLATES`, the Sun in a random direction 0.98-1.02 AU
-    away (lit: no eclipse model on either side)."""
-    plates = facets(**PLATES)
-    rng = np.random.default_rng(7)
+    """Solar radiation pressure on :data:`PLATES` through the world: its effect on its orbit
+    (the Sun's place from the Almanac's formula, the Earth's conical shadow) against
+    Basilisk's effector given the same Sun and shadow factor, over a day of clocks (sunlit,
+    penumbra and umbra alike)."""
+    world = facet_world("solar_radiation_pressure")
+    epoch = float(world.parameters.orbit_epoch)
     worst = matched = 0.0
     basilisk_pressure = float("nan")
-    for case in cases:
-        u = rng.normal(size=3)
-        sun = u / np.linalg.norm(u) * ASTRONOMICAL_UNIT * rng.uniform(0.98, 1.02)
-        force, torque = srp_wrench(plates, tuple(case.q), tuple(sun - case.r), 1.0)
-        ours = np.concatenate([force, torque])
-        sim, craft = _spacecraft(case, [1.0, 1.0, 1.0], 4.0)
+    shadows = []
+    for clock, q in zip(*_drawn_clocks(world, len(cases)), strict=True):
+        r, v, ours = _placed(world, float(clock), q)
+        sun = np.asarray(sun_position(epoch + clock / SECONDS_PER_DAY))
+        shadows.append(light_conical(tuple(r), tuple(sun)))
+        sim, craft = _spacecraft(_case_at(r, v, q), PEER_INERTIA, 4.0)
         effector = facetSRPDynamicEffector.FacetSRPDynamicEffector()
         effector.setNumFacets(len(PLATES["area"]))
         effector.setNumArticulatedFacets(0)
         for k in range(len(PLATES["area"])):
-            normal = np.asarray(plates.normal[k])
+            normal = np.asarray(PLATES["normal"][k], dtype=float)
             spin = np.cross(normal, [0.3, 0.5, 0.7])  # a hinge axis: unused without articulation
             effector.addFacet(
-                float(plates.area[k]),
+                float(PLATES["area"][k]),
                 np.eye(3).tolist(),
-                normal.tolist(),
+                (normal / np.linalg.norm(normal)).tolist(),
                 (spin / np.linalg.norm(spin)).tolist(),
                 list(PLATES["centre"][k]),
-                float(plates.diffuse[k]),
-                float(plates.specular[k]),
+                float(PLATES["diffuse"][k]),
+                float(PLATES["specular"][k]),
             )
-        payload = messaging.SpicePlanetStateMsgPayload()
-        payload.PositionVector = sun.tolist()
-        message = messaging.SpicePlanetStateMsg().write(payload)
-        effector.sunInMsg.subscribeTo(message)
+        planet = messaging.SpicePlanetStateMsgPayload()
+        planet.PositionVector = sun.tolist()
+        eclipse = messaging.EclipseMsgPayload()
+        eclipse.illuminationFactor = shadows[-1]
+        messages = (
+            messaging.SpicePlanetStateMsg().write(planet),
+            messaging.EclipseMsg().write(eclipse),
+        )
+        effector.sunInMsg.subscribeTo(messages[0])
+        effector.sunEclipseInMsg.subscribeTo(messages[1])
         craft.addDynamicEffector(effector)
         sim.AddModelToTask("step", effector)
         sim.InitializeSimulation()
         effector.ReadMessages()
         effector.computeForceTorque(0.0, 0.0)
-        theirs = np.concatenate(
-            [_column(effector.forceExternal_B), _column(effector.torqueExternalPntB_B)]
-        )
+        theirs = _column(effector.torqueExternalPntB_B)
         worst = max(worst, _relative(ours, theirs))
         if not np.any(theirs):
-            continue  # no plate faces the Sun: both zero (checked above)
-        # Basilisk's pressure at 1 AU, from the ratio of the largest components.
-        largest = int(np.argmax(np.abs(theirs)))
+            continue  # in the umbra, or no plate faces the Sun: both zero (checked above)
+        largest = int(np.argmax(np.abs(theirs)))  # Basilisk's pressure, from the ratio
         ratio = float(theirs[largest] / ours[largest])
         basilisk_pressure = SOLAR_PRESSURE * ratio
         matched = max(matched, _relative(ours * ratio, theirs))
+    lit = np.asarray(shadows)
     cause = (
         f"the solar pressure at 1 AU: {SOLAR_PRESSURE:.6g} N/m^2 here (1361 W/m^2, IAU 2015), "
-        f"{basilisk_pressure:.6g} in Basilisk ({basilisk_pressure / SOLAR_PRESSURE - 1:+.2%})"
+        f"{basilisk_pressure:.6g} in Basilisk ({basilisk_pressure / SOLAR_PRESSURE - 1:+.2%}); "
+        f"{int(np.sum(lit == 1.0))} lit, {int(np.sum((lit > 0.0) & (lit < 1.0)))} in the "
+        f"penumbra, {int(np.sum(lit == 0.0))} in the umbra"
     )
-    return Agreement("solar radiation pressure on 3 plates", len(cases), worst, matched, cause)
+    return Agreement(
+        "solar radiation pressure torque on 3 plates, through the world on its orbit",
+        len(cases), worst, matched, cause,
+    )  # fmt: skip
 
 
 def drag(cases: Sequence[Case]) -> tuple[Agreement, Agreement]:
-    """Drag on :data:`PLATES` at a density of 3.725e-12 kg/m^3 (400 km). Basilisk's effector,
-    given no wind message, meets the air at the inertial velocity: the first row compares that
-    model (ours given ``v``), the second ours with the air turning with the Earth."""
-    plates = facets(**PLATES)
-    density = 3.725e-12
-    same = turning = 0.0
-    for case in cases:
-        sim, craft = _spacecraft(case, [1.0, 1.0, 1.0], 4.0)
-        effector = facetDragDynamicEffector.FacetDragDynamicEffector()
-        for k in range(len(PLATES["area"])):
-            effector.addFacet(
-                float(plates.area[k]),
-                float(plates.drag_coefficient[k]),
-                np.asarray(plates.normal[k]).tolist(),
-                list(PLATES["centre"][k]),
-            )
-        payload = messaging.AtmoPropsMsgPayload()
-        payload.neutralDensity = density
-        message = messaging.AtmoPropsMsg().write(payload)
-        effector.atmoDensInMsg.subscribeTo(message)
-        craft.addDynamicEffector(effector)
-        sim.AddModelToTask("step", effector)
-        sim.InitializeSimulation()
-        effector.ReadInputs()
-        effector.computeForceTorque(0.0, 0.0)
-        theirs = np.concatenate(
-            [_column(effector.forceExternal_B), _column(effector.torqueExternalPntB_B)]
-        )
-        force, torque = drag_wrench(plates, tuple(case.q), tuple(case.v), density)
-        same = max(same, _relative(np.concatenate([force, torque]), theirs))
-        air = air_velocity(tuple(case.r), tuple(case.v))
-        force, torque = drag_wrench(plates, tuple(case.q), air, density)
-        turning = max(turning, _relative(np.concatenate([force, torque]), theirs))
+    """Drag on :data:`PLATES` through the world: its effect on its orbit (Vallado's density at
+    the body's height, the air turning with the Earth) against Basilisk's effector given the
+    same density, once with the air's velocity as its wind message and once without one
+    (Basilisk then meets the air at the inertial velocity: a model difference)."""
+    world = facet_world("aerodynamic_drag")
+    same = unwound = 0.0
+    for clock, q in zip(*_drawn_clocks(world, len(cases)), strict=True):
+        r, v, ours = _placed(world, float(clock), q)
+        rho = atmosphere_density(atmosphere_height(tuple(r)))
+        air = np.asarray(v) - np.asarray(air_velocity(tuple(r), tuple(v)))  # the air's own
+        for windy in (True, False):
+            sim, craft = _spacecraft(_case_at(r, v, q), PEER_INERTIA, 4.0)
+            effector = facetDragDynamicEffector.FacetDragDynamicEffector()
+            for k in range(len(PLATES["area"])):
+                normal = np.asarray(PLATES["normal"][k], dtype=float)
+                effector.addFacet(
+                    float(PLATES["area"][k]),
+                    float(PLATES["drag_coefficient"][k]),
+                    (normal / np.linalg.norm(normal)).tolist(),
+                    list(PLATES["centre"][k]),
+                )
+            density = messaging.AtmoPropsMsgPayload()
+            density.neutralDensity = rho
+            messages = [messaging.AtmoPropsMsg().write(density)]
+            effector.atmoDensInMsg.subscribeTo(messages[0])
+            if windy:
+                wind = messaging.WindMsgPayload()
+                wind.v_air_N = air.tolist()
+                messages.append(messaging.WindMsg().write(wind))
+                effector.windVelInMsg.subscribeTo(messages[1])
+            craft.addDynamicEffector(effector)
+            sim.AddModelToTask("step", effector)
+            sim.InitializeSimulation()
+            effector.ReadInputs()
+            effector.computeForceTorque(0.0, 0.0)
+            difference = _relative(ours, _column(effector.torqueExternalPntB_B))
+            if windy:
+                same = max(same, difference)
+            else:
+                unwound = max(unwound, difference)
     return (
-        Agreement("drag on 3 plates, air at rest", len(cases), same, same, "rounding"),
         Agreement(
-            "drag on 3 plates, air turning with the Earth",
-            len(cases),
-            turning,
-            same,
-            "model: the air's velocity v - w_E x r here (up to 0.5 km/s of 7.6); Basilisk meets "
-            "the air at v unless given a wind message",
+            "drag torque on 3 plates, through the world on its orbit (Basilisk given its wind)",
+            len(cases), same, same, "rounding",
         ),
-    )
+        Agreement(
+            "drag torque on 3 plates, Basilisk without a wind message",
+            len(cases), unwound, same,
+            "model: the air's velocity v - w_E x r here (up to 0.5 km/s of 7.7); Basilisk "
+            "meets the air at v unless given a wind message",
+        ),
+    )  # fmt: skip
 
 
 # WheelPointing's CubeSat with its three wheels (configs/scenes/wheel_pointing.yaml), the wheels
@@ -530,7 +631,7 @@ class Speed:
     ratio: float
 
 
-def speeds(batches: Sequence[int] = (1, 64, 1024), repeats: int = 5) -> list[Speed]:
+def speeds(batches: Sequence[int] = (1, 64, 1024, 4096), repeats: int = 5) -> list[Speed]:
     """Ours at each batch size and Basilisk's one spacecraft, timed interleaved (medians)."""
     cases = []
     for n in batches:
