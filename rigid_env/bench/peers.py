@@ -15,7 +15,9 @@ turn (:mod:`rigid_env.bench.timing`).
 Covered: the body rate and wheel speeds of WheelPointing's CubeSat under a wheel-torque
 profile (``World.step``, Basilisk's ``reactionWheelStateEffector``); the field of the tasks' centred
 dipole and of IGRF-14 (degree 1, and degree 13 as a model difference) against
-``magneticFieldCenteredDipole``; the coils' torque (``World.accelerations``, ``MtbEffector``);
+``magneticFieldCenteredDipole``; the coils' torque (``World.accelerations``, ``MtbEffector``),
+in the dipole at drawn points and through a world on its orbit in IGRF-14's degree 1 where the
+body is (Basilisk's centred dipole there, the Earth turned alike);
 the gravity-gradient torque
 on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); the torques of solar
 radiation pressure and of drag on flat plates through a world listing the effect on its orbit
