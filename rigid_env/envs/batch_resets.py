@@ -4,6 +4,7 @@ envs' new episodes and their randomisation (mass properties, thrust, misalignmen
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -48,6 +49,20 @@ Earth's rotation angle at the epoch [rad] (K, 2) where the orbit is world state
 relative to the body [rad/s] (K, wheels)."""
 
 
+SAMPLERS = ("sample", "sample_many")
+"""A task's two ways to draw its envs' initial states (:func:`draws_together`)."""
+
+
+@functools.cache
+def draws_together(task: type) -> bool:
+    """Whether ``task``'s :meth:`Resets.sample_many` is its :meth:`Resets.sample`'s peer: the
+    class that defines ``sample_many`` defines ``sample`` too, or derives from the one that
+    does. A subclass that draws otherwise in its own ``sample`` and inherits ``sample_many``
+    draws env by env with its ``sample``, never with its parent's draws."""
+    owner = {name: next(k for k in task.__mro__ if name in vars(k)) for name in SAMPLERS}
+    return owner["sample_many"] is not Resets and issubclass(owner["sample_many"], owner["sample"])
+
+
 class Resets:
     """The part of :class:`~rigid_env.envs.batch.TaskBatch` this module names (its attributes
     are the batch's)."""
@@ -65,29 +80,32 @@ class Resets:
         # Each env draws its initial state, then its episode's randomisation, from its own
         # generator: all the envs' states, then all their randomisations (the draws of many at
         # once), unless envs share a generator: then env by env, in order.
-        shared = randomized and len({id(g) for g in rngs}) < len(rngs)
+        distinct = len({id(g) for g in rngs}) == len(rngs)
+        shared = randomized and not distinct
         groups = [[k] for k in range(idx.size)] if shared else [list(range(idx.size))]
+        together = None  # the initial states drawn in one compiled pass, where the task can
+        if distinct and idx.size and draws_together(type(self)):
+            self.streams.follow(rngs, idx)
+            together = self.sample_many(idx)
         for group in groups:
-            for k in group:
+            for k in group if together is None else ():
                 draws.append(self.sample(rngs[k]))
-                if np.shape(draws[-1][4]) != (self.target_dim,):
-                    raise ValueError(
-                        f"{type(self).__name__}.sample: drew a target of shape "
-                        f"{np.shape(draws[-1][4])}, the task declares target_dim = "
-                        f"{self.target_dim}; return a target of target_dim numbers (or declare "
-                        "its size in target_dim)"
-                    )
+                self._check_target(np.shape(draws[-1][4]), "sample")
             if randomized and group:
                 self._randomize(idx[group], [rngs[k] for k in group])
         if randomized and self.randomization.physical and idx.size:
             self.world.set_model_rows(idx)  # their mass properties drawn above, set at once
         self.world.restart(idx)  # valves closed, dop853 from its own first guess
-        if draws:
+        if together is not None:
+            x, v, q, w, target = together
+            self._check_target(np.shape(target)[1:], "sample_many")
+        elif draws:
             x, v, q, w, target = (np.array(c) for c in zip(*(d[:5] for d in draws), strict=True))
+        if together is not None or draws:
             s.x[idx], s.v[idx], s.q[idx], s.w[idx] = x, v, q, w
             if self.target_dim:
                 self.target[idx, : self.target_dim] = target
-            if len(draws[0]) > 5:
+            if draws and len(draws[0]) > 5:
                 for name in draws[0][5]:
                     WORLD_STARTS[name](self.world, idx, np.array([d[5][name] for d in draws]))
         self.steps[idx] = 0
@@ -105,6 +123,24 @@ class Resets:
         self._observe_period(idx)
         if self.sensors is not None:
             self.sensors.reset(self, idx, rngs)
+
+    def sample_many(self, rows: NDArray[np.int64]) -> tuple[FloatArray, ...] | None:
+        """The initial ``(x, v, q, w_body, target)`` of the envs ``rows``, arrays (K, ...),
+        drawn together in a compiled pass, each env from its own generator (:attr:`streams`
+        follows them): what :meth:`sample` gives env by env, bit for bit, and the generators
+        left where it leaves them. None (this default): :meth:`sample` draws env by env. Called
+        only where every env has a generator of its own."""
+        return None
+
+    def _check_target(self, shape: tuple[int, ...], method: str) -> None:
+        """A one-line error where ``method`` drew a target of another size than
+        :attr:`target_dim`."""
+        if shape != (self.target_dim,):
+            raise ValueError(
+                f"{type(self).__name__}.{method}: drew a target of shape {shape}, the task "
+                f"declares target_dim = {self.target_dim}; return a target of target_dim "
+                "numbers (or declare its size in target_dim)"
+            )
 
     def _randomize(self, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator]) -> None:
         """The episode draws of the envs ``rows`` (``rngs``: their generators, one each): their

@@ -10,7 +10,7 @@ from rigid_env.envs.kernels import NO_EXTRA, Outcome, env_pass, kernel, task_ker
 from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight
 from rigid_env.envs.rewards import spin_cost
-from rigid_env.envs.sampling import random_tumble
+from rigid_env.envs.sampling import random_tumble, random_tumbles
 
 
 class DetumbleParams(TaskParams):
@@ -56,6 +56,11 @@ class DetumbleTask(TaskBatch):
     def sample(self, rng: np.random.Generator):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         return np.zeros(3), np.zeros(3), q, w, np.zeros(0)
+
+    def sample_many(self, rows):
+        q, w = random_tumbles(self.streams, rows, self.params.max_initial_spin)
+        rest = np.zeros((rows.size, 3))
+        return rest, rest, q, w, np.zeros((rows.size, 0))
 
 
 class DetumbleEnv(RigidBodyEnv):

@@ -18,7 +18,12 @@ from rigid_env.envs.kernels import Outcome, env_pass, task_kernel
 from rigid_env.envs.maths import canonical, safe_norm
 from rigid_env.envs.params import Angle, Rate, TaskParams, Weight, task_version
 from rigid_env.envs.rewards import LINEAR, tolerance_one
-from rigid_env.envs.sampling import random_quaternion, random_tumble
+from rigid_env.envs.sampling import (
+    random_quaternion,
+    random_quaternions,
+    random_tumble,
+    random_tumbles,
+)
 from rigid_env.render import TaskView
 
 Version = task_version(newest=1)
@@ -102,6 +107,12 @@ class ReorientTask(TaskBatch):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         target = canonical_quat(random_quaternion(rng))
         return np.zeros(3), np.zeros(3), q, w, target
+
+    def sample_many(self, rows):
+        q, w = random_tumbles(self.streams, rows, self.params.max_initial_spin)
+        target = canonical_quat(random_quaternions(self.streams, rows))
+        rest = np.zeros((rows.size, 3))
+        return rest, rest, q, w, target
 
     def view(self) -> TaskView:
         """The body, with the target orientation as an outline and its angle to it."""

@@ -43,6 +43,61 @@ def random_tumble(rng: np.random.Generator, max_spin: float) -> tuple[FloatArray
     return q, (max_spin * rng.random()) * random_unit_vectors(rng)
 
 
+def random_tumbles(
+    streams: EnvStreams, rows: NDArray[np.int64], max_spin: float
+) -> tuple[FloatArray, FloatArray]:
+    """(K, 4) orientations and (K, 3) angular velocities: :func:`random_tumble` of each env
+    ``rows[k]`` from its own generator (``streams``, following them), all in one compiled pass,
+    the same numbers and the generators left where K calls would leave them."""
+    q, w = np.empty((rows.size, 4)), np.empty((rows.size, 3))
+    if rows.size:
+        _tumbles(streams.generators(), rows, float(max_spin), q, w)
+    return q, w
+
+
+def random_quaternions(streams: EnvStreams, rows: NDArray[np.int64]) -> FloatArray:
+    """(K, 4): :func:`random_quaternion` of each env ``rows[k]`` from its own generator, in one
+    compiled pass (the same numbers)."""
+    q = np.empty((rows.size, 4))
+    if rows.size:
+        _quaternions(streams.generators(), rows, q)
+    return q
+
+
+@njit(cache=True, nogil=True)
+def _normal(g):
+    """``g.normal()`` as NumPy's ``random_normal`` computes it: ``0 + 1 z``."""
+    return 0.0 + 1.0 * g.standard_normal()
+
+
+@njit(cache=True, nogil=True)
+def _quaternion_into(g, out, k):
+    """:func:`random_quaternion` of ``g`` into ``out[k]``: four normals over their norm."""
+    w, x, y, z = _normal(g), _normal(g), _normal(g), _normal(g)
+    norm = math.sqrt(w * w + x * x + y * y + z * z)
+    out[k, 0], out[k, 1], out[k, 2], out[k, 3] = w / norm, x / norm, y / norm, z / norm
+
+
+@njit(cache=True, nogil=True)
+def _tumbles(gens, rows, max_spin, q, w):
+    """:func:`random_tumbles`: per env, its orientation, then its speed (``max_spin`` times a
+    double), then the direction (three normals over their norm), in :func:`random_tumble`'s
+    order and arithmetic."""
+    for k in range(rows.size):
+        g = gens[rows[k]]
+        _quaternion_into(g, q, k)
+        speed = max_spin * g.random()
+        x, y, z = _normal(g), _normal(g), _normal(g)
+        norm = math.sqrt(x * x + y * y + z * z)
+        w[k, 0], w[k, 1], w[k, 2] = speed * (x / norm), speed * (y / norm), speed * (z / norm)
+
+
+@njit(cache=True, nogil=True)
+def _quaternions(gens, rows, q):
+    for k in range(rows.size):
+        _quaternion_into(gens[rows[k]], q, k)
+
+
 def mass_property_draws(r: Randomization) -> int:
     """How many uniform draws :func:`random_mass_properties` takes per env: one for the mass,
     three for the moments, each where it is randomised."""

@@ -163,6 +163,11 @@ class EnvStreams:
             _draw_sweep(gens, rows, out, normal)
         return out
 
+    def generators(self) -> Any:
+        """The typed list of the generators followed (env ``i``'s at ``i``), for a compiled
+        pass that draws from each env's own (one-line error before any :meth:`follow`)."""
+        return self._followed()
+
     def _followed(self) -> Any:
         """The typed list of the generators followed, or a one-line error before any."""
         if self._typed is None:

@@ -17,7 +17,7 @@ from rigid_env.envs.kernels import W_OBS_BOUND, Outcome, env_pass, task_kernel
 from rigid_env.envs.maths import safe_norm
 from rigid_env.envs.params import Bonus, Rate, TaskParams, Weight, quantity, task_version
 from rigid_env.envs.rewards import LINEAR, tolerance_one
-from rigid_env.envs.sampling import random_tumble
+from rigid_env.envs.sampling import random_tumble, random_tumbles
 from rigid_env.render import TaskView
 
 FALL_SPEED_SCALE = 20.0  # [m/s], the unit of the observed velocity (v0: its vertical part)
@@ -111,6 +111,13 @@ class TumblingFallTask(TaskBatch):
         q, w = random_tumble(rng, self.params.max_initial_spin)
         x = np.array([0.0, 0.0, rng.uniform(*self.params.drop_height)])
         return x, np.zeros(3), q, w, np.zeros(0)
+
+    def sample_many(self, rows):
+        q, w = random_tumbles(self.streams, rows, self.params.max_initial_spin)
+        low, high = self.params.drop_height  # uniform(low, high): low + (high - low) u, NumPy's
+        x = np.zeros((rows.size, 3))
+        x[:, 2] = low + (high - low) * self.streams.randoms(rows, 1)[:, 0]
+        return x, np.zeros((rows.size, 3)), q, w, np.zeros((rows.size, 0))
 
     def view(self) -> TaskView:
         """The body over the ground, the height gauge reaching the highest drop."""
