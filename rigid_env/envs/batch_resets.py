@@ -17,7 +17,7 @@ from rigid_env.core.world import World
 from rigid_env.envs.hardware import (
     NO_FAULT,
     draw_fault,
-    misaligned,
+    misaligned_many,
 )
 from rigid_env.envs.orbit_draws import place_on_orbit
 from rigid_env.envs.sampling import (
@@ -174,9 +174,9 @@ class Resets:
             self.thrust_scale[rows] = random_thrust(u[:, physical:], r)
         if not (r.hardware or r.drawn_repeat):
             return
+        if r.thruster_misalignment > 0.0:  # each env's tilts, then its fault and its repeat
+            self._misalign(rows, rngs, r.thruster_misalignment)
         for i, rng in zip(rows.tolist(), rngs, strict=True):
-            if r.thruster_misalignment > 0.0:
-                self._misalign(i, rng, r.thruster_misalignment)
             if r.thruster_faults is not None:
                 fault = draw_fault(rng, r.thruster_faults, self.action_dim)
                 self.fault_rows[i] = NO_FAULT if fault is None else fault.row
@@ -184,8 +184,13 @@ class Resets:
                 choices = r.action_repeat
                 self.repeats[i] = choices[int(rng.integers(len(choices)))]
 
-    def _misalign(self, i: int, rng: np.random.Generator, degrees: float) -> None:
-        """Env ``i``'s thrusters tilted for its episode (its own actuator maps in the world)."""
+    def _misalign(
+        self, rows: NDArray[np.int64], rngs: Sequence[np.random.Generator], degrees: float
+    ) -> None:
+        """The thrusters of envs ``rows`` tilted for their episodes (their own actuator maps
+        in the world), env ``rows[k]`` drawing from ``rngs[k]``, all envs together
+        (:func:`rigid_env.envs.hardware.misaligned_many`: each env's draws and numbers those of
+        a reset of it alone)."""
         if self.world.body_maps is None:  # first misaligned reset: every body its own maps
             maps = np.broadcast_to(
                 self.world.params[MAPS : MAPS + 6 * self.action_dim].reshape(-1, 6),
@@ -195,9 +200,9 @@ class Resets:
         maps = self.world.body_maps
         k = 0
         for a, spec in listed(self.world.force_effects):
-            rows = spec.action_dim
+            width = spec.action_dim
             if a.tilted is not None:  # its directions turned, as it declares
-                force, torque = a.tilted(spec, lambda d: misaligned(d, rng, degrees))
-                maps[i, k : k + rows, :3] = force
-                maps[i, k : k + rows, 3:] = torque
-            k += rows
+                force, torque = a.tilted(spec, lambda d: misaligned_many(d, rngs, degrees))
+                maps[rows, k : k + width, :3] = force
+                maps[rows, k : k + width, 3:] = torque
+            k += width

@@ -11,6 +11,7 @@ A fault (:class:`Fault`) acts on the command an env sends: stuck off (0), stuck 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Annotated, Any, Literal
 
@@ -199,9 +200,19 @@ def misaligned(directions: FloatArray, rng: np.random.Generator, max_degrees: fl
     vector normal to ``d``. Drawn thruster after thruster, its tilt then its angle; the
     thrusters' arithmetic done together (each vector's norm and each sine by itself, as for one
     thruster)."""
-    u = rng.random(2 * len(directions)).reshape(-1, 2)  # the draws of random() in turn
-    tilt = math.radians(max_degrees) * u[:, 0]
-    phi = 2.0 * math.pi * u[:, 1]
+    return misaligned_many(directions, [rng], max_degrees)[0]
+
+
+def misaligned_many(
+    directions: FloatArray, rngs: Sequence[np.random.Generator], max_degrees: float
+) -> FloatArray:
+    """(K, A, 3): :func:`misaligned` of the same ``directions`` for K envs, env ``k`` drawing
+    from ``rngs[k]`` (its 2 A doubles, as one call draws them); every number is the one a
+    call for that env alone gives (the same elementwise arithmetic, the normals to ``d`` the
+    same for all)."""
+    u = np.array([rng.random(2 * len(directions)) for rng in rngs]).reshape(len(rngs), -1, 2)
+    tilt = math.radians(max_degrees) * u[:, :, 0]
+    phi = 2.0 * math.pi * u[:, :, 1]
     d = directions
     a = np.where((np.abs(d[:, 0]) < 0.9)[:, None], _X_AXIS, _Y_AXIS)
     e1 = cross(d, a)
@@ -217,11 +228,13 @@ _X_AXIS, _Y_AXIS = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
 
 
 def _cos_sin(angles: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """(K, 1) ``math.cos`` and ``math.sin`` of each angle (K,) (the C library's, as for one)."""
-    values = angles.tolist()
+    """``math.cos`` and ``math.sin`` of each angle (any shape), each with a trailing axis of
+    one (the C library's, as for one angle)."""
+    values = angles.ravel().tolist()
+    shape = (*angles.shape, 1)
     return (
-        np.array([[math.cos(x)] for x in values]),
-        np.array([[math.sin(x)] for x in values]),
+        np.array([math.cos(x) for x in values]).reshape(shape),
+        np.array([math.sin(x) for x in values]).reshape(shape),
     )
 
 

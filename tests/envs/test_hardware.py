@@ -17,6 +17,7 @@ from rigid_env.envs.hardware import (
     cross,
     draw_fault,
     misaligned,
+    misaligned_many,
     with_preset,
 )
 from rigid_env.resources import scene_path
@@ -104,3 +105,16 @@ def test_misalignment_tilts_each_direction_within_the_bound() -> None:
     angles = np.degrees(np.arccos(np.clip(np.sum(d * tilted, axis=1), -1, 1)))
     assert np.all(angles <= 5.0 + 1e-9) and np.ptp(angles) > 0.0
     np.testing.assert_array_equal(tilted, misaligned(d, np.random.default_rng(0), 5.0))
+
+
+def test_misaligning_many_envs_at_once_is_misaligning_each_alone() -> None:
+    """misaligned_many of K envs: row k is misaligned() of env k's generator alone, bit for bit
+    (directions along and off the x axis: both normals' branches), and each generator is left
+    where that call leaves it."""
+    directions = np.array([[1.0, 0.0, 0.0], [0.0, 0.6, 0.8], [0.95, 0.3122498999199199, 0.0]])
+    mine = [np.random.default_rng(40 + k) for k in range(9)]
+    ref = [np.random.default_rng(40 + k) for k in range(9)]
+    together = misaligned_many(directions, mine, 3.0)
+    for k, rng in enumerate(ref):
+        np.testing.assert_array_equal(together[k], misaligned(directions, rng, 3.0))
+    assert [g.random() for g in mine] == [g.random() for g in ref]
