@@ -182,9 +182,10 @@ class Actuator:
         accepts: ``integrator name -> bool``: the integrators that step it.
         why_not: ``integrator name -> str``: why one it refuses does not step it (a few words,
             for the scene's error).
-        tilted: ``(spec, tilt) -> (force (K, 3), torque (K, 3))``: its map rows with its
-            directions turned by ``tilt`` (``(K, 3) -> (K, 3)``, a misalignment drawn by the
-            env), or None: nothing of it tilts.
+        tilted: ``(spec, tilt) -> (force (E, K, 3), torque (E, K, 3))``: its map rows with its
+            directions turned by ``tilt`` (``(K, 3) -> (E, K, 3)``, the misalignments drawn by
+            E envs at once, each from its own generator), its arithmetic elementwise over the
+            leading axis (NumPy's broadcasting), or None: nothing of it tilts.
         fails: whether a unit of it may fail for an episode (the envs' faults).
         presets: the hardware presets that the env keyword of its :attr:`name` picks
             (``thrusters="realistic"``), ``{preset: (unit section, control step dt [s]) ->
