@@ -122,6 +122,20 @@ def _relative(ours: np.ndarray, theirs: np.ndarray) -> float:
     return 0.0 if scale == 0.0 else float(np.max(np.abs(ours - theirs)) / scale)
 
 
+def _torque(sim, craft, effector, read: Callable[[], None] | None = None) -> np.ndarray:
+    """Basilisk's torque [N m, body] of ``effector`` on ``craft`` at its initial state: the
+    effector attached and ``sim`` initialised, its input messages read (``read``: the
+    effector's own reading method, where its force is computed outside a step), its force
+    and torque computed once."""
+    craft.addDynamicEffector(effector)
+    sim.AddModelToTask("step", effector)
+    sim.InitializeSimulation()
+    if read is not None:
+        read()
+    effector.computeForceTorque(0.0, 0.0)
+    return _column(effector.torqueExternalPntB_B)
+
+
 def gravity_gradient(cases: Sequence[Case]) -> Agreement:
     """The torque on WheelPointing's CubeSat at rest: ours is ``I w'`` of the scene's world with
     only its gravity-gradient effect (``World.accelerations``), Basilisk's its effector's."""
@@ -147,11 +161,7 @@ def gravity_gradient(cases: Sequence[Case]) -> Agreement:
         gravity.addBodiesTo(craft)
         effector = GravityGradientEffector.GravityGradientEffector()
         effector.addPlanetName(earth.planetName)
-        craft.addDynamicEffector(effector)
-        sim.AddModelToTask("step", effector)
-        sim.InitializeSimulation()
-        effector.computeForceTorque(0.0, 0.0)
-        theirs = _column(effector.torqueExternalPntB_B)
+        theirs = _torque(sim, craft, effector)
         worst = max(worst, _relative(ours, theirs))
         matched = max(matched, _relative(ours * (earth.mu / EARTH_MU), theirs))
     cause = (
@@ -232,8 +242,6 @@ def _basilisk_coils(case: Case, inertia, mass: float, action: np.ndarray, b: np.
     body axes at ``action`` in [-1, 1], in the field ``b`` (ECI [T])."""
     sim, craft = _spacecraft(case, inertia, mass)
     effector = MtbEffector.MtbEffector()
-    craft.addDynamicEffector(effector)
-    sim.AddModelToTask("step", effector)
     params = messaging.MTBArrayConfigMsgPayload()
     params.numMTB = 3
     params.GtMatrix_B = np.eye(3).reshape(-1).tolist()
@@ -250,9 +258,7 @@ def _basilisk_coils(case: Case, inertia, mass: float, action: np.ndarray, b: np.
     effector.mtbParamsInMsg.subscribeTo(messages[0])
     effector.mtbCmdInMsg.subscribeTo(messages[1])
     effector.magInMsg.subscribeTo(messages[2])
-    sim.InitializeSimulation()
-    effector.computeForceTorque(0.0, 0.0)
-    return _column(effector.torqueExternalPntB_B)
+    return _torque(sim, craft, effector)
 
 
 def _coils_spec(extra: dict) -> dict:
@@ -343,6 +349,12 @@ PEER_INERTIA = [0.03, 0.04, 0.05]
 """[kg m^2] of the facet effects' body (its torque is ``I w'`` at rest)."""
 
 
+def _unit_normal(k: int) -> np.ndarray:
+    """Plate ``k``'s outward normal of :data:`PLATES`, normalised (as the scene normalises it)."""
+    normal = np.asarray(PLATES["normal"][k], dtype=float)
+    return normal / np.linalg.norm(normal)
+
+
 def facet_world(effect: str):
     """A world of one body carrying :data:`PLATES`, listing only ``effect``
     (``solar_radiation_pressure`` or ``aerodynamic_drag``) on :data:`SURROUNDINGS_ORBIT`: the
@@ -431,12 +443,12 @@ def srp(cases: Sequence[Case]) -> Agreement:
         effector.setNumFacets(len(PLATES["area"]))
         effector.setNumArticulatedFacets(0)
         for k in range(len(PLATES["area"])):
-            normal = np.asarray(PLATES["normal"][k], dtype=float)
+            normal = _unit_normal(k)
             spin = np.cross(normal, [0.3, 0.5, 0.7])  # a hinge axis: unused without articulation
             effector.addFacet(
                 float(PLATES["area"][k]),
                 np.eye(3).tolist(),
-                (normal / np.linalg.norm(normal)).tolist(),
+                normal.tolist(),
                 (spin / np.linalg.norm(spin)).tolist(),
                 list(PLATES["centre"][k]),
                 float(PLATES["diffuse"][k]),
@@ -452,12 +464,7 @@ def srp(cases: Sequence[Case]) -> Agreement:
         )
         effector.sunInMsg.subscribeTo(messages[0])
         effector.sunEclipseInMsg.subscribeTo(messages[1])
-        craft.addDynamicEffector(effector)
-        sim.AddModelToTask("step", effector)
-        sim.InitializeSimulation()
-        effector.ReadMessages()
-        effector.computeForceTorque(0.0, 0.0)
-        theirs = _column(effector.torqueExternalPntB_B)
+        theirs = _torque(sim, craft, effector, effector.ReadMessages)
         worst = max(worst, _relative(ours, theirs))
         if not np.any(theirs):
             continue  # in the umbra, or no plate faces the Sun: both zero (checked above)
@@ -493,11 +500,10 @@ def drag(cases: Sequence[Case]) -> tuple[Agreement, Agreement]:
             sim, craft = _spacecraft(_case_at(r, v, q), PEER_INERTIA, 4.0)
             effector = facetDragDynamicEffector.FacetDragDynamicEffector()
             for k in range(len(PLATES["area"])):
-                normal = np.asarray(PLATES["normal"][k], dtype=float)
                 effector.addFacet(
                     float(PLATES["area"][k]),
                     float(PLATES["drag_coefficient"][k]),
-                    (normal / np.linalg.norm(normal)).tolist(),
+                    _unit_normal(k).tolist(),
                     list(PLATES["centre"][k]),
                 )
             density = messaging.AtmoPropsMsgPayload()
@@ -509,12 +515,7 @@ def drag(cases: Sequence[Case]) -> tuple[Agreement, Agreement]:
                 wind.v_air_N = air.tolist()
                 messages.append(messaging.WindMsg().write(wind))
                 effector.windVelInMsg.subscribeTo(messages[1])
-            craft.addDynamicEffector(effector)
-            sim.AddModelToTask("step", effector)
-            sim.InitializeSimulation()
-            effector.ReadInputs()
-            effector.computeForceTorque(0.0, 0.0)
-            difference = _relative(ours, _column(effector.torqueExternalPntB_B))
+            difference = _relative(ours, _torque(sim, craft, effector, effector.ReadInputs))
             if windy:
                 same = max(same, difference)
             else:
