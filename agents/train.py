@@ -414,10 +414,13 @@ def _check_unchanged(cfg: TrainConfig, run_dir: Path, continues: bool) -> None:
 
 
 def _new_model(cfg: TrainConfig, env: Any, run_dir: Path, verbose: int) -> Any:
-    """A fresh model; what SB3 itself refuses (``batch_size: 1`` for PPO, ...) in one line."""
+    """A fresh model; what SB3 itself refuses (``batch_size: 1`` for PPO, ...) in one line. Its
+    hidden layers' tanh is NumPy's while it trains (:mod:`agents.activations`)."""
+    from .activations import use_fast_tanh
+
     algo_cls = algorithm_class(cfg.algo)
     try:
-        return algo_cls(
+        model = algo_cls(
             cfg.policy,
             env,
             seed=cfg.seed,
@@ -436,13 +439,19 @@ def _new_model(cfg: TrainConfig, env: Any, run_dir: Path, verbose: int) -> Any:
             f"{algo_cls.__name__} refuses them ({reason})",
             "fix the values in the config",
         ) from None
+    use_fast_tanh(model.policy)  # the saved zip keeps torch.nn.Tanh: SB3's own
+    return model
 
 
 def _load(cfg: TrainConfig, snap: Snapshot) -> tuple[Any, Any]:
-    """``(model, training env)`` from a snapshot; raises whatever a broken file raises."""
+    """``(model, training env)`` from a snapshot (NumPy's tanh, as :func:`_new_model`); raises
+    whatever a broken file raises."""
+    from .activations import use_fast_tanh
+
     env = make_vec_env(cfg, cfg.n_envs, cfg.seed, training=True, norm_stats=snap.norm)
     try:
         model = algorithm_class(cfg.algo).load(str(snap.model), env=env, device=cfg.device)
+        use_fast_tanh(model.policy)
         if snap.buffer is not None and hasattr(model, "load_replay_buffer"):
             model.load_replay_buffer(str(snap.buffer))
     except BaseException:

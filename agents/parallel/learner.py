@@ -23,6 +23,7 @@ from typing import Any
 
 import torch
 
+from ..activations import use_fast_tanh
 from ..config import ConfigError, TrainConfig
 from .vec import OBS_GROUP, RslVecEnv
 
@@ -122,14 +123,18 @@ def runner_config(cfg: TrainConfig) -> dict[str, Any]:
 
 
 def make_runner(cfg: TrainConfig, venv: Any, max_episode_steps: int) -> Any:
-    """rsl-rl's ``OnPolicyRunner`` on ``venv`` (SB3 ``VecEnv``), seeded by ``cfg.seed``; it
-    logs nothing and writes nothing (the run folder is :mod:`agents.parallel.train`'s)."""
+    """rsl-rl's ``OnPolicyRunner`` on ``venv`` (SB3 ``VecEnv``), seeded by ``cfg.seed``, its
+    networks' tanh NumPy's (:mod:`agents.activations`); it logs nothing and writes nothing (the
+    run folder is :mod:`agents.parallel.train`'s)."""
     from rsl_rl.runners import OnPolicyRunner
 
     torch.manual_seed(cfg.seed)
     env = RslVecEnv(venv, max_episode_steps)
     with contextlib.redirect_stdout(io.StringIO()):  # it prints the networks
-        return OnPolicyRunner(env, runner_config(cfg), log_dir=None, device="cpu")
+        runner = OnPolicyRunner(env, runner_config(cfg), log_dir=None, device="cpu")
+    use_fast_tanh(runner.alg.actor)
+    use_fast_tanh(runner.alg.critic)
+    return runner
 
 
 def _linears(module: torch.nn.Module) -> list[torch.nn.Linear]:
