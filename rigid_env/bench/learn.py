@@ -44,7 +44,7 @@ import numpy as np
 from rigid_env.agents.shipped import TASKS as SHIPPED
 from rigid_env.bench import report
 from rigid_env.bench.learn_rates import LEARNERS
-from rigid_env.resources import data_path
+from rigid_env.resources import data_path, find_data
 
 TASKS = tuple(task.module for task in SHIPPED.values())
 """The tasks trained, by the stem of their configs (``configs/agents/ppo_<module>.yaml``): those
@@ -167,11 +167,21 @@ KINDS = ("shipped", "previous", "rsl_rl")
 the rsl-rl learner's (``configs/agents/rsl_ppo_<task>.yaml``, where the task has one)."""
 
 
+def _config_file(task: str, previous: bool | str) -> str:
+    stem = {"shipped": "ppo_", "previous": "previous/ppo_", "rsl_rl": "rsl_ppo_"}[_kind(previous)]
+    return f"configs/agents/{stem}{task}.yaml"
+
+
 def config_path(task: str, previous: bool | str) -> Path:
     """The shipped (``False``, ``"shipped"``), previous (``True``, ``"previous"``) or rsl-rl
-    (``"rsl_rl"``) PPO config of ``task``."""
-    stem = {"shipped": "ppo_", "previous": "previous/ppo_", "rsl_rl": "rsl_ppo_"}[_kind(previous)]
-    return data_path(f"configs/agents/{stem}{task}.yaml")
+    (``"rsl_rl"``) PPO config of ``task``; FileNotFoundError (one line) where it has none."""
+    return data_path(_config_file(task, previous))
+
+
+def has_config(task: str, previous: bool | str) -> bool:
+    """Whether ``task`` has that config (every task has a shipped and a previous one; the
+    rsl-rl learner's only some)."""
+    return find_data(_config_file(task, previous)) is not None
 
 
 def train_one(
@@ -375,12 +385,10 @@ def _worker(job: tuple[str, int, bool | str, str, float, str | None]) -> dict[st
     return train_one(task, seed, previous, Path(runs_dir), limit_s)
 
 
-def run(args: argparse.Namespace) -> int:
-    """Run the benchmark; 0 on success."""
-    if args.rates_only:
-        return run_rates(args)
-    out = report.prepare_out(args.out, OUTPUTS, args.force)
-    runs_dir = out / "runs"
+def plan(args: argparse.Namespace) -> list[tuple[str, int, str, float]]:
+    """The training runs ``(task, seed, kind, CPU-second limit)`` the arguments ask for: each
+    task's shipped config for ``--seeds``, its previous one and its rsl-rl one (where it has
+    one) for theirs."""
     previous_seeds = args.seeds if args.previous_seeds is None else args.previous_seeds
     rsl_seeds = args.seeds if args.rsl_seeds is None else args.rsl_seeds
     kinds = (
@@ -388,16 +396,25 @@ def run(args: argparse.Namespace) -> int:
         ("previous", args.previous_limit, previous_seeds),
         ("rsl_rl", args.previous_limit, rsl_seeds),
     )
-    runs = [
+    return [
         (task, seed, kind, lim)
         for task in args.tasks
         for kind, lim, seeds in kinds
-        if kind != "rsl_rl" or config_path(task, kind).exists()
+        if kind != "rsl_rl" or has_config(task, kind)
         for seed in seeds
     ]
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the benchmark; 0 on success."""
+    if args.rates_only:
+        return run_rates(args)
+    out = report.prepare_out(args.out, OUTPUTS, args.force)
+    runs_dir = out / "runs"
+    runs = plan(args)
     planned = [runs_dir / kind / _run_name(task, seed, kind) for task, seed, kind, _ in runs]
     sbx = [(task, seed) for task in args.tasks for seed in args.sbx_seeds
-           if args.sbx_config or config_path(task, "rsl_rl").exists()]  # fmt: skip
+           if args.sbx_config or has_config(task, "rsl_rl")]  # fmt: skip
     if sbx:
         import importlib.util
 

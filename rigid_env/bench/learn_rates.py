@@ -37,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from rigid_env.resources import data_path
+from rigid_env.resources import data_path, find_data
 
 LEARNERS = ("sb3", "rsl_rl", "skrl", "sbx")
 STRETCH_S = 2.0
@@ -232,9 +232,14 @@ BUILDERS = {"sb3": _sb3, "rsl_rl": _rsl, "skrl": _skrl, "sbx": _sbx}
 
 
 def config_of(task: str, learner: str) -> Path:
-    """The config a learner runs ``task`` with (skrl: the rsl_rl one)."""
+    """The config a learner runs ``task`` with (skrl and sbx: the rsl_rl one); ValueError (one
+    line) where the task has none for it."""
     stem = f"ppo_{task}" if learner == "sb3" else f"rsl_ppo_{task}"
-    return data_path(f"configs/agents/{stem}.yaml")
+    relative = f"configs/agents/{stem}.yaml"
+    if find_data(relative) is None:
+        raise ValueError(f"--learners: {learner} has no config for {task} ({relative}); leave "
+                         f"{task} out of --tasks or {learner} out of --learners")  # fmt: skip
+    return data_path(relative)
 
 
 def measure(

@@ -154,3 +154,24 @@ def test_rates_benchmark_measures_every_learner() -> None:
     assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
     assert rows[1].n_envs == rows[2].n_envs == 64
     assert len(markdown(rows)) == 2 + len(rows)
+
+
+def test_bench_learn_plans_rsl_runs_only_where_a_task_has_its_config() -> None:
+    """`rigid-env bench learn --tasks tumbling_fall detumble` (TumblingFall has no rsl-rl
+    config): the shipped and previous runs of both, rsl-rl's of Detumble alone, rather than a
+    FileNotFoundError before anything runs; the rates refuse rsl_rl on it in one line."""
+    import argparse
+
+    from rigid_env.bench import learn
+    from rigid_env.bench.learn_rates import config_of
+
+    parser = argparse.ArgumentParser()
+    learn.add_arguments(parser)
+    args = parser.parse_args(["--tasks", "tumbling_fall", "detumble", "--seeds", "0", "1"])
+    runs = {(task, seed, kind) for task, seed, kind, _ in learn.plan(args)}
+    sb3 = {(t, s, k) for t in ("tumbling_fall", "detumble") for s in (0, 1)
+           for k in ("shipped", "previous")}  # fmt: skip
+    want = sb3 | {("detumble", 0, "rsl_rl"), ("detumble", 1, "rsl_rl")}
+    assert runs == want
+    with pytest.raises(ValueError, match=r"^--learners: rsl_rl has no config for tumbling_fall"):
+        config_of("tumbling_fall", "rsl_rl")
