@@ -116,21 +116,24 @@ class BodyModel:
         """(N | 1, MODEL_WIDTH) model rows for the compiled kernels, the numbers of
         :class:`rigid_env.core.layout.Body` in its order: mass, principal moments, their
         reciprocals, an isotropy flag (no gyroscopic term) and the guard's square roots, one row per
-        body or one shared."""
-        n, inertia, inv_inertia = self.n, self.inertia, 1.0 / self.inertia
-        named = {
-            "mass": self.mass,
-            "inv_mass": 1.0 / self.mass,
-            "isotropic": isotropic_rows(inertia).astype(np.float64),
-            "inv_sqrt_mass": 1.0 / np.sqrt(self.mass),
-            "inv_sqrt_inertia": 1.0 / np.sqrt(inertia.min(axis=1)),
-        }
-        for k, axis in enumerate("xyz"):
-            named[f"inertia_{axis}"], named[f"inv_inertia_{axis}"] = (
-                inertia[:, k],
-                inv_inertia[:, k],
-            )
-        return np.stack([np.broadcast_to(named[name], (n,)) for name in Body._fields], axis=1)
+        body or one shared (:func:`body_numbers`, as a reset lays them)."""
+        return self._laid()[0].T
+
+    def worst_breach(self) -> tuple[float, int]:
+        """The largest ``|I_j - I_k| / I_i`` over the bodies' cyclic triples of moments (how far
+        a body breaks the triangle inequality; at most 1 for a real one) and the first body
+        that has it (:func:`lay_model_columns`)."""
+        _, worst, at = self._laid()
+        return worst, at
+
+    def _laid(self) -> tuple[FloatArray, float, int]:
+        """(MODEL_WIDTH, N | 1) columns of :meth:`rows` and :meth:`worst_breach`'s pair."""
+        n = self.n
+        columns = np.empty((MODEL_WIDTH, n))
+        mass = np.ascontiguousarray(np.broadcast_to(self.mass, (n,)))
+        inertia = np.ascontiguousarray(np.broadcast_to(self.inertia, (n, 3)))
+        _, worst, at = lay_model_columns(columns, np.arange(n), mass, inertia)
+        return columns, worst, at
 
     def columns(self, n: int) -> FloatArray:
         """(MODEL_WIDTH, n) :meth:`rows` as one column per body (a shared row repeated): an

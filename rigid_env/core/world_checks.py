@@ -89,12 +89,8 @@ class Diagnostics:
     def _check_asymmetry(self) -> None:
         """Warn once (RuntimeWarning) if a body's moments break the triangle inequality by more
         than :data:`ASYMMETRY_LIMIT`: the integrator's step then errs by that factor more."""
-        inertia = np.atleast_2d(self.model.inertia)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            ratio = np.abs(np.roll(inertia, -1, axis=1) - np.roll(inertia, -2, axis=1)) / inertia
-        worst = np.nanmax(ratio, axis=1)
-        b = int(np.argmax(worst))
-        self._warn_asymmetry(float(worst[b]), inertia[b], b)
+        worst, b = self.model.worst_breach()
+        self._warn_asymmetry(worst, np.atleast_2d(self.model.inertia)[b], b)
 
     def _warn_asymmetry(
         self, worst: float, moments: FloatArray, body: int, stacklevel: int = 4
