@@ -5,7 +5,8 @@ previous configs and the rsl-rl learner's, in the same run; and the three rates 
                           [--previous-limit 240] [--previous-seeds 0 ...] [--rsl-seeds 0 ...]
                           [--sbx-seeds 0 ...] [--sbx-config PATH] [--out DIR] [--force]
     rigid-env bench learn --rates-only [--tasks ...] [--learners sb3 rsl_rl skrl sbx]
-                          [--sbx-config PATH] [--repeats 3] [--threads 1] [--out DIR] [--force]
+                          [--sbx-config PATH] [--repeats 3] [--threads 1] [--sb3-threads N]
+                          [--out DIR] [--force]
 
 For each task and seed, ``--jobs`` runs at a time (one thread each, so two on two cores), a
 run trains from nothing with ``configs/agents/ppo_<task>.yaml`` (the shipped config, its whole
@@ -147,6 +148,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--repeats", type=_count(1), default=3, help="timed stretches per rate")
     parser.add_argument("--threads", type=_count(1), default=1, help="threads of the rates")
+    parser.add_argument(
+        "--sb3-threads",
+        type=_count(1),
+        help="threads of the SB3 path's rates (default: --threads; the guide's allotment is "
+        "--sb3-threads 1 --threads 2: one per SB3 run, two runs at once, while a parallel "
+        "learner may take both cores)",
+    )
     parser.add_argument(
         "--n-envs",
         type=_count(1),
@@ -456,13 +464,15 @@ def run_rates(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     for task in args.tasks:
         rows += measure(task, tuple(args.learners), args.repeats, args.threads, args.n_envs,
-                        sbx_config=args.sbx_config)  # fmt: skip
+                        sbx_config=args.sbx_config, sb3_threads=args.sb3_threads)  # fmt: skip
+    threads = (f"{args.threads} thread(s)" if args.sb3_threads in (None, args.threads) else
+               f"SB3 on {args.sb3_threads} thread(s), the others on {args.threads}")  # fmt: skip
     lines = [
         "# Three rates of each learner (rigid-env bench learn --rates-only)",
         "",
         f"{report.machine()}; "
         f"{report.versions('torch', 'stable-baselines3', 'rsl-rl-lib', 'skrl', 'sbx-rl', 'jax')}"
-        f"; load at the end: {report.load()}. {args.threads} thread(s), median of "
+        f"; load at the end: {report.load()}. {threads}, median of "
         f"{args.repeats} interleaved stretches each; {time.perf_counter() - t0:.0f} s in all.",
         "",
         *markdown(rows),

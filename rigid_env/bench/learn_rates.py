@@ -251,20 +251,22 @@ def measure(
     stretch_s: float = STRETCH_S,
     whole_episodes: bool = True,
     sbx_config: Path | None = None,
+    sb3_threads: int | None = None,
 ) -> list[RateRow]:
     """The rates of ``learners`` on ``task``, interleaved, medians of ``repeats``; ``n_envs``
     replaces the rsl_rl config's (rsl_rl and skrl), its minibatch scaled with it (the same
     number of minibatches per rollout); ``sbx_config`` replaces sbx's config. A timed stretch
     lasts at least ``stretch_s`` and, with ``whole_episodes``, one episode's length of vector
     steps, so that every rate counts the resets at their rate in training (one per env and
-    episode)."""
+    episode). Every learner runs on ``threads`` torch and Numba threads, the SB3 path on
+    ``sb3_threads`` where given (the guide's allotment: one per SB3 run, two runs at once,
+    while a parallel learner may take both cores); the process's counts are restored after."""
     import importlib.util
 
     from rigid_env.agents.config import load_config
-    from rigid_env.agents.parallel.learner import ppo_arguments
-    from rigid_env.agents.train import limit_threads
 
-    if "sbx" in learners and threads == 1:  # XLA's CPU client on one thread, like torch's
+    own = {k: sb3_threads if k == "sb3" and sb3_threads else threads for k in learners}
+    if "sbx" in learners and own["sbx"] == 1:  # XLA's CPU client on one thread, like torch's
         from rigid_env.bench.learn_sbx import one_xla_thread
 
         one_xla_thread()
@@ -272,19 +274,59 @@ def measure(
         if k in learners and importlib.util.find_spec(module) is None:
             raise ValueError(f"--learners: {k} is not installed; pip install 'rigid_env[bench]', "
                              f"or leave {k} out of --learners")  # fmt: skip
-    limit_threads(threads)
     paths = {k: config_of(task, k) for k in learners}
     if sbx_config is not None and "sbx" in paths:
         paths["sbx"] = sbx_config
-    cfgs = {k: load_config(paths[k], {"threads": threads}) for k in learners}
+    cfgs = {k: load_config(paths[k], {"threads": own[k]}) for k in learners}
     for k in learners:
         if k != "sb3" and n_envs is not None:
             hp = cfgs[k].hyperparams.model_dump(exclude_none=True)
             hp["batch_size"] = hp["batch_size"] * n_envs // cfgs[k].n_envs
-            wider = {"threads": threads, "n_envs": n_envs, "hyperparams": hp}
+            wider = {"threads": own[k], "n_envs": n_envs, "hyperparams": hp}
             cfgs[k] = load_config(paths[k], wider)
-    stretches = {k: BUILDERS[k](cfgs[k]) for k in learners}
+    before = _thread_counts()
+    try:
+        return _interleaved(task, learners, repeats, own, paths, cfgs, stretch_s, whole_episodes)
+    finally:
+        _set_thread_counts(*before)
+
+
+def _thread_counts() -> tuple[int, int]:
+    """Torch's and Numba's thread counts now."""
+    import numba
+    import torch
+
+    return torch.get_num_threads(), numba.get_num_threads()
+
+
+def _set_thread_counts(torch_threads: int, numba_threads: int) -> None:
+    import numba
+    import torch
+
+    torch.set_num_threads(torch_threads)
+    numba.set_num_threads(numba_threads)
+
+
+def _interleaved(
+    task: str,
+    learners: tuple[str, ...],
+    repeats: int,
+    own: dict[str, int],
+    paths: dict[str, Path],
+    cfgs: dict[str, Any],
+    stretch_s: float,
+    whole_episodes: bool,
+) -> list[RateRow]:
+    """:func:`measure`'s stretches, learner ``k`` on ``own[k]`` threads."""
+    from rigid_env.agents.parallel.learner import ppo_arguments
+    from rigid_env.agents.train import limit_threads
+
+    stretches = {}
+    for k in learners:
+        limit_threads(own[k])
+        stretches[k] = BUILDERS[k](cfgs[k])
     for k in learners:  # warm-up: compile the kernels, fill torch's caches
+        limit_threads(own[k])
         for rate in RATES:
             stretches[k][rate]()
     seconds: dict[tuple[str, str], list[float]] = {}
@@ -292,6 +334,7 @@ def measure(
     for _ in range(repeats):
         for rate in RATES:
             for k in learners:
+                limit_threads(own[k])
                 t, made, u = time.perf_counter(), 0, UPDATE_SECONDS[0]
                 least = cfgs[k].n_envs * _episode(cfgs[k]) if whole_episodes else 1
                 while made < least or time.perf_counter() - t < stretch_s:
@@ -305,7 +348,7 @@ def measure(
         a = ppo_arguments(cfgs[k])
         rates = {rate: float(np.median(seconds[(k, rate)])) for rate in RATES}
         rows.append(RateRow(task, k, paths[k].name, cfgs[k].n_envs, a["n_steps"],
-                            a["batch_size"], threads, **rates,
+                            a["batch_size"], own[k], **rates,
                             update_share=float(np.median(shares[k]))))  # fmt: skip
     return rows
 
@@ -313,15 +356,15 @@ def measure(
 def markdown(rows: list[RateRow]) -> list[str]:
     """The rates table, with each learner's full rate against the SB3 path's."""
     lines = [
-        "| task | learner | config | n_envs x n_steps | minibatch | env [steps/s] | "
+        "| task | learner | config | n_envs x n_steps | minibatch | threads | env [steps/s] | "
         "+ inference [steps/s] | full PPO [steps/s] | full / SB3's | update's share of full |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         sb3 = next((s.full for s in rows if s.task == r.task and s.learner == "sb3"), np.nan)
         lines.append(
             f"| {r.task} | {r.learner} | {r.config} | {r.n_envs} x {r.n_steps} | "
-            f"{r.batch_size} | {r.env:,.0f} | {r.inference:,.0f} | {r.full:,.0f} | "
+            f"{r.batch_size} | {r.threads} | {r.env:,.0f} | {r.inference:,.0f} | {r.full:,.0f} | "
             f"{r.full / sb3:.1f}x | {100 * r.update_share:.0f} % |"
         )
     return lines

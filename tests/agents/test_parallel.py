@@ -156,6 +156,23 @@ def test_rates_benchmark_measures_every_learner() -> None:
     assert len(markdown(rows)) == 2 + len(rows)
 
 
+def test_rates_run_each_learner_on_its_own_threads_and_restore_the_counts() -> None:
+    """The guide's allotment (`--sb3-threads 1 --threads 2`): the SB3 path's rows on one
+    thread, rsl_rl's on two, both measured, the table saying so, and the process's torch and
+    Numba thread counts as they were before."""
+    import numba
+
+    from rigid_env.bench.learn_rates import RATES, markdown, measure
+
+    before = torch.get_num_threads(), numba.get_num_threads()
+    rows = measure("detumble", ("sb3", "rsl_rl"), 1, 2, n_envs=64, stretch_s=0.0,
+                   whole_episodes=False, sb3_threads=1)  # fmt: skip
+    assert [(r.learner, r.threads) for r in rows] == [("sb3", 1), ("rsl_rl", 2)]
+    assert all(getattr(r, rate) > 0 for r in rows for rate in RATES)
+    assert [line.split(" | ")[5] for line in markdown(rows)[2:]] == ["1", "2"]
+    assert (torch.get_num_threads(), numba.get_num_threads()) == before
+
+
 def test_bench_learn_plans_rsl_runs_only_where_a_task_has_its_config() -> None:
     """`rigid-env bench learn --tasks tumbling_fall detumble` (TumblingFall has no rsl-rl
     config): the shipped and previous runs of both, rsl-rl's of Detumble alone, rather than a
