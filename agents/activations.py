@@ -20,12 +20,17 @@ import numpy as np
 import torch
 
 
+def _numpy_tanh(x: torch.Tensor) -> torch.Tensor:
+    """``tanh`` of a float32 CPU tensor, computed by NumPy (a new tensor, no gradient)."""
+    return torch.from_numpy(np.tanh(x.detach().contiguous().numpy()))
+
+
 class _NumpyTanh(torch.autograd.Function):
-    """``tanh`` of a float32 CPU tensor by NumPy, its gradient by PyTorch's ``tanh_backward``."""
+    """:func:`_numpy_tanh` with its gradient by PyTorch's ``tanh_backward``."""
 
     @staticmethod
     def forward(ctx, x):
-        y = torch.from_numpy(np.tanh(x.detach().contiguous().numpy()))
+        y = _numpy_tanh(x)
         ctx.save_for_backward(y)
         return y
 
@@ -42,7 +47,7 @@ class Tanh(torch.nn.Tanh):
         if x.dtype != torch.float32 or x.device.type != "cpu":
             return torch.tanh(x)
         if not (torch.is_grad_enabled() and x.requires_grad):
-            return torch.from_numpy(np.tanh(x.detach().contiguous().numpy()))
+            return _numpy_tanh(x)
         return _NumpyTanh.apply(x)
 
 

@@ -44,7 +44,7 @@ import numpy as np
 
 from rigid_env.agents.shipped import TASKS as SHIPPED
 from rigid_env.bench import report
-from rigid_env.bench.learn_rates import LEARNERS
+from rigid_env.bench.learn_rates import CONFIG_STEMS, LEARNERS, config_file
 from rigid_env.resources import data_path, find_data
 
 TASKS = tuple(task.module for task in SHIPPED.values())
@@ -170,26 +170,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--force", action="store_true", help="overwrite earlier results in --out")
 
 
-KINDS = ("shipped", "previous", "rsl_rl")
+KINDS = tuple(CONFIG_STEMS)
 """The configs a task trains with: its shipped SB3 config, the SB3 config before issue 24, and
 the rsl-rl learner's (``configs/agents/rsl_ppo_<task>.yaml``, where the task has one)."""
-
-
-def _config_file(task: str, previous: bool | str) -> str:
-    stem = {"shipped": "ppo_", "previous": "previous/ppo_", "rsl_rl": "rsl_ppo_"}[_kind(previous)]
-    return f"configs/agents/{stem}{task}.yaml"
 
 
 def config_path(task: str, previous: bool | str) -> Path:
     """The shipped (``False``, ``"shipped"``), previous (``True``, ``"previous"``) or rsl-rl
     (``"rsl_rl"``) PPO config of ``task``; FileNotFoundError (one line) where it has none."""
-    return data_path(_config_file(task, previous))
+    return data_path(config_file(task, _kind(previous)))
 
 
 def has_config(task: str, previous: bool | str) -> bool:
     """Whether ``task`` has that config (every task has a shipped and a previous one; the
     rsl-rl learner's only some)."""
-    return find_data(_config_file(task, previous)) is not None
+    return find_data(config_file(task, _kind(previous))) is not None
 
 
 def train_one(

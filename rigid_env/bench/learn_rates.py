@@ -231,11 +231,20 @@ def _sbx(cfg: Any) -> dict[str, Callable[[], int]]:
 BUILDERS = {"sb3": _sb3, "rsl_rl": _rsl, "skrl": _skrl, "sbx": _sbx}
 
 
+CONFIG_STEMS = {"shipped": "ppo_", "previous": "previous/ppo_", "rsl_rl": "rsl_ppo_"}
+"""The file name's stem of each kind of PPO config a task may have in ``configs/agents/``: the
+shipped SB3 config, the one before issue 24, and the rsl-rl learner's."""
+
+
+def config_file(task: str, kind: str) -> str:
+    """``configs/agents/<stem><task>.yaml`` of ``kind`` (:data:`CONFIG_STEMS`), in the data."""
+    return f"configs/agents/{CONFIG_STEMS[kind]}{task}.yaml"
+
+
 def config_of(task: str, learner: str) -> Path:
     """The config a learner runs ``task`` with (skrl and sbx: the rsl_rl one); ValueError (one
     line) where the task has none for it."""
-    stem = f"ppo_{task}" if learner == "sb3" else f"rsl_ppo_{task}"
-    relative = f"configs/agents/{stem}.yaml"
+    relative = config_file(task, "shipped" if learner == "sb3" else "rsl_rl")
     if find_data(relative) is None:
         raise ValueError(f"--learners: {learner} has no config for {task} ({relative}); leave "
                          f"{task} out of --tasks or {learner} out of --learners")  # fmt: skip
@@ -284,27 +293,15 @@ def measure(
             hp["batch_size"] = hp["batch_size"] * n_envs // cfgs[k].n_envs
             wider = {"threads": own[k], "n_envs": n_envs, "hyperparams": hp}
             cfgs[k] = load_config(paths[k], wider)
-    before = _thread_counts()
+    import numba
+    import torch
+
+    before = torch.get_num_threads(), numba.get_num_threads()
     try:
         return _interleaved(task, learners, repeats, own, paths, cfgs, stretch_s, whole_episodes)
     finally:
-        _set_thread_counts(*before)
-
-
-def _thread_counts() -> tuple[int, int]:
-    """Torch's and Numba's thread counts now."""
-    import numba
-    import torch
-
-    return torch.get_num_threads(), numba.get_num_threads()
-
-
-def _set_thread_counts(torch_threads: int, numba_threads: int) -> None:
-    import numba
-    import torch
-
-    torch.set_num_threads(torch_threads)
-    numba.set_num_threads(numba_threads)
+        torch.set_num_threads(before[0])
+        numba.set_num_threads(before[1])
 
 
 def _interleaved(

@@ -118,6 +118,12 @@ def test_a_training_model_uses_it_and_saves_sb3s_own_tanh(tmp_path: Path) -> Non
 
 
 @pytest.mark.parametrize("shape", [(1, 64), (4096, 64), (7, 3, 5)])
-def test_shapes_are_kept(shape: tuple[int, ...]) -> None:
-    x = torch.randn(*shape)
-    assert Tanh()(x).shape == x.shape
+def test_each_shape_is_kept_and_each_element_is_its_own_tanh(shape: tuple[int, ...]) -> None:
+    """One row, a minibatch and a 3-D batch: the shape kept and every element within
+    :data:`ULPS` of the exact tanh of the element at its own place."""
+    x = torch.randn(*shape, generator=torch.Generator().manual_seed(9))
+    out = Tanh()(x)
+    assert out.shape == x.shape
+    exact = np.tanh(x.numpy().astype(np.float64))
+    ulp = np.spacing(np.abs(exact).astype(np.float32)).astype(np.float64)
+    assert np.max(np.abs(out.numpy() - exact) / ulp) <= ULPS
