@@ -9,15 +9,18 @@ difference relative to the quantity's size, and its cause: rounding where the tw
 model with the same constants, else the constant or the model that differs, with the difference
 left once that constant is matched. It prints, and with ``--out`` writes as ``peers.md`` and
 ``peers.csv``, the agreement table, and (``peers_speed.csv``) a speed table of the wheel run:
-control steps per second here at N = 1, 64, 1024, 4096 against Basilisk's one spacecraft, timed in
-turn (:mod:`rigid_env.bench.timing`).
+control steps per second here at N = 1, 64, 1024, 4096 (the world, and WheelPointing-v2 as an
+env) against Basilisk's one spacecraft, timed in turn (:mod:`rigid_env.bench.timing`).
 
 Covered: the body rate and wheel speeds of WheelPointing's CubeSat under a wheel-torque
 profile (``World.step``, Basilisk's ``reactionWheelStateEffector``); the field of the tasks' centred
 dipole and of IGRF-14 (degree 1, and degree 13 as a model difference) against
 ``magneticFieldCenteredDipole``; the coils' torque (``World.accelerations``, ``MtbEffector``),
 in the dipole at drawn points and through a world on its orbit in IGRF-14's degree 1 where the
-body is (Basilisk's centred dipole there, the Earth turned alike);
+body is (Basilisk's centred dipole there, the Earth turned alike); the body rate of a tumbling
+CubeSat with its coils under a command profile over one orbit, both sides propagating the orbit
+and the attitude (Basilisk's hub on a point-mass Earth, ``magneticFieldCenteredDipole`` and
+``MtbEffector``), once as Basilisk samples the field and once sampled as ours is;
 the gravity-gradient torque
 on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); the torques of solar
 radiation pressure and of drag on flat plates through a world listing the effect on its orbit
@@ -65,8 +68,11 @@ def markdown(rows: Sequence[Any], speeds: Sequence[Any]) -> str:
             "The wheel run's scenario, each control step 20 rk4 substeps of 0.05 s: ours is "
             "`World.step` of N bodies, Basilisk's one spacecraft a message written and "
             "`ExecuteSimulation` to the next second (as an RL environment on Basilisk steps). "
-            "Wall time, medians of 5 rounds taken in turn; on a shared machine the ratios hold "
-            "better than the rates."
+            "The env rows are env-steps of WheelPointing-v2 (`gym.make`, and `gym.make_vec` "
+            "at N), the same CubeSat in the full environment: its coils, IGRF-14 to degree 13 "
+            "on each substep, the J2 orbit, eclipse, SRP, drag, sensors, observation and reward, "
+            "far more than Basilisk's spacecraft here computes. Wall time, medians of 5 rounds "
+            "taken in turn; on a shared machine the ratios hold better than the rates."
         ),
     )
     header = [
@@ -76,10 +82,12 @@ def markdown(rows: Sequence[Any], speeds: Sequence[Any]) -> str:
     ]
     not_compared = (
         "Not compared: Basilisk's WMM (its coefficient file comes from its support-data "
-        "fetcher on first use, offline here); the coils and the field over a trajectory "
-        "propagated on both sides, and the envs' own env-steps. The sunlight and the air are "
-        "compared at the world's own place on its orbit: Basilisk is handed the Sun, the "
-        "shadow factor, the density and the air's velocity that the world's step reads there."
+        "fetcher on first use, offline here). The sunlight and the air are compared at the "
+        "world's own place on its orbit: Basilisk is handed the Sun, the shadow factor, the "
+        "density and the air's velocity that the world's step reads there. In the coils' run "
+        "both sides propagate: Basilisk integrates the orbit (rk4 on a point-mass Earth given "
+        "our mu) where ours steps Kepler's, and each its own attitude; its field is its "
+        "centred-dipole module's, fed the Earth's turn and the spacecraft's place."
     )
     return report.markdown(
         "Agreement with Basilisk",

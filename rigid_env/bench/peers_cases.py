@@ -5,11 +5,12 @@ returns the largest relative difference and its cause. Imports Basilisk (the ``[
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from Basilisk.architecture import messaging
+from Basilisk.architecture import messaging, sysModel
 from Basilisk.simulation import (
     GravityGradientEffector,
     MtbEffector,
@@ -43,7 +44,7 @@ from rigid_env.core.geomagnetic import (
     IGRF2020_H11,
     TiltedDipole,
 )
-from rigid_env.core.orbit import Orbit
+from rigid_env.core.orbit import EARTH_EQUATORIAL_RADIUS, Orbit
 from rigid_env.core.orbit import states as kepler_states
 from rigid_env.core.sun import SOLAR_PRESSURE, light_conical, sun_position
 from rigid_env.core.timescale import SECONDS_PER_DAY
@@ -261,6 +262,14 @@ def _basilisk_coils(case: Case, inertia, mass: float, action: np.ndarray, b: np.
     return _torque(sim, craft, effector)
 
 
+def _on_orbit(world, clock: float) -> tuple[np.ndarray, np.ndarray]:
+    """The ECI position [m] and velocity [m/s] of the world's first body on its orbit (the
+    world's elements, Kepler) ``clock`` seconds after the epoch."""
+    row = world.orbit_rows[0]
+    r, v = kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock)
+    return np.asarray(r), np.asarray(v)
+
+
 def _coils_spec(extra: dict) -> dict:
     """WheelPointing's CubeSat (mass and moments) with three 0.35 A m^2 coils along its axes:
     the actuator whose command sets a dipole (Basilisk's MtbEffector's peer)."""
@@ -308,8 +317,7 @@ def coils(cases: Sequence[Case]) -> tuple[Agreement, Agreement]:
     for case in cases:
         clock, action = float(rng.uniform(0.0, 86400.0)), rng.uniform(-1.0, 1.0, 3)
         world.orbit_rows[0, 0] = clock
-        row = world.orbit_rows[0]
-        r, v = (np.asarray(x) for x in kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock))
+        r, v = _on_orbit(world, clock)
         _, alpha = world.accelerations(r, v, case.q, np.zeros(3), action[None, :])
         g10, g11, h11 = (
             float(first.g[1, 0] + first.g_rate[1, 0] * clock),
@@ -380,8 +388,7 @@ def _placed(world, clock: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     ``q``: its ECI position and velocity, and the torque of the world's effects on it (``I w'``
     of ``World.accelerations``: the compiled right-hand side, the surroundings where it is)."""
     world.orbit_rows[0, 0] = clock
-    row = world.orbit_rows[0]
-    r, v = (np.asarray(x) for x in kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock))
+    r, v = _on_orbit(world, clock)
     _, alpha = world.accelerations(r, v, q, np.zeros(3))
     return r, v, np.asarray(PEER_INERTIA) * alpha[0]
 
@@ -389,8 +396,7 @@ def _placed(world, clock: float, q: np.ndarray) -> tuple[np.ndarray, np.ndarray,
 def _light(world, clock: float) -> float:
     """The fraction of the Sun's disk the Earth leaves uncovered where the world's body is at
     ``clock``."""
-    row = world.orbit_rows[0]
-    r, _ = kepler_states(Orbit(*row[1:10].tolist(), EARTH_MU), clock)
+    r, _ = _on_orbit(world, clock)
     jd = float(world.parameters.orbit_epoch) + clock / SECONDS_PER_DAY
     return light_conical(tuple(r), sun_position(jd))
 
@@ -666,9 +672,208 @@ def wheels(_: Sequence[Case], steps: int = 60) -> tuple[Agreement, Agreement]:
     )
 
 
+# The coils' run: WheelPointing's CubeSat tumbling on an elliptical orbit with three coils in the
+# Earth's dipole (IGRF-14's degree 1), both sides propagating the orbit and the attitude.
+COIL_ORBIT = {
+    "altitude": 5.0e5, "eccentricity": 0.01, "inclination": 51.6, "raan": 30.0,
+    "perigee": 40.0, "mean_anomaly": 10.0, "epoch": 2025.0,
+}  # fmt: skip
+"""An orbit of the coils' run: 500 km, slightly eccentric, the ISS's inclination (the field's
+direction sweeps widely along it), no J2 (Basilisk's Earth here is a point mass)."""
+COIL_ATTITUDE = tuple(np.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))  # unit [w, x, y, z]
+COIL_RATE = (0.02, -0.03, 0.04)  # [rad/s], body frame: a tumble of 2.9 deg/s
+
+
+def coil_profile(step: int) -> np.ndarray:
+    """The coils' commands at control step ``step``: sines 120 deg apart, a 30 s period, 0.9 of
+    the largest dipole (in [-1, 1], our action; times 0.35 A m^2 for Basilisk)."""
+    return 0.9 * np.sin(2.0 * np.pi * step / 30.0 + np.array([0.0, 2.0, 4.0]))
+
+
+def coil_world(substep: float = SUBSTEP):
+    """Our world of the coils' run: one body on :data:`COIL_ORBIT` in IGRF-14's dipole (the
+    scene's ``field: {model: dipole}``), rk4 at ``substep``, through the public Scene API."""
+    kind = kinds(sets_dipole)[0].name
+    spec = _coils_spec(
+        {
+            "substeps": round(CONTROL_STEP / substep),
+            "actuators": {kind: {"max_dipole": 0.35}},
+            "orbit": COIL_ORBIT,
+            "field": {"model": "dipole"},
+            "initial": {
+                "orientation": [float(x) for x in COIL_ATTITUDE],
+                "angular_velocity": list(COIL_RATE),
+            },
+        }
+    )
+    return load_scene(spec).build_world()
+
+
+def one_orbit() -> int:
+    """Control steps (seconds) in one period of :data:`COIL_ORBIT`."""
+    a = EARTH_EQUATORIAL_RADIUS + COIL_ORBIT["altitude"]
+    return round(2.0 * np.pi * np.sqrt(a**3 / EARTH_MU))
+
+
+class _FieldInputs(sysModel.SysModel):
+    """What Basilisk's field module reads, written before it on each substep: the Earth's
+    orientation (its planet message's DCM [PN], the Earth turned by ``theta0 + EARTH_ROTATION
+    t``) and the spacecraft's position, at the clock ``t`` where the field is sampled; and the
+    dipole's coefficients.
+
+    Basilisk's chain samples the field once per substep, where the substep starts: the field
+    module reads the spacecraft's state written at the end of the substep before, and the
+    effector holds that field over the substep's four rk4 stages. ``matched``: sampled at the
+    substep's middle instead, as ours is (the position there ``r + v h/2 + a h^2/8`` from the
+    substep's start, ``a`` the point mass's pull: 2e-8 m off, 3e-15 of the field), and the
+    coefficients carried by IGRF's secular change to that clock as ours are (else the epoch's).
+    """
+
+    def __init__(self, craft, model, substep: float, theta0: float, matched: bool) -> None:
+        super().__init__()
+        self.craft, self.model, self.substep = craft, model, substep
+        self.theta0, self.matched = theta0, matched
+        self.first = igrf.model(float(COIL_ORBIT["epoch"]), degree=1)
+        self.planet = messaging.SpicePlanetStateMsgPayload()
+        self.planet_message = messaging.SpicePlanetStateMsg()
+        self.place = messaging.SCStatesMsgPayload()
+        self.place_message = messaging.SCStatesMsg()
+        self.write(0.0, np.asarray(craft.hub.r_CN_NInit, dtype=np.float64).reshape(-1))
+
+    def write(self, clock: float, r: np.ndarray) -> None:
+        """The Earth's orientation and the coefficients at ``clock``, the position ``r``."""
+        angle = self.theta0 + EARTH_ROTATION * clock
+        self.planet.J20002Pfix = [
+            [np.cos(angle), np.sin(angle), 0.0],
+            [-np.sin(angle), np.cos(angle), 0.0],
+            [0.0, 0.0, 1.0],
+        ]
+        self.planet_message.write(self.planet)
+        elapsed = clock if self.matched else 0.0  # [s]: the rates are per second
+        first = self.first
+        self.model.g10 = float(first.g[1, 0] + first.g_rate[1, 0] * elapsed)
+        self.model.g11 = float(first.g[1, 1] + first.g_rate[1, 1] * elapsed)
+        self.model.h11 = float(first.h[1, 1] + first.h_rate[1, 1] * elapsed)
+        self.place.r_BN_N = r.tolist()
+        self.place_message.write(self.place)
+
+    def UpdateState(self, nanos: int) -> None:  # Basilisk calls it on each substep
+        start = max(0.0, nanos * 1.0e-9 - self.substep)  # the substep the hub integrates next
+        state = self.craft.scStateOutMsg.read()
+        r = np.asarray(state.r_BN_N, dtype=np.float64)
+        if not self.matched:
+            self.write(start, r)
+            return
+        v = np.asarray(state.v_BN_N, dtype=np.float64)
+        pull = -EARTH_MU * r / np.linalg.norm(r) ** 3
+        half = 0.5 * self.substep
+        self.write(start + half, r + v * half + pull * (0.5 * half * half))
+
+
+class BasiliskCoils:
+    """The coils' run in Basilisk: a spacecraft hub on the orbit (the point-mass Earth with our
+    ``mu``, its own rk4 propagating it), ``magneticFieldCenteredDipole`` with IGRF-14's degree-1
+    coefficients and an ``MtbEffector`` of three 0.35 A m^2 coils along the body axes, the
+    commands a message written each control step. Priorities order each substep: the field's
+    inputs (:class:`_FieldInputs`), the field, the coils, then the hub."""
+
+    def __init__(self, world, substep: float, matched: bool) -> None:
+        spec = _coils_spec({})
+        r, v = _on_orbit(world, 0.0)
+        case = _case_at(r, v, np.asarray(world.state.q[0], dtype=np.float64))
+        self.sim = SimulationBaseClass.SimBaseClass()
+        process = self.sim.CreateNewProcess("coils")
+        process.addTask(self.sim.CreateNewTask("dynamics", macros.sec2nano(substep)))
+        self.craft = spacecraft.Spacecraft()
+        self.craft.hub.mHub = float(spec["body"]["mass"])
+        self.craft.hub.IHubPntBc_B = np.diag(spec["body"]["inertia"]).tolist()
+        self.craft.hub.r_CN_NInit = case.r.tolist()
+        self.craft.hub.v_CN_NInit = case.v.tolist()
+        self.craft.hub.sigma_BNInit = [[x] for x in case.sigma]
+        self.craft.hub.omega_BN_BInit = [[float(x)] for x in world.state.w[0]]
+        self.gravity = simIncludeGravBody.gravBodyFactory()
+        earth = self.gravity.createEarth()
+        earth.isCentralBody = True
+        earth.mu = EARTH_MU
+        self.gravity.addBodiesTo(self.craft)
+        self.field = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
+        self.field.planetRadius = EARTH_RADIUS
+        theta0 = float(world.orbit_rows[0, 10])  # the Greenwich angle at the epoch
+        self.inputs = _FieldInputs(self.craft, self.field, substep, theta0, matched)
+        self.field.planetPosInMsg.subscribeTo(self.inputs.planet_message)
+        self.field.addSpacecraftToModel(self.inputs.place_message)
+        self.coils = MtbEffector.MtbEffector()
+        params = messaging.MTBArrayConfigMsgPayload()
+        params.numMTB = 3
+        params.GtMatrix_B = np.eye(3).reshape(-1).tolist()
+        params.maxMtbDipoles = [0.35] * 3
+        self.params = messaging.MTBArrayConfigMsg().write(params)
+        self.command = messaging.MTBCmdMsgPayload()
+        self.command.mtbDipoleCmds = [0.0] * 3
+        self.message = messaging.MTBCmdMsg().write(self.command)
+        self.coils.mtbParamsInMsg.subscribeTo(self.params)
+        self.coils.mtbCmdInMsg.subscribeTo(self.message)
+        self.coils.magInMsg.subscribeTo(self.field.envOutMsgs[0])
+        self.craft.addDynamicEffector(self.coils)
+        for model, priority in ((self.inputs, 400), (self.field, 300), (self.coils, 200)):
+            self.sim.AddModelToTask("dynamics", model, priority)
+        self.sim.AddModelToTask("dynamics", self.craft, 100)
+        self.sim.InitializeSimulation()
+        self.steps = 0
+
+    def step(self, action: np.ndarray) -> None:
+        """One control step under ``action`` (3,) in [-1, 1]."""
+        self.command.mtbDipoleCmds = (0.35 * np.asarray(action)).tolist()
+        self.message.write(self.command)
+        self.steps += 1
+        self.sim.ConfigureStopTime(macros.sec2nano(self.steps * CONTROL_STEP))
+        self.sim.ExecuteSimulation()
+
+    def rate(self) -> np.ndarray:
+        """The body's angular velocity, body frame [rad/s]."""
+        return np.asarray(self.craft.scStateOutMsg.read().omega_BN_B, dtype=np.float64)
+
+
+def coil_run(steps: int, substep: float = SUBSTEP, matched: bool = False) -> float:
+    """The largest difference of the body rate between ours and :class:`BasiliskCoils` over
+    ``steps`` control steps of :func:`coil_profile`, relative to the largest rate component;
+    ``matched``: Basilisk's field sampled as ours is (:class:`_FieldInputs`)."""
+    ours = coil_world(substep)
+    theirs = BasiliskCoils(ours, substep, matched)
+    worst = scale = 0.0
+    for k in range(steps):
+        action = coil_profile(k)
+        ours.step(action[None, :])
+        theirs.step(action)
+        worst = max(worst, float(np.max(np.abs(ours.state.w[0] - theirs.rate()))))
+        scale = max(scale, float(np.max(np.abs(theirs.rate()))))
+    return worst / scale
+
+
+def coils_propagated(_: Sequence[Case], steps: int | None = None) -> Agreement:
+    """The body rate of the coils' run over ``steps`` control steps (one orbit), at
+    :data:`SUBSTEP` and at its half (the orders of what differs)."""
+    steps = one_orbit() if steps is None else steps
+    plain, plain_half = coil_run(steps), coil_run(steps, SUBSTEP / 2)
+    same, same_half = coil_run(steps, matched=True), coil_run(steps, SUBSTEP / 2, matched=True)
+    cause = (
+        "where the field is sampled: each substep's middle here (the orbit state's midpoint "
+        f"rule), its start in Basilisk (first order: {plain_half:.2g} at half the substep), "
+        "and the coefficients carried by IGRF's secular change over the clock here, the "
+        "epoch's in Basilisk. Matched (Basilisk's field sampled as ours), what is left is the two "
+        "rk4s on different attitude coordinates, quaternions here and MRPs there: fourth order, "
+        f"{same_half:.2g} at half the substep"
+    )
+    return Agreement(
+        f"body rate, coils in the dipole on an orbit, both propagating, {steps} s",
+        steps, plain, same, cause,
+    )  # fmt: skip
+
+
 @dataclass
 class Speed:
-    """Control steps per second of the wheel scenario (20 rk4 substeps each)."""
+    """Control steps (env-steps) per second of a peer: the wheel scenario's world or
+    Basilisk's spacecraft (20 rk4 substeps each), or an env of :data:`ENV_ID`."""
 
     peer: str
     bodies: int
@@ -676,8 +881,42 @@ class Speed:
     ratio: float
 
 
+ENV_ID = "RigidEnv/WheelPointing-v2"
+"""The env timed beside the peers: WheelPointing's CubeSat in the full environment (its wheels
+and coils, IGRF-14, the J2 orbit, eclipse, SRP, drag and its sensors, a 1 s step of 20 rk4
+substeps), observation, reward and resets included: more than the wheel scenario computes."""
+
+
+def _env_case(n: int) -> Timed:
+    """One step of :data:`ENV_ID` (``n`` 1: ``gym.make``, reset at an episode's end; else the
+    vector env of ``gym.make_vec``, which resets its own), a fixed action in its box."""
+    import gymnasium as gym
+
+    import rigid_env  # noqa: F401 (registers the ids)
+
+    action = 0.5 * np.concatenate([coil_profile(0), torque_profile(0)])
+    if n == 1:
+        env = gym.make(ENV_ID)
+        env.reset(seed=0)
+
+        def step() -> None:
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+    else:
+        env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+        env.reset(seed=0)
+        actions = np.broadcast_to(action, (n, action.size)).astype(np.float32)
+
+        def step() -> None:
+            env.step(actions)
+
+    return Timed(f"{ENV_ID} N={n}", step, work=n)
+
+
 def speeds(batches: Sequence[int] = (1, 64, 1024, 4096), repeats: int = 5) -> list[Speed]:
-    """Ours at each batch size and Basilisk's one spacecraft, timed interleaved (medians)."""
+    """Ours at each batch size (the world, and :data:`ENV_ID` as an env) and Basilisk's one
+    spacecraft, timed interleaved (medians)."""
     cases = []
     for n in batches:
         world = wheel_world(n)
@@ -688,6 +927,7 @@ def speeds(batches: Sequence[int] = (1, 64, 1024, 4096), repeats: int = 5) -> li
             count[0] += 1
 
         cases.append(Timed(f"rigid_env N={n}", ours, work=n))
+        cases.append(_env_case(n))
     basilisk = BasiliskWheels()
     tick = [0]
 
@@ -696,12 +936,15 @@ def speeds(batches: Sequence[int] = (1, 64, 1024, 4096), repeats: int = 5) -> li
         tick[0] += 1
 
     cases.append(Timed("Basilisk", theirs, work=1))
-    timings = measure(cases, min_time=0.2, repeats=repeats)
+    with warnings.catch_warnings():  # gym.make's note that a newer version exists, if any
+        warnings.simplefilter("ignore", DeprecationWarning)
+        timings = measure(cases, min_time=0.2, repeats=repeats)
     base = timings["Basilisk"].rate
     rows = [Speed("Basilisk", 1, base, 1.0)]
-    for n in batches:
-        rate = timings[f"rigid_env N={n}"].rate
-        rows.append(Speed("rigid_env", n, rate, rate / base))
+    for name, peer in (("rigid_env", "rigid_env"), (ENV_ID, f"{ENV_ID} (env)")):
+        for n in batches:
+            rate = timings[f"{name} N={n}"].rate
+            rows.append(Speed(peer, n, rate, rate / base))
     return rows
 
 
@@ -709,6 +952,7 @@ COMPARISONS: tuple[Callable[[Sequence[Case]], Agreement | tuple[Agreement, ...]]
     wheels,
     field,
     coils,
+    coils_propagated,
     gravity_gradient,
     srp,
     drag,
