@@ -172,6 +172,16 @@ def gravity_gradient(cases: Sequence[Case]) -> Agreement:
     return Agreement("gravity-gradient torque", len(cases), worst, matched, cause)
 
 
+def _earth_turned(angle: float) -> list[list[float]]:
+    """The DCM [PN] of a planet message: ECI to the Earth-fixed frame turned by ``angle`` [rad]
+    about z (Greenwich on ECI x at 0)."""
+    return [
+        [np.cos(angle), np.sin(angle), 0.0],
+        [-np.sin(angle), np.cos(angle), 0.0],
+        [0.0, 0.0, 1.0],
+    ]
+
+
 def _basilisk_dipole(
     g10: float, g11: float, h11: float, r: np.ndarray, t: float, theta0: float = 0.0
 ) -> np.ndarray:
@@ -183,13 +193,8 @@ def _basilisk_dipole(
     model = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
     model.g10, model.g11, model.h11 = g10, g11, h11
     model.planetRadius = EARTH_RADIUS
-    angle = theta0 + EARTH_ROTATION * t
     planet = messaging.SpicePlanetStateMsgPayload()
-    planet.J20002Pfix = [
-        [np.cos(angle), np.sin(angle), 0.0],
-        [-np.sin(angle), np.cos(angle), 0.0],
-        [0.0, 0.0, 1.0],
-    ]
+    planet.J20002Pfix = _earth_turned(theta0 + EARTH_ROTATION * t)
     planet_message = messaging.SpicePlanetStateMsg().write(planet)
     model.planetPosInMsg.subscribeTo(planet_message)
     craft = messaging.SCStatesMsgPayload()
@@ -742,12 +747,7 @@ class _FieldInputs(sysModel.SysModel):
 
     def write(self, clock: float, r: np.ndarray) -> None:
         """The Earth's orientation and the coefficients at ``clock``, the position ``r``."""
-        angle = self.theta0 + EARTH_ROTATION * clock
-        self.planet.J20002Pfix = [
-            [np.cos(angle), np.sin(angle), 0.0],
-            [-np.sin(angle), np.cos(angle), 0.0],
-            [0.0, 0.0, 1.0],
-        ]
+        self.planet.J20002Pfix = _earth_turned(self.theta0 + EARTH_ROTATION * clock)
         self.planet_message.write(self.planet)
         elapsed = clock if self.matched else 0.0  # [s]: the rates are per second
         first = self.first
