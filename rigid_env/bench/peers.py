@@ -22,7 +22,8 @@ CubeSat with its coils under a command profile over one orbit, both sides propag
 and the attitude (Basilisk's hub on a point-mass Earth, ``magneticFieldCenteredDipole`` and
 ``MtbEffector``), once as Basilisk samples the field and once sampled as ours is;
 the gravity-gradient torque
-on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``); the torques of solar
+on the same CubeSat (``World.accelerations``, ``GravityGradientEffector``), at drawn states and
+over one orbit propagated on both sides; the torques of solar
 radiation pressure and of drag on flat plates through a world listing the effect on its orbit
 (``World.accelerations`` where the body is: the Sun's place, the Earth's shadow and the air
 from the world's orbit and clock, handed to ``facetSRPDynamicEffector`` and
@@ -84,10 +85,10 @@ def markdown(rows: Sequence[Any], speeds: Sequence[Any]) -> str:
         "Not compared: Basilisk's WMM (its coefficient file comes from its support-data "
         "fetcher on first use, offline here). The sunlight and the air are compared at the "
         "world's own place on its orbit: Basilisk is handed the Sun, the shadow factor, the "
-        "density and the air's velocity that the world's step reads there. In the coils' run "
-        "both sides propagate: Basilisk integrates the orbit (rk4 on a point-mass Earth given "
-        "our mu) where ours steps Kepler's, and each its own attitude; its field is its "
-        "centred-dipole module's, fed the Earth's turn and the spacecraft's place."
+        "density and the air's velocity that the world's step reads there. In the runs on an "
+        "orbit both sides propagate: Basilisk integrates the orbit (rk4 on a point-mass Earth "
+        "given our mu) where ours steps Kepler's, and each its own attitude; the coils' field "
+        "is Basilisk's centred-dipole module's, fed the Earth's turn and the spacecraft's place."
     )
     return report.markdown(
         "Agreement with Basilisk",

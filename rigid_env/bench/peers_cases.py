@@ -695,23 +695,39 @@ def coil_profile(step: int) -> np.ndarray:
     return 0.9 * np.sin(2.0 * np.pi * step / 30.0 + np.array([0.0, 2.0, 4.0]))
 
 
-def coil_world(substep: float = SUBSTEP):
-    """Our world of the coils' run: one body on :data:`COIL_ORBIT` in IGRF-14's dipole (the
-    scene's ``field: {model: dipole}``), rk4 at ``substep``, through the public Scene API."""
-    kind = kinds(sets_dipole)[0].name
+def _orbit_world(substep: float, extra: dict, rate: Sequence[float] = COIL_RATE):
+    """WheelPointing's CubeSat on :data:`COIL_ORBIT` at :data:`COIL_ATTITUDE` turning at
+    ``rate`` [rad/s], rk4 at ``substep``, with the scene sections ``extra``, through the public
+    Scene API."""
     spec = _coils_spec(
         {
             "substeps": round(CONTROL_STEP / substep),
-            "actuators": {kind: {"max_dipole": 0.35}},
             "orbit": COIL_ORBIT,
-            "field": {"model": "dipole"},
             "initial": {
                 "orientation": [float(x) for x in COIL_ATTITUDE],
-                "angular_velocity": list(COIL_RATE),
+                "angular_velocity": [float(x) for x in rate],
             },
+            **extra,
         }
     )
     return load_scene(spec).build_world()
+
+
+def coil_world(substep: float = SUBSTEP):
+    """Our world of the coils' run: the CubeSat's three coils in IGRF-14's dipole (the scene's
+    ``field: {model: dipole}``)."""
+    coils = {kinds(sets_dipole)[0].name: {"max_dipole": 0.35}}
+    return _orbit_world(substep, {"actuators": coils, "field": {"model": "dipole"}})
+
+
+GRADIENT_RATE = (0.001, -0.002, 0.0015)  # [rad/s]: slow, for the gradient's torque to tell
+
+
+def gradient_world(substep: float = SUBSTEP):
+    """Our world of the gravity gradient's run: the CubeSat under its gravity-gradient torque
+    alone (the effect listed with our mu about the Earth's centre), turning slowly."""
+    effect = {"gravity_gradient": {"mu": EARTH_MU, "center": [0.0, 0.0, 0.0]}}
+    return _orbit_world(substep, {"effects": effect}, GRADIENT_RATE)
 
 
 def one_orbit() -> int:
@@ -770,19 +786,17 @@ class _FieldInputs(sysModel.SysModel):
         self.write(start + half, r + v * half + pull * (0.5 * half * half))
 
 
-class BasiliskCoils:
-    """The coils' run in Basilisk: a spacecraft hub on the orbit (the point-mass Earth with our
-    ``mu``, its own rk4 propagating it), ``magneticFieldCenteredDipole`` with IGRF-14's degree-1
-    coefficients and an ``MtbEffector`` of three 0.35 A m^2 coils along the body axes, the
-    commands a message written each control step. Priorities order each substep: the field's
-    inputs (:class:`_FieldInputs`), the field, the coils, then the hub."""
+class BasiliskOnOrbit:
+    """Our world's first body as a Basilisk spacecraft: a hub of the CubeSat's mass and moments
+    at the body's state, on a point-mass Earth given our ``mu`` (Basilisk's own rk4 propagating
+    the orbit, at ``substep``). A subclass adds its models (:meth:`start`)."""
 
-    def __init__(self, world, substep: float, matched: bool) -> None:
+    def __init__(self, world, substep: float) -> None:
         spec = _coils_spec({})
         r, v = _on_orbit(world, 0.0)
         case = _case_at(r, v, np.asarray(world.state.q[0], dtype=np.float64))
         self.sim = SimulationBaseClass.SimBaseClass()
-        process = self.sim.CreateNewProcess("coils")
+        process = self.sim.CreateNewProcess("orbit")
         process.addTask(self.sim.CreateNewTask("dynamics", macros.sec2nano(substep)))
         self.craft = spacecraft.Spacecraft()
         self.craft.hub.mHub = float(spec["body"]["mass"])
@@ -792,10 +806,43 @@ class BasiliskCoils:
         self.craft.hub.sigma_BNInit = [[x] for x in case.sigma]
         self.craft.hub.omega_BN_BInit = [[float(x)] for x in world.state.w[0]]
         self.gravity = simIncludeGravBody.gravBodyFactory()
-        earth = self.gravity.createEarth()
-        earth.isCentralBody = True
-        earth.mu = EARTH_MU
+        self.earth = self.gravity.createEarth()
+        self.earth.isCentralBody = True
+        self.earth.mu = EARTH_MU
         self.gravity.addBodiesTo(self.craft)
+        self.steps = 0
+
+    def start(self, models: Sequence[tuple[object, int]]) -> None:
+        """Add ``(model, priority)`` to the task before the hub (priority 100), initialise."""
+        for model, priority in models:
+            self.sim.AddModelToTask("dynamics", model, priority)
+        self.sim.AddModelToTask("dynamics", self.craft, 100)
+        self.sim.InitializeSimulation()
+
+    def step(self, action: np.ndarray | None = None) -> None:
+        """One control step (``action``: the subclass's command, written first)."""
+        if action is not None:
+            self.command_for(action)
+        self.steps += 1
+        self.sim.ConfigureStopTime(macros.sec2nano(self.steps * CONTROL_STEP))
+        self.sim.ExecuteSimulation()
+
+    def command_for(self, action: np.ndarray) -> None:
+        """Write the command of ``action`` (none here)."""
+
+    def rate(self) -> np.ndarray:
+        """The body's angular velocity, body frame [rad/s]."""
+        return np.asarray(self.craft.scStateOutMsg.read().omega_BN_B, dtype=np.float64)
+
+
+class BasiliskCoils(BasiliskOnOrbit):
+    """The coils' run in Basilisk: ``magneticFieldCenteredDipole`` with IGRF-14's degree-1
+    coefficients and an ``MtbEffector`` of three 0.35 A m^2 coils along the body axes, the
+    commands a message written each control step. Priorities order each substep: the field's
+    inputs (:class:`_FieldInputs`), the field, the coils, then the hub."""
+
+    def __init__(self, world, substep: float, matched: bool) -> None:
+        super().__init__(world, substep)
         self.field = magneticFieldCenteredDipole.MagneticFieldCenteredDipole()
         self.field.planetRadius = EARTH_RADIUS
         theta0 = float(world.orbit_rows[0, 10])  # the Greenwich angle at the epoch
@@ -815,39 +862,53 @@ class BasiliskCoils:
         self.coils.mtbCmdInMsg.subscribeTo(self.message)
         self.coils.magInMsg.subscribeTo(self.field.envOutMsgs[0])
         self.craft.addDynamicEffector(self.coils)
-        for model, priority in ((self.inputs, 400), (self.field, 300), (self.coils, 200)):
-            self.sim.AddModelToTask("dynamics", model, priority)
-        self.sim.AddModelToTask("dynamics", self.craft, 100)
-        self.sim.InitializeSimulation()
-        self.steps = 0
+        self.start(((self.inputs, 400), (self.field, 300), (self.coils, 200)))
 
-    def step(self, action: np.ndarray) -> None:
-        """One control step under ``action`` (3,) in [-1, 1]."""
+    def command_for(self, action: np.ndarray) -> None:
+        """The coils' dipoles, ``action`` (3,) in [-1, 1] times 0.35 A m^2."""
         self.command.mtbDipoleCmds = (0.35 * np.asarray(action)).tolist()
         self.message.write(self.command)
-        self.steps += 1
-        self.sim.ConfigureStopTime(macros.sec2nano(self.steps * CONTROL_STEP))
-        self.sim.ExecuteSimulation()
-
-    def rate(self) -> np.ndarray:
-        """The body's angular velocity, body frame [rad/s]."""
-        return np.asarray(self.craft.scStateOutMsg.read().omega_BN_B, dtype=np.float64)
 
 
-def coil_run(steps: int, substep: float = SUBSTEP, matched: bool = False) -> float:
-    """The largest difference of the body rate between ours and :class:`BasiliskCoils` over
-    ``steps`` control steps of :func:`coil_profile`, relative to the largest rate component;
-    ``matched``: Basilisk's field sampled as ours is (:class:`_FieldInputs`)."""
-    ours = coil_world(substep)
-    theirs = BasiliskCoils(ours, substep, matched)
+class BasiliskGradient(BasiliskOnOrbit):
+    """The gravity gradient's run in Basilisk: a ``GravityGradientEffector`` about the Earth,
+    which reads the hub's position at each rk4 stage."""
+
+    def __init__(self, world, substep: float) -> None:
+        super().__init__(world, substep)
+        self.gradient = GravityGradientEffector.GravityGradientEffector()
+        self.gradient.addPlanetName(self.earth.planetName)
+        self.craft.addDynamicEffector(self.gradient)
+        self.start(((self.gradient, 200),))
+
+
+def _rate_difference(ours, theirs: BasiliskOnOrbit, steps: int, actions) -> float:
+    """The largest difference of the body rate between ``ours`` and ``theirs`` over ``steps``
+    control steps under ``actions(k)`` ((A,) or None), relative to the largest rate
+    component."""
     worst = scale = 0.0
     for k in range(steps):
-        action = coil_profile(k)
-        ours.step(action[None, :])
+        action = actions(k)
+        ours.step(np.zeros((1, 0)) if action is None else action[None, :])
         theirs.step(action)
         worst = max(worst, float(np.max(np.abs(ours.state.w[0] - theirs.rate()))))
         scale = max(scale, float(np.max(np.abs(theirs.rate()))))
     return worst / scale
+
+
+def coil_run(steps: int, substep: float = SUBSTEP, matched: bool = False) -> float:
+    """The coils' run (:func:`coil_world`, :class:`BasiliskCoils`) over ``steps`` control steps
+    of :func:`coil_profile`: the body rate's largest relative difference (``matched``:
+    Basilisk's field sampled as ours is)."""
+    ours = coil_world(substep)
+    return _rate_difference(ours, BasiliskCoils(ours, substep, matched), steps, coil_profile)
+
+
+def gradient_run(steps: int, substep: float = SUBSTEP) -> float:
+    """The gravity gradient's run (:func:`gradient_world`, :class:`BasiliskGradient`) over
+    ``steps`` control steps: the body rate's largest relative difference."""
+    ours = gradient_world(substep)
+    return _rate_difference(ours, BasiliskGradient(ours, substep), steps, lambda _: None)
 
 
 def coils_propagated(_: Sequence[Case], steps: int | None = None) -> Agreement:
@@ -867,6 +928,22 @@ def coils_propagated(_: Sequence[Case], steps: int | None = None) -> Agreement:
     return Agreement(
         f"body rate, coils in the dipole on an orbit, both propagating, {steps} s",
         steps, plain, same, cause,
+    )  # fmt: skip
+
+
+def gradient_propagated(_: Sequence[Case], steps: int | None = None) -> Agreement:
+    """The body rate of the gravity gradient's run over ``steps`` control steps (one orbit), at
+    :data:`SUBSTEP` and at its half (the order of what differs)."""
+    steps = one_orbit() if steps is None else steps
+    whole, half = gradient_run(steps), gradient_run(steps, SUBSTEP / 2)
+    cause = (
+        "where the position is sampled: held over each substep at its middle here (the orbit "
+        "state's midpoint rule), read at each rk4 stage in Basilisk; second order: "
+        f"{half:.2g} at half the substep (nothing to match: Basilisk's effector reads the hub)"
+    )
+    return Agreement(
+        f"body rate, gravity gradient on an orbit, both propagating, {steps} s",
+        steps, whole, whole, cause,
     )  # fmt: skip
 
 
@@ -954,6 +1031,7 @@ COMPARISONS: tuple[Callable[[Sequence[Case]], Agreement | tuple[Agreement, ...]]
     coils,
     coils_propagated,
     gravity_gradient,
+    gradient_propagated,
     srp,
     drag,
 )
