@@ -677,16 +677,17 @@ def wheels(_: Sequence[Case], steps: int = 60) -> tuple[Agreement, Agreement]:
     )
 
 
-# The coils' run: WheelPointing's CubeSat tumbling on an elliptical orbit with three coils in the
-# Earth's dipole (IGRF-14's degree 1), both sides propagating the orbit and the attitude.
-COIL_ORBIT = {
+# The runs on an orbit, both sides propagating the orbit and the attitude: WheelPointing's CubeSat
+# tumbling with three coils in the Earth's dipole (IGRF-14's degree 1), and turning slowly under
+# its gravity-gradient torque alone.
+RUN_ORBIT = {
     "altitude": 5.0e5, "eccentricity": 0.01, "inclination": 51.6, "raan": 30.0,
     "perigee": 40.0, "mean_anomaly": 10.0, "epoch": 2025.0,
 }  # fmt: skip
-"""An orbit of the coils' run: 500 km, slightly eccentric, the ISS's inclination (the field's
+"""The orbit of the runs: 500 km, slightly eccentric, the ISS's inclination (the field's
 direction sweeps widely along it), no J2 (Basilisk's Earth here is a point mass)."""
-COIL_ATTITUDE = tuple(np.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))  # unit [w, x, y, z]
-COIL_RATE = (0.02, -0.03, 0.04)  # [rad/s], body frame: a tumble of 2.9 deg/s
+RUN_ATTITUDE = tuple(np.array([0.9, 0.1, -0.3, 0.2]) / np.sqrt(0.95))  # unit [w, x, y, z]
+COIL_RATE = (0.02, -0.03, 0.04)  # [rad/s], body frame: the coils' tumble, 2.9 deg/s
 
 
 def coil_profile(step: int) -> np.ndarray:
@@ -696,15 +697,15 @@ def coil_profile(step: int) -> np.ndarray:
 
 
 def _orbit_world(substep: float, extra: dict, rate: Sequence[float] = COIL_RATE):
-    """WheelPointing's CubeSat on :data:`COIL_ORBIT` at :data:`COIL_ATTITUDE` turning at
+    """WheelPointing's CubeSat on :data:`RUN_ORBIT` at :data:`RUN_ATTITUDE` turning at
     ``rate`` [rad/s], rk4 at ``substep``, with the scene sections ``extra``, through the public
     Scene API."""
     spec = _coils_spec(
         {
             "substeps": round(CONTROL_STEP / substep),
-            "orbit": COIL_ORBIT,
+            "orbit": RUN_ORBIT,
             "initial": {
-                "orientation": [float(x) for x in COIL_ATTITUDE],
+                "orientation": [float(x) for x in RUN_ATTITUDE],
                 "angular_velocity": [float(x) for x in rate],
             },
             **extra,
@@ -731,8 +732,8 @@ def gradient_world(substep: float = SUBSTEP):
 
 
 def one_orbit() -> int:
-    """Control steps (seconds) in one period of :data:`COIL_ORBIT`."""
-    a = EARTH_EQUATORIAL_RADIUS + COIL_ORBIT["altitude"]
+    """Control steps (seconds) in one period of :data:`RUN_ORBIT`."""
+    a = EARTH_EQUATORIAL_RADIUS + RUN_ORBIT["altitude"]
     return round(2.0 * np.pi * np.sqrt(a**3 / EARTH_MU))
 
 
@@ -754,7 +755,7 @@ class _FieldInputs(sysModel.SysModel):
         super().__init__()
         self.craft, self.model, self.substep = craft, model, substep
         self.theta0, self.matched = theta0, matched
-        self.first = igrf.model(float(COIL_ORBIT["epoch"]), degree=1)
+        self.first = igrf.model(float(RUN_ORBIT["epoch"]), degree=1)
         self.planet = messaging.SpicePlanetStateMsgPayload()
         self.planet_message = messaging.SpicePlanetStateMsg()
         self.place = messaging.SCStatesMsgPayload()
