@@ -27,7 +27,9 @@ over one orbit propagated on both sides; the torques of solar
 radiation pressure and of drag on flat plates through a world listing the effect on its orbit
 (``World.accelerations`` where the body is: the Sun's place, the Earth's shadow and the air
 from the world's orbit and clock, handed to ``facetSRPDynamicEffector`` and
-``facetDragDynamicEffector`` as their messages), sunlit, in the penumbra and in the umbra.
+``facetDragDynamicEffector`` as their messages), sunlit, in the penumbra and in the umbra; and
+both on the plates over one orbit propagated on both sides, as Basilisk samples its inputs
+and sampled as ours are.
 """
 
 from __future__ import annotations
