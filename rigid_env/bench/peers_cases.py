@@ -777,32 +777,65 @@ def one_orbit() -> int:
     return round(2.0 * np.pi * np.sqrt(a**3 / EARTH_MU))
 
 
-class _FieldInputs(sysModel.SysModel):
+class _SampledInputs(sysModel.SysModel):
+    """A Basilisk module that writes, before the models that read them, the inputs of the
+    substep the hub integrates next (:meth:`write`, a subclass's), sampled at the spacecraft's
+    place and clock: where the substep starts, as Basilisk's own chain samples (a module reads
+    the state the hub wrote at the end of the substep before, and an effector holds what it
+    read over the four rk4 stages), or (``matched``) at its middle, as ours does: the place
+    there ``r + v h/2 + a h^2/8`` and the velocity ``v + a h/2`` from the substep's start, ``a``
+    the point mass's pull (2e-8 m and 3e-6 m/s off: 3e-15 and 4e-10 of each)."""
+
+    def __init__(self, craft, substep: float, matched: bool) -> None:
+        super().__init__()
+        self.craft, self.substep, self.matched = craft, substep, matched
+
+    def write(self, clock: float, r: np.ndarray, v: np.ndarray) -> None:
+        """Write the inputs at ``clock`` [s] for a spacecraft at ``r``, moving at ``v``."""
+        raise NotImplementedError
+
+    def write_initial(self) -> None:
+        """The inputs at the hub's initial state (read before the first substep)."""
+        hub = self.craft.hub
+        r, v = (
+            np.asarray(x, dtype=np.float64).reshape(-1) for x in (hub.r_CN_NInit, hub.v_CN_NInit)
+        )
+        self.write(0.0, r, v)
+
+    def UpdateState(self, nanos: int) -> None:  # Basilisk calls it on each substep
+        start = max(0.0, nanos * 1.0e-9 - self.substep)  # the substep the hub integrates next
+        state = self.craft.scStateOutMsg.read()
+        r = np.asarray(state.r_BN_N, dtype=np.float64)
+        v = np.asarray(state.v_BN_N, dtype=np.float64)
+        if not self.matched:
+            self.write(start, r, v)
+            return
+        pull = -EARTH_MU * r / np.linalg.norm(r) ** 3
+        half = 0.5 * self.substep
+        self.write(start + half, r + v * half + pull * (0.5 * half * half), v + pull * half)
+
+
+class _FieldInputs(_SampledInputs):
     """What Basilisk's field module reads, written before it on each substep: the Earth's
     orientation (its planet message's DCM [PN], the Earth turned by ``theta0 + EARTH_ROTATION
     t``) and the spacecraft's position, at the clock ``t`` where the field is sampled; and the
     dipole's coefficients.
 
-    Basilisk's chain samples the field once per substep, where the substep starts: the field
-    module reads the spacecraft's state written at the end of the substep before, and the
-    effector holds that field over the substep's four rk4 stages. ``matched``: sampled at the
-    substep's middle instead, as ours is (the position there ``r + v h/2 + a h^2/8`` from the
-    substep's start, ``a`` the point mass's pull: 2e-8 m off, 3e-15 of the field), and the
-    coefficients carried by IGRF's secular change to that clock as ours are (else the epoch's).
+    Sampled as :class:`_SampledInputs` says; ``matched`` also carries the coefficients by
+    IGRF's secular change to the clock, as ours are (else the epoch's).
     """
 
     def __init__(self, craft, model, substep: float, theta0: float, matched: bool) -> None:
-        super().__init__()
-        self.craft, self.model, self.substep = craft, model, substep
-        self.theta0, self.matched = theta0, matched
+        super().__init__(craft, substep, matched)
+        self.model, self.theta0 = model, theta0
         self.first = igrf.model(float(RUN_ORBIT["epoch"]), degree=1)
         self.planet = messaging.SpicePlanetStateMsgPayload()
         self.planet_message = messaging.SpicePlanetStateMsg()
         self.place = messaging.SCStatesMsgPayload()
         self.place_message = messaging.SCStatesMsg()
-        self.write(0.0, np.asarray(craft.hub.r_CN_NInit, dtype=np.float64).reshape(-1))
+        self.write_initial()
 
-    def write(self, clock: float, r: np.ndarray) -> None:
+    def write(self, clock: float, r: np.ndarray, v: np.ndarray) -> None:
         """The Earth's orientation and the coefficients at ``clock``, the position ``r``."""
         self.planet.J20002Pfix = _earth_turned(self.theta0 + EARTH_ROTATION * clock)
         self.planet_message.write(self.planet)
@@ -813,18 +846,6 @@ class _FieldInputs(sysModel.SysModel):
         self.model.h11 = float(first.h[1, 1] + first.h_rate[1, 1] * elapsed)
         self.place.r_BN_N = r.tolist()
         self.place_message.write(self.place)
-
-    def UpdateState(self, nanos: int) -> None:  # Basilisk calls it on each substep
-        start = max(0.0, nanos * 1.0e-9 - self.substep)  # the substep the hub integrates next
-        state = self.craft.scStateOutMsg.read()
-        r = np.asarray(state.r_BN_N, dtype=np.float64)
-        if not self.matched:
-            self.write(start, r)
-            return
-        v = np.asarray(state.v_BN_N, dtype=np.float64)
-        pull = -EARTH_MU * r / np.linalg.norm(r) ** 3
-        half = 0.5 * self.substep
-        self.write(start + half, r + v * half + pull * (0.5 * half * half))
 
 
 class BasiliskOnOrbit:
@@ -941,17 +962,15 @@ def surroundings_world(substep: float = SUBSTEP):
     )
 
 
-class _SurroundingsInputs(sysModel.SysModel):
+class _SurroundingsInputs(_SampledInputs):
     """What Basilisk's facet effectors read, written before them on each substep: the Sun's
     place (its planet message), the fraction of its disk the Earth leaves (the eclipse message),
-    the air's density and its velocity (the wind message), each from this package's models at
-    the spacecraft's place and clock where they are sampled: the substep's start, or
-    (``matched``) its middle, as ours are (the place there as :class:`_FieldInputs` finds it,
-    the velocity ``v + a h/2``)."""
+    the air's density and its velocity (the wind message), each from this package's models,
+    sampled as :class:`_SampledInputs` says."""
 
     def __init__(self, craft, substep: float, epoch: float, matched: bool) -> None:
-        super().__init__()
-        self.craft, self.substep, self.epoch, self.matched = craft, substep, epoch, matched
+        super().__init__(craft, substep, matched)
+        self.epoch = epoch
         self.sun = messaging.SpicePlanetStateMsgPayload()
         self.sun_message = messaging.SpicePlanetStateMsg()
         self.light = messaging.EclipseMsgPayload()
@@ -960,9 +979,7 @@ class _SurroundingsInputs(sysModel.SysModel):
         self.air_message = messaging.AtmoPropsMsg()
         self.wind = messaging.WindMsgPayload()
         self.wind_message = messaging.WindMsg()
-        hub = craft.hub
-        self.write(0.0, *(np.asarray(x, dtype=np.float64).reshape(-1)
-                          for x in (hub.r_CN_NInit, hub.v_CN_NInit)))  # fmt: skip
+        self.write_initial()
 
     def write(self, clock: float, r: np.ndarray, v: np.ndarray) -> None:
         """The messages at ``clock`` for a spacecraft at ``r``, moving at ``v``."""
@@ -975,18 +992,6 @@ class _SurroundingsInputs(sysModel.SysModel):
         self.air_message.write(self.air)
         self.wind.v_air_N = (v - np.asarray(air_velocity(tuple(r), tuple(v)))).tolist()
         self.wind_message.write(self.wind)
-
-    def UpdateState(self, nanos: int) -> None:  # Basilisk calls it on each substep
-        start = max(0.0, nanos * 1.0e-9 - self.substep)  # the substep the hub integrates next
-        state = self.craft.scStateOutMsg.read()
-        r = np.asarray(state.r_BN_N, dtype=np.float64)
-        v = np.asarray(state.v_BN_N, dtype=np.float64)
-        if not self.matched:
-            self.write(start, r, v)
-            return
-        pull = -EARTH_MU * r / np.linalg.norm(r) ** 3
-        half = 0.5 * self.substep
-        self.write(start + half, r + v * half + pull * (0.5 * half * half), v + pull * half)
 
 
 class BasiliskSurroundings(BasiliskOnOrbit):
