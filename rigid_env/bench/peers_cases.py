@@ -1058,12 +1058,18 @@ def surroundings_run(steps: int, substep: float = SUBSTEP, matched: bool = False
     return _rate_difference(ours, theirs, steps, lambda _: None)
 
 
+def _two_substeps(run: Callable[..., float], steps: int, **kwargs) -> tuple[float, float]:
+    """``run``'s difference over ``steps`` control steps at :data:`SUBSTEP` and at its half
+    (the ratio of the two is the order of what differs)."""
+    return run(steps, SUBSTEP, **kwargs), run(steps, SUBSTEP / 2, **kwargs)
+
+
 def coils_propagated(_: Sequence[Case], steps: int | None = None) -> Agreement:
     """The body rate of the coils' run over ``steps`` control steps (one orbit), at
     :data:`SUBSTEP` and at its half (the orders of what differs)."""
     steps = one_orbit() if steps is None else steps
-    plain, plain_half = coil_run(steps), coil_run(steps, SUBSTEP / 2)
-    same, same_half = coil_run(steps, matched=True), coil_run(steps, SUBSTEP / 2, matched=True)
+    plain, plain_half = _two_substeps(coil_run, steps)
+    same, same_half = _two_substeps(coil_run, steps, matched=True)
     cause = (
         "where the field is sampled: each substep's middle here (the orbit state's midpoint "
         f"rule), its start in Basilisk (first order: {plain_half:.2g} at half the substep), "
@@ -1082,9 +1088,8 @@ def surroundings_propagated(_: Sequence[Case], steps: int | None = None) -> Agre
     """The body rate of the run in sunlight and air over ``steps`` control steps (one orbit), at
     :data:`SUBSTEP` and at its half (the orders of what differs)."""
     steps = one_orbit() if steps is None else steps
-    plain, plain_half = surroundings_run(steps), surroundings_run(steps, SUBSTEP / 2)
-    same = surroundings_run(steps, matched=True)
-    same_half = surroundings_run(steps, SUBSTEP / 2, matched=True)
+    plain, plain_half = _two_substeps(surroundings_run, steps)
+    same, same_half = _two_substeps(surroundings_run, steps, matched=True)
     cause = (
         "where the Sun, the shadow, the density and the wind are sampled (each substep's "
         "middle here, its start in Basilisk: first order, which leads over 300 s); Basilisk's "
@@ -1093,8 +1098,7 @@ def surroundings_propagated(_: Sequence[Case], steps: int | None = None) -> Agre
         f"orbit the last two lead: {plain_half:.2g} at half the substep. Matched (the inputs "
         "sampled as ours, our pressure, the hub 1e6 times heavier), what is left is the air's "
         "velocity: held over each substep here, the hub's read at each rk4 stage there: "
-        "second order, "
-        f"{same_half:.2g} at half the substep"
+        f"second order, {same_half:.2g} at half the substep"
     )
     return Agreement(
         f"body rate, SRP and drag on 3 plates on an orbit, both propagating, {steps} s",
@@ -1106,7 +1110,7 @@ def gradient_propagated(_: Sequence[Case], steps: int | None = None) -> Agreemen
     """The body rate of the gravity gradient's run over ``steps`` control steps (one orbit), at
     :data:`SUBSTEP` and at its half (the order of what differs)."""
     steps = one_orbit() if steps is None else steps
-    whole, half = gradient_run(steps), gradient_run(steps, SUBSTEP / 2)
+    whole, half = _two_substeps(gradient_run, steps)
     cause = (
         "where the position is sampled: held over each substep at its middle here (the orbit "
         "state's midpoint rule), read at each rk4 stage in Basilisk; second order: "
